@@ -1,0 +1,177 @@
+//! The dead-time sequencer: no leg switches on until it has been fully off for the dead time.
+//!
+//! # Why
+//!
+//! A MOSFET does not stop conducting the instant its gate is released (the IRF2807 takes
+//! ≈100 ns, the gate driver adds its propagation delay). If one switch of a leg is turned on
+//! while the other is still conducting, the bus is shorted through the leg. The cure is a
+//! **dead time**: both switches of the leg off for at least [`DEAD_TIME`] before the other
+//! one turns on.
+//!
+//! The timer hardware inserts a dead time between a channel and its complementary output;
+//! taut programs the same [`DEAD_TIME`] constant into it. This sequencer is the second,
+//! independent layer, in software, and it is stricter: a leg may only turn **on** (to either
+//! side) after having been **off** for at least [`DEAD_TIME`], and a request to change a leg
+//! directly from one side to the other is carried out as "off now, the new side once the dead
+//! time has passed". So no sequence of requests can make a leg go high → low or low → high
+//! without the dead time of both-off in between.
+//!
+//! # Time
+//!
+//! The sequencer counts in [`PwmTicks`] of the PWM timer. Each call says how many ticks have
+//! passed since the previous one (the previous output has been on the gates for that long);
+//! off-times accumulate with saturation, so a leg that has been off for a long time stays
+//! ready. At power-up every leg is taken as *just* switched off — the conservative reading.
+
+use super::commutation::{LegState, Phase, SwitchPattern};
+use super::PwmTicks;
+
+/// Minimum both-off time of a leg before either of its switches turns on: 170 ticks of the
+/// 170 MHz PWM timer = 1.0 µs. The IRF2807 turns off in ≈100 ns and the FAN7888 gate driver
+/// (and the B-G431B-ESC1's L6387 drivers) add a few hundred ns of propagation mismatch;
+/// 1 µs keeps a 2× margin and costs 2 % of a 20 kHz period. The firmware programs the same
+/// value into the advanced-control timer's hardware dead-time generator.
+pub const DEAD_TIME: PwmTicks = PwmTicks(170);
+
+/// One leg's sequencing state.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
+struct LegTimer {
+    /// What the leg is doing now.
+    state: LegState,
+    /// How long the leg has been off (meaningful only while `state` is `Off`; zero otherwise).
+    off_for: PwmTicks,
+}
+
+impl LegTimer {
+    fn step(&mut self, requested: LegState, elapsed: PwmTicks) -> LegState {
+        if !self.state.is_on() {
+            self.off_for = PwmTicks(self.off_for.0.saturating_add(elapsed.0));
+        }
+        self.state = match (self.state, requested) {
+            (now, wanted) if now == wanted => now,
+            // Turning off is always allowed and starts the off-time.
+            (_, LegState::Off) => LegState::Off,
+            // Turning on from off: only once the dead time has passed.
+            (LegState::Off, wanted) => {
+                if self.off_for.0 >= DEAD_TIME.0 {
+                    wanted
+                } else {
+                    LegState::Off
+                }
+            }
+            // High ↔ low directly: go off now; the new side comes on a later call.
+            (_, _) => LegState::Off,
+        };
+        if self.state.is_on() {
+            self.off_for = PwmTicks(0);
+        }
+        self.state
+    }
+}
+
+/// Sequences requested switch patterns onto the bridge so that every leg honours
+/// [`DEAD_TIME`].
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
+pub struct DeadTimeSequencer {
+    legs: [LegTimer; 3],
+}
+
+impl DeadTimeSequencer {
+    /// All legs off, each taken as switched off just now.
+    #[must_use]
+    pub const fn new() -> Self {
+        let off = LegTimer { state: LegState::Off, off_for: PwmTicks(0) };
+        Self { legs: [off; 3] }
+    }
+
+    /// Moves toward `requested`, `elapsed` ticks after the previous call; returns the pattern
+    /// to put on the gates now. Legs that must wait for the dead time are off in the result.
+    pub fn step(&mut self, requested: SwitchPattern, elapsed: PwmTicks) -> SwitchPattern {
+        let mut out = SwitchPattern::ALL_OFF;
+        // Constant bound: three legs.
+        for (leg, phase) in self.legs.iter_mut().zip(Phase::ALL) {
+            out = out.with_leg(phase, leg.step(requested.leg(phase), elapsed));
+        }
+        out
+    }
+
+    /// Turns every leg off at once (faults). Turning off never needs a dead time.
+    pub fn all_off(&mut self) {
+        for leg in &mut self.legs {
+            if leg.state.is_on() {
+                *leg = LegTimer { state: LegState::Off, off_for: PwmTicks(0) };
+            }
+        }
+    }
+
+    /// The pattern currently on the gates.
+    #[must_use]
+    pub fn pattern(&self) -> SwitchPattern {
+        let [a, b, c] = self.legs;
+        SwitchPattern { a: a.state, b: b.state, c: c.state }
+    }
+
+    /// How long `phase`'s leg has been off (zero while it is on).
+    #[must_use]
+    pub fn off_for(&self, phase: Phase) -> PwmTicks {
+        let [a, b, c] = self.legs;
+        match phase {
+            Phase::A => a.off_for,
+            Phase::B => b.off_for,
+            Phase::C => c.off_for,
+        }
+    }
+
+    /// A sequencer in an arbitrary state, for proofs that start mid-sequence: `legs` gives
+    /// each leg's state and how long it has been off. `None` unless [`Self::is_valid`].
+    #[must_use]
+    pub fn from_parts(legs: [(LegState, PwmTicks); 3]) -> Option<Self> {
+        let [a, b, c] = legs.map(|(state, off_for)| LegTimer { state, off_for });
+        let sequencer = Self { legs: [a, b, c] };
+        sequencer.is_valid().then_some(sequencer)
+    }
+
+    /// The sequencer's invariant: a leg that is on has a zero off-time.
+    #[must_use]
+    pub fn is_valid(&self) -> bool {
+        self.legs.iter().all(|leg| !leg.state.is_on() || leg.off_for.0 == 0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const A_HIGH_B_LOW: SwitchPattern =
+        SwitchPattern { a: LegState::High, b: LegState::Low, c: LegState::Off };
+    const A_LOW_B_HIGH: SwitchPattern =
+        SwitchPattern { a: LegState::Low, b: LegState::High, c: LegState::Off };
+
+    #[test]
+    fn first_drive_waits_for_dead_time() {
+        let mut seq = DeadTimeSequencer::new();
+        assert_eq!(seq.step(A_HIGH_B_LOW, PwmTicks(0)), SwitchPattern::ALL_OFF);
+        assert_eq!(seq.step(A_HIGH_B_LOW, PwmTicks(DEAD_TIME.0 - 1)), SwitchPattern::ALL_OFF);
+        assert_eq!(seq.step(A_HIGH_B_LOW, PwmTicks(1)), A_HIGH_B_LOW);
+    }
+
+    #[test]
+    fn reversal_passes_through_off_for_the_dead_time() {
+        let mut seq = DeadTimeSequencer::new();
+        seq.step(A_HIGH_B_LOW, DEAD_TIME);
+        assert_eq!(seq.pattern(), A_HIGH_B_LOW);
+        // Even a long gap does not let a leg swap sides in one call.
+        assert_eq!(seq.step(A_LOW_B_HIGH, PwmTicks(1_000_000)), SwitchPattern::ALL_OFF);
+        assert_eq!(seq.step(A_LOW_B_HIGH, PwmTicks(DEAD_TIME.0 - 1)), SwitchPattern::ALL_OFF);
+        assert_eq!(seq.step(A_LOW_B_HIGH, PwmTicks(1)), A_LOW_B_HIGH);
+    }
+
+    #[test]
+    fn off_time_saturates_instead_of_wrapping() {
+        let mut seq = DeadTimeSequencer::new();
+        seq.step(SwitchPattern::ALL_OFF, PwmTicks(u32::MAX));
+        seq.step(SwitchPattern::ALL_OFF, PwmTicks(u32::MAX));
+        assert_eq!(seq.off_for(Phase::A), PwmTicks(u32::MAX));
+        assert_eq!(seq.step(A_HIGH_B_LOW, PwmTicks(0)), A_HIGH_B_LOW);
+    }
+}

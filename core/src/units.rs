@@ -1,0 +1,300 @@
+//! Physical quantities as types: tension, rate, voltage, current, length, ADC codes.
+//!
+//! Every number that crosses a function boundary in taut carries its unit in its type, so a
+//! tension can never be passed where a current is expected and a raw ADC code can never be
+//! mistaken for kilograms. The control core does no floating point: every quantity is a
+//! fixed-point number from the [`fixed`] crate, and every operation on it **saturates** at the
+//! format's limits instead of wrapping or panicking (a saturated tension is a wrong number the
+//! fault logic can see; a wrapped one is a wrong number that looks right).
+//!
+//! # Formats
+//!
+//! | type | representation | range | resolution |
+//! |---|---|---|---|
+//! | [`Kgf`] (force, tension) | Q15.16, [`I16F16`] | ±32 768 kgf | 2⁻¹⁶ kgf ≈ 15.3 µkgf |
+//! | [`KgfPerSecond`] (tension rate) | Q15.16 | ±32 768 kgf/s | 2⁻¹⁶ kgf/s |
+//! | [`Volts`] | Q15.16 | ±32 768 V | 2⁻¹⁶ V ≈ 15.3 µV |
+//! | [`Amps`] | Q15.16 | ±32 768 A | 2⁻¹⁶ A ≈ 15.3 µA |
+//! | [`Millimeters`] (carriage travel) | Q15.16 | ±32.768 m | 2⁻¹⁶ mm ≈ 15 nm |
+//! | [`Seconds`] (controller time constants) | Q15.16 | ±32 768 s | 2⁻¹⁶ s ≈ 15 µs |
+//! | [`AdcCode`] | `u16`, 12 significant bits | 0 ..= 4095 | 1 LSB = 5 V / 4096 ≈ 1.22 mV |
+//!
+//! Q15.16 is chosen because the machine's largest quantities (tension ≤ 60 kgf, rates
+//! ≤ ~2 000 kgf/s while the string is hit by the carriage, currents ≤ 30 A) sit three orders
+//! of magnitude below the top of the range, while the finest resolution the product needs
+//! (0.1 kgf display, 12-bit ADC ≈ 0.013 kgf per LSB) is three orders above the bottom. A
+//! product of two Q15.16 numbers is formed exactly in 64 bits and rounded once, so a
+//! multiplication loses at most 2⁻¹⁷ of the result's unit.
+//!
+//! The duty cycle has its own type, [`crate::drive::Duty`], because its bound is a safety
+//! property, not a format limit.
+
+use fixed::types::I16F16;
+
+/// The Q15.16 fixed-point format every physical quantity in the core uses.
+pub type Q16 = I16F16;
+
+macro_rules! quantity {
+    ($(#[$meta:meta])* $name:ident, $unit:literal) => {
+        $(#[$meta])*
+        #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default, Debug)]
+        pub struct $name(pub Q16);
+
+        impl $name {
+            /// Zero.
+            pub const ZERO: Self = Self(Q16::ZERO);
+            /// The largest representable value.
+            pub const MAX: Self = Self(Q16::MAX);
+            /// The most negative representable value.
+            pub const MIN: Self = Self(Q16::MIN);
+
+            #[doc = concat!("A whole number of ", $unit, ".")]
+            #[must_use]
+            #[allow(clippy::cast_lossless, reason = "`i32::from` is not callable in a const fn")]
+            pub const fn from_int(value: i16) -> Self {
+                // Every i16 is in Q15.16's integer range, so this never saturates.
+                Self(Q16::const_from_int(value as i32))
+            }
+
+            #[doc = concat!("Thousandths of ", $unit, ", rounded to the nearest 2⁻¹⁶.")]
+            #[must_use]
+            pub fn from_milli(milli: i32) -> Self {
+                Self(Q16::from_num(milli).saturating_div_int(1000))
+            }
+
+            #[doc = concat!("The value in thousandths of ", $unit, ", rounded toward zero.")]
+            #[must_use]
+            pub fn to_milli(self) -> i32 {
+                self.0.saturating_mul_int(1000).to_num::<i32>()
+            }
+
+            /// The raw Q15.16 bits (value × 65 536).
+            #[must_use]
+            pub const fn to_bits(self) -> i32 {
+                self.0.to_bits()
+            }
+
+            /// From raw Q15.16 bits (value × 65 536).
+            #[must_use]
+            pub const fn from_bits(bits: i32) -> Self {
+                Self(Q16::from_bits(bits))
+            }
+
+            /// Sum, saturating at the format's range.
+            #[must_use]
+            pub fn saturating_add(self, other: Self) -> Self {
+                Self(self.0.saturating_add(other.0))
+            }
+
+            /// Difference, saturating at the format's range.
+            #[must_use]
+            pub fn saturating_sub(self, other: Self) -> Self {
+                Self(self.0.saturating_sub(other.0))
+            }
+
+            /// Scaled by a dimensionless Q15.16 factor, saturating.
+            #[must_use]
+            pub fn saturating_scale(self, factor: Q16) -> Self {
+                Self(self.0.saturating_mul(factor))
+            }
+
+            /// Absolute value (saturating: `MIN.abs() == MAX`).
+            #[must_use]
+            pub fn abs(self) -> Self {
+                Self(self.0.saturating_abs())
+            }
+
+            /// Negation (saturating: `-MIN == MAX`).
+            #[must_use]
+            pub fn saturating_neg(self) -> Self {
+                Self(self.0.saturating_neg())
+            }
+
+            /// Limited to `[low, high]`; if `low > high` the result is `low`.
+            #[must_use]
+            pub fn clamp_to(self, low: Self, high: Self) -> Self {
+                if self < low {
+                    low
+                } else if self > high {
+                    high
+                } else {
+                    self
+                }
+            }
+        }
+    };
+}
+
+quantity!(
+    /// A force in kilograms-force (kgf, "kgw" in the paper): string tension, motor pull.
+    /// 1 kgf = 9.806 65 N.
+    Kgf,
+    "kgf"
+);
+quantity!(
+    /// A rate of change of tension, in kgf per second.
+    KgfPerSecond,
+    "kgf/s"
+);
+quantity!(
+    /// An electric potential in volts.
+    Volts,
+    "V"
+);
+quantity!(
+    /// An electric current in amperes.
+    Amps,
+    "A"
+);
+quantity!(
+    /// A length in millimetres (carriage travel, string moved during one pull).
+    Millimeters,
+    "mm"
+);
+quantity!(
+    /// A duration in seconds, for controller time constants.
+    Seconds,
+    "s"
+);
+
+/// Pounds-force per kilogram-force: 1 kgf = 2.204 622 6 lbf (exact ratio of the kilogram to
+/// the avoirdupois pound). Q15.16, error 4 × 10⁻⁶ lbf/kgf.
+pub const LBF_PER_KGF: Q16 = Q16::lit("2.2046226");
+
+impl Kgf {
+    /// Tenths of a kgf: the panel's set-point unit (`250` → 25.0 kgf).
+    #[must_use]
+    pub fn from_tenths(tenths: i32) -> Self {
+        Self(Q16::from_num(tenths).saturating_div_int(10))
+    }
+
+    /// The tension in tenths of a kgf, rounded to the nearest tenth (half away from zero).
+    #[must_use]
+    pub fn to_tenths_rounded(self) -> i32 {
+        round_scaled(self.0, 10)
+    }
+
+    /// The tension in tenths of a pound-force, rounded to the nearest tenth.
+    #[must_use]
+    pub fn to_lbf_tenths_rounded(self) -> i32 {
+        round_scaled(self.0.saturating_mul(LBF_PER_KGF), 10)
+    }
+
+    /// A tension given in tenths of a pound-force.
+    #[must_use]
+    pub fn from_lbf_tenths(lbf_tenths: i32) -> Self {
+        let lbf = Q16::from_num(lbf_tenths).saturating_div_int(10);
+        Self(lbf.saturating_div(LBF_PER_KGF))
+    }
+}
+
+/// `value × scale`, rounded to the nearest integer, half away from zero, saturating.
+fn round_scaled(value: Q16, scale: i32) -> i32 {
+    value.saturating_mul_int(scale).round().to_num::<i32>()
+}
+
+/// Number of bits the ADC converts: the paper runs the dsPIC's converter as 12-bit.
+pub const ADC_BITS: u32 = 12;
+/// The largest code the 12-bit converter returns.
+pub const ADC_MAX_CODE: u16 = 4095;
+/// The converter's reference voltage (paper, section 7.4: 5 V reference).
+pub const ADC_REFERENCE: Volts = Volts::from_int(5);
+
+/// One ADC code in Q15.16 volt bits: 5 V / 4096 codes × 65 536 bits/V = 80 bits per code,
+/// an integer, so code → volts conversion is exact.
+const ADC_VOLT_BITS_PER_CODE: i32 = 80;
+
+/// A 12-bit analogue-to-digital converter reading, 0 ..= 4095.
+///
+/// The constructor masks to 12 bits' range by saturation, so a value of this type is always a
+/// code the converter could have produced.
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default, Debug)]
+pub struct AdcCode(u16);
+
+impl AdcCode {
+    /// The lowest code (input at or below 0 V).
+    pub const MIN: Self = Self(0);
+    /// The highest code (input at or above the reference).
+    pub const MAX: Self = Self(ADC_MAX_CODE);
+
+    /// A converter reading; values above 4095 saturate to 4095 (a converter cannot produce
+    /// them, so an out-of-range raw value means a wiring or driver fault that reads as
+    /// full scale, which the load-cell checks flag as a short).
+    #[must_use]
+    pub const fn new(raw: u16) -> Self {
+        if raw > ADC_MAX_CODE {
+            Self(ADC_MAX_CODE)
+        } else {
+            Self(raw)
+        }
+    }
+
+    /// The raw code.
+    #[must_use]
+    pub const fn get(self) -> u16 {
+        self.0
+    }
+
+    /// The input voltage this code stands for: `code × V_ref / 4096`, exact in Q15.16.
+    #[must_use]
+    pub fn to_volts(self) -> Volts {
+        // code ≤ 4095, so the product ≤ 327 600 fits an i32 and the Q15.16 value is exact.
+        Volts::from_bits(i32::from(self.0).saturating_mul(ADC_VOLT_BITS_PER_CODE))
+    }
+
+    /// The code a voltage would convert to (rounded to nearest, clamped to 0 ..= 4095): the
+    /// inverse of [`AdcCode::to_volts`], used by the digital twin and by tests.
+    #[must_use]
+    pub fn from_volts(volts: Volts) -> Self {
+        // code = V × 4096 / 5, computed in Q15.16 then rounded.
+        let scaled = volts.0.saturating_mul_int(4096).saturating_div_int(5).round();
+        let code = scaled.to_num::<i32>().clamp(0, i32::from(ADC_MAX_CODE));
+        // `code` is in 0..=4095 after the clamp, so the conversion cannot fail.
+        Self::new(u16::try_from(code).unwrap_or(ADC_MAX_CODE))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn adc_code_saturates_to_twelve_bits() {
+        assert_eq!(AdcCode::new(5000).get(), 4095);
+        assert_eq!(AdcCode::new(4095).get(), 4095);
+        assert_eq!(AdcCode::new(0).get(), 0);
+    }
+
+    #[test]
+    fn adc_volts_round_trip_is_exact_for_every_code() {
+        for raw in 0..=ADC_MAX_CODE {
+            let code = AdcCode::new(raw);
+            assert_eq!(AdcCode::from_volts(code.to_volts()), code, "code {raw}");
+        }
+    }
+
+    #[test]
+    fn tenths_round_trip() {
+        for tenths in -600..=600 {
+            assert_eq!(Kgf::from_tenths(tenths).to_tenths_rounded(), tenths);
+        }
+    }
+
+    #[test]
+    fn pounds_round_trip_within_half_a_tenth() {
+        // 25.0 kgf = 55.1 lbf (PicoBETH and every stringer show this pair).
+        assert_eq!(Kgf::from_tenths(250).to_lbf_tenths_rounded(), 551);
+        for lbf_tenths in 100..=1100 {
+            let back = Kgf::from_lbf_tenths(lbf_tenths).to_lbf_tenths_rounded();
+            assert_eq!(back, lbf_tenths);
+        }
+    }
+
+    #[test]
+    fn saturating_arithmetic_never_wraps() {
+        assert_eq!(Kgf::MAX.saturating_add(Kgf::from_int(1)), Kgf::MAX);
+        assert_eq!(Kgf::MIN.saturating_sub(Kgf::from_int(1)), Kgf::MIN);
+        assert_eq!(Kgf::MIN.abs(), Kgf::MAX);
+        assert_eq!(Kgf::MIN.saturating_neg(), Kgf::MAX);
+    }
+}

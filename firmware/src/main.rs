@@ -1,0 +1,3 @@
+//! taut-firmware (under construction): links taut-core.
+#![no_std]
+#![no_main]

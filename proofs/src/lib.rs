@@ -1,0 +1,1 @@
+//! taut-proofs (under construction).

@@ -1,0 +1,1 @@
+//! taut-sim: the digital twin (under construction).

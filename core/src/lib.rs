@@ -31,4 +31,5 @@
 pub mod drive;
 pub mod io;
 pub mod sense;
+pub mod store;
 pub mod units;

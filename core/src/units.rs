@@ -222,11 +222,7 @@ impl AdcCode {
     /// full scale, which the load-cell checks flag as a short).
     #[must_use]
     pub const fn new(raw: u16) -> Self {
-        if raw > ADC_MAX_CODE {
-            Self(ADC_MAX_CODE)
-        } else {
-            Self(raw)
-        }
+        if raw > ADC_MAX_CODE { Self(ADC_MAX_CODE) } else { Self(raw) }
     }
 
     /// The raw code.

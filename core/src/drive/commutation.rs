@@ -48,8 +48,8 @@
 //! PWM is applied to the high-side switch; the low-side switch of the sector stays on for the
 //! whole sector (paper, section 6.3 and figure 17).
 
-use super::hall::Sector;
 use super::Direction;
+use super::hall::Sector;
 
 /// The state of one bridge leg. Shoot-through (both switches on) is not representable.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]

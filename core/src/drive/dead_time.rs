@@ -23,8 +23,8 @@
 //! off-times accumulate with saturation, so a leg that has been off for a long time stays
 //! ready. At power-up every leg is taken as *just* switched off — the conservative reading.
 
-use super::commutation::{LegState, Phase, SwitchPattern};
 use super::PwmTicks;
+use super::commutation::{LegState, Phase, SwitchPattern};
 
 /// Minimum both-off time of a leg before either of its switches turns on: 170 ticks of the
 /// 170 MHz PWM timer = 1.0 µs. The IRF2807 turns off in ≈100 ns and the FAN7888 gate driver
@@ -93,6 +93,18 @@ impl DeadTimeSequencer {
             out = out.with_leg(phase, leg.step(requested.leg(phase), elapsed));
         }
         out
+    }
+
+    /// Whether [`Self::step`] with `requested` and `elapsed` would put `requested` on the gates
+    /// in full (no leg held off for its dead time).
+    #[must_use]
+    pub fn ready_for(&self, requested: SwitchPattern, elapsed: PwmTicks) -> bool {
+        self.legs.iter().zip(Phase::ALL).all(|(leg, phase)| {
+            let wanted = requested.leg(phase);
+            wanted == leg.state
+                || !wanted.is_on()
+                || (!leg.state.is_on() && leg.off_for.0.saturating_add(elapsed.0) >= DEAD_TIME.0)
+        })
     }
 
     /// Turns every leg off at once (faults). Turning off never needs a dead time.

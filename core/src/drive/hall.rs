@@ -40,16 +40,8 @@ pub struct HallCode(u8);
 
 impl HallCode {
     /// All eight codes, `000` to `111`, for exhaustive checks.
-    pub const ALL: [Self; 8] = [
-        Self(0),
-        Self(1),
-        Self(2),
-        Self(3),
-        Self(4),
-        Self(5),
-        Self(6),
-        Self(7),
-    ];
+    pub const ALL: [Self; 8] =
+        [Self(0), Self(1), Self(2), Self(3), Self(4), Self(5), Self(6), Self(7)];
 
     /// The code from its three bits.
     #[must_use]
@@ -207,7 +199,7 @@ pub enum HallState {
 
 /// Accepts a Hall code only after it has been read on [`HALL_CONFIRM_READS`] consecutive
 /// calls.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
 pub struct HallFilter {
     candidate: HallCode,
     seen: u8,

@@ -22,11 +22,13 @@
 //!    [`Drive::clear_fault`] is called while the held command is coast and the overcurrent
 //!    comparator is no longer tripped.
 //! 4. **What to drive.** Coast, a command toward an active limit switch, or an unknown rotor
-//!    position request all-off. A change of direction first de-energises the bridge, then
-//!    waits until the rotor is **quiet** — no Hall step for [`REVERSAL_QUIET`] (its back-EMF
-//!    is then below ≈ 0.4 V) — or is already turning the new way; only then is the
-//!    opposite table entry requested. Otherwise the request is [`six_step`] for the accepted
-//!    sector.
+//!    position request all-off. The bridge is **energised** (from all-off) only when the rotor
+//!    is **quiet** — no Hall step for [`REVERSAL_QUIET`], so its back-EMF is below ≈ 0.8 V —
+//!    or its last step was already in the commanded direction, and only in a call where the
+//!    whole table entry clears the dead time; a change of direction first de-energises.
+//!    Once energised, the request is [`six_step`] for the accepted sector. (Within a pull the
+//!    controller therefore holds the direction with a low or zero duty rather than coasting:
+//!    a coast would make a string-back-driven rotor wait to be quiet before pulling again.)
 //! 5. **Dead time.** The request goes through the [`DeadTimeSequencer`], which keeps any leg
 //!    that must change sides off for [`DEAD_TIME`].
 //! 6. **Duty.** The held command's duty, already bounded by [`DUTY_MAX`] by its type, is
@@ -216,7 +218,7 @@ pub struct DriveStatus {
 }
 
 /// The drive's state. See the module docs for the order of decisions in [`Drive::step`].
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
 pub struct Drive {
     filter: HallFilter,
     last_sector: Option<Sector>,
@@ -353,7 +355,7 @@ impl Drive {
             (DriveCommand::Drive { direction, .. }, HallState::Sector(sector))
                 if !direction.blocked_by(sample.limits) =>
             {
-                self.engage(direction, sector)
+                self.engage(direction, sector, sample.elapsed)
             }
             _ => {
                 self.energized = None;
@@ -369,21 +371,28 @@ impl Drive {
         DriveOutput { pattern, duty }
     }
 
-    /// The pattern to request for torque in `direction` with the rotor in `sector`,
-    /// de-energising first and waiting for a quiet rotor when the direction changes.
-    fn engage(&mut self, direction: Direction, sector: Sector) -> SwitchPattern {
+    /// The pattern to request for torque in `direction` with the rotor in `sector`.
+    ///
+    /// Once energised for a direction the drive follows the table. Energising — from
+    /// all-off, which every change of direction passes through — happens only in a call where
+    /// (a) the rotor is quiet or its last Hall step was already in `direction`, and (b) the
+    /// dead-time sequencer can put the whole table entry on the gates in this same call; so
+    /// the decision is taken on the rotor state of the very call whose output carries it.
+    fn engage(&mut self, direction: Direction, sector: Sector, elapsed: PwmTicks) -> SwitchPattern {
+        let entry = six_step(sector, direction);
         match self.energized {
-            Some(current) if current == direction => six_step(sector, direction),
+            Some(current) if current == direction => entry,
             Some(_) => {
                 // Reversal: stop driving now; re-engage on a later call.
                 self.energized = None;
                 SwitchPattern::ALL_OFF
             }
             None => {
-                let quiet = self.quiet_for >= REVERSAL_QUIET;
-                if quiet || self.rotation == Some(direction) || self.rotation.is_none() {
+                let rotor_ready =
+                    self.quiet_for >= REVERSAL_QUIET || self.rotation == Some(direction);
+                if rotor_ready && self.sequencer.ready_for(entry, elapsed) {
                     self.energized = Some(direction);
-                    six_step(sector, direction)
+                    entry
                 } else {
                     SwitchPattern::ALL_OFF
                 }
@@ -431,15 +440,31 @@ mod tests {
         DriveSample { hall: sector.hall_code(), elapsed: PwmTicks(8_500), ..Default::default() }
     }
 
+    /// Power-up: the rotor reads `sector` and has been still for the reversal quiet time.
+    fn settled(sector: Sector) -> Drive {
+        let mut drive = Drive::new();
+        let still = DriveSample { elapsed: REVERSAL_QUIET, ..sample(sector) };
+        drive.step(still);
+        drive.step(still);
+        drive
+    }
+
     fn pull(duty: u16) -> DriveCommand {
         DriveCommand::Drive { direction: Direction::Pull, duty: Duty::from_raw_clamped(duty) }
     }
 
+    fn release(duty: u16) -> DriveCommand {
+        DriveCommand::Drive { direction: Direction::Release, duty: Duty::from_raw_clamped(duty) }
+    }
+
     #[test]
-    fn drives_the_table_entry_once_the_hall_code_is_confirmed() {
+    fn drives_the_table_entry_once_the_hall_code_is_confirmed_and_the_rotor_still() {
         let mut drive = Drive::new();
         drive.set_command(pull(30_000));
         assert_eq!(drive.step(sample(Sector::S0)), DriveOutput::OFF, "not yet confirmed");
+        assert_eq!(drive.step(sample(Sector::S0)), DriveOutput::OFF, "not yet quiet");
+        let mut drive = settled(Sector::S0);
+        drive.set_command(pull(30_000));
         let out = drive.step(sample(Sector::S0));
         assert_eq!(out.pattern, six_step(Sector::S0, Direction::Pull));
         assert_eq!(out.duty.raw(), 30_000);
@@ -447,15 +472,14 @@ mod tests {
 
     #[test]
     fn overcurrent_is_off_in_the_same_call_and_latched_until_cleared_with_coast() {
-        let mut drive = Drive::new();
+        let mut drive = settled(Sector::S0);
         drive.set_command(pull(30_000));
-        drive.step(sample(Sector::S0));
-        drive.step(sample(Sector::S0));
+        assert!(!drive.step(sample(Sector::S0)).pattern.is_all_off());
         let hot = DriveSample { current: AdcCode::MAX, ..sample(Sector::S0) };
         assert_eq!(drive.step(hot), DriveOutput::OFF);
         assert_eq!(drive.fault(), Some(DriveFault::Overcurrent));
         assert_eq!(drive.command(), DriveCommand::Coast, "command dropped on fault");
-        // A new command alone does not restart the drive.
+        // A new command alone does not restart the drive, and blocks the clear.
         drive.set_command(pull(30_000));
         assert_eq!(drive.step(sample(Sector::S0)), DriveOutput::OFF);
         assert_eq!(drive.clear_fault(), Err(ClearRefused::CommandNotZero));
@@ -478,10 +502,8 @@ mod tests {
 
     #[test]
     fn skipped_sector_faults() {
-        let mut drive = Drive::new();
+        let mut drive = settled(Sector::S0);
         drive.set_command(pull(10_000));
-        drive.step(sample(Sector::S0));
-        drive.step(sample(Sector::S0));
         drive.step(sample(Sector::S2));
         assert_eq!(drive.step(sample(Sector::S2)), DriveOutput::OFF);
         assert_eq!(drive.fault(), Some(DriveFault::SectorSkipped));
@@ -489,35 +511,27 @@ mod tests {
 
     #[test]
     fn never_drives_into_an_active_limit() {
-        let mut drive = Drive::new();
+        let mut drive = settled(Sector::S0);
         drive.set_command(pull(10_000));
-        let at_end = DriveSample {
-            limits: LimitSwitches { home: false, end: true },
-            ..sample(Sector::S0)
-        };
-        drive.step(at_end);
+        let at_end =
+            DriveSample { limits: LimitSwitches { home: false, end: true }, ..sample(Sector::S0) };
         assert_eq!(drive.step(at_end), DriveOutput::OFF);
-        drive.set_command(DriveCommand::Drive {
-            direction: Direction::Release,
-            duty: Duty::from_raw_clamped(10_000),
-        });
+        drive.set_command(release(10_000));
         assert!(!drive.step(at_end).pattern.is_all_off(), "may back away from the limit");
     }
 
     #[test]
     fn reversal_waits_for_a_quiet_rotor() {
-        let mut drive = Drive::new();
+        let mut drive = settled(Sector::S0);
         drive.set_command(pull(10_000));
-        // Rotor turning forward: S0, S1, S2 …
-        for sector in [Sector::S0, Sector::S0, Sector::S1, Sector::S1] {
+        // Rotor turning forward: S0 → S1.
+        for sector in [Sector::S0, Sector::S1, Sector::S1] {
             drive.step(sample(sector));
         }
         assert_eq!(drive.status().rotation, Some(Direction::Pull));
-        drive.set_command(DriveCommand::Drive {
-            direction: Direction::Release,
-            duty: Duty::from_raw_clamped(10_000),
-        });
-        // Still spinning forward (a step just happened): stays off.
+        assert_eq!(drive.status().energized, Some(Direction::Pull));
+        drive.set_command(release(10_000));
+        // A step just happened: stays off.
         for _ in 0..10 {
             assert_eq!(drive.step(sample(Sector::S1)), DriveOutput::OFF);
         }
@@ -527,5 +541,17 @@ mod tests {
             out = drive.step(sample(Sector::S1));
         }
         assert_eq!(out.pattern, six_step(Sector::S1, Direction::Release));
+    }
+
+    #[test]
+    fn re_engages_at_once_when_the_rotor_already_turns_the_commanded_way() {
+        let mut drive = settled(Sector::S0);
+        drive.set_command(pull(10_000));
+        drive.step(sample(Sector::S1));
+        drive.step(sample(Sector::S1));
+        drive.set_command(DriveCommand::Coast);
+        assert_eq!(drive.step(sample(Sector::S1)), DriveOutput::OFF);
+        drive.set_command(pull(10_000));
+        assert_eq!(drive.step(sample(Sector::S1)).pattern, six_step(Sector::S1, Direction::Pull));
     }
 }

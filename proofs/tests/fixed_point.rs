@@ -1,0 +1,78 @@
+//! The fixed-point foundation (`REQ-FXP-*`) against its `f64` reference: exhaustive over every
+//! ADC code, proptest over the whole Q15.16 range and every valid load-cell scale.
+#![allow(clippy::arithmetic_side_effects, reason = "test bookkeeping on small counts")]
+
+mod common;
+
+use proptest::prelude::*;
+use taut_core::sense::load_cell::{KGF_PER_VOLT_RANGE, ZERO_RANGE};
+use taut_proofs::fixed_point::{
+    adc_volts_exact, current_amps_exact, load_cell_within_bound, panel_units_round_trip,
+    saturating_ops_within_bound,
+};
+
+#[test]
+fn every_adc_code_converts_exactly() {
+    for raw in 0..=u16::MAX {
+        adc_volts_exact(raw);
+        current_amps_exact(raw);
+    }
+    println!("every_adc_code_converts_exactly: 65 536 raw codes (4 096 distinct) × 2 conversions");
+}
+
+#[test]
+fn panel_units_every_value() {
+    for tenths in i16::MIN..=i16::MAX {
+        panel_units_round_trip(tenths);
+    }
+    println!("panel_units_every_value: 65 536 cases");
+}
+
+#[test]
+fn load_cell_every_code_nominal_and_extreme_scales() {
+    let mut cases = 0u32;
+    let zeros = [ZERO_RANGE.0.to_bits(), 3_277, ZERO_RANGE.1.to_bits()];
+    let gains = [KGF_PER_VOLT_RANGE.0.to_bits(), 712_348, KGF_PER_VOLT_RANGE.1.to_bits()];
+    for zero in zeros {
+        for gain in gains {
+            for raw in 0..=4095 {
+                load_cell_within_bound(raw, zero, gain);
+                cases += 1;
+            }
+        }
+    }
+    println!("load_cell_every_code_nominal_and_extreme_scales: {cases} cases");
+}
+
+#[test]
+fn load_cell_any_valid_scale() {
+    let zero = ZERO_RANGE.0.to_bits()..=ZERO_RANGE.1.to_bits();
+    let gain = KGF_PER_VOLT_RANGE.0.to_bits()..=KGF_PER_VOLT_RANGE.1.to_bits();
+    common::check("load_cell_any_valid_scale", 20_000, (0..=4095u16, zero, gain), |(raw, z, g)| {
+        load_cell_within_bound(raw, z, g);
+    });
+}
+
+#[test]
+fn load_cell_any_scale_at_all() {
+    let inputs = (any::<u16>(), any::<i32>(), any::<i32>());
+    common::check("load_cell_any_scale_at_all", 20_000, inputs, |(raw, z, g)| {
+        load_cell_within_bound(raw, z, g);
+    });
+}
+
+#[test]
+fn saturating_ops_whole_range() {
+    common::check("saturating_ops_whole_range", 20_000, (any::<i32>(), any::<i32>()), |(a, b)| {
+        saturating_ops_within_bound(a, b);
+    });
+}
+
+#[test]
+fn saturating_ops_near_physical_values() {
+    // ±100 in Q15.16: where every tension, current and voltage of the machine lives.
+    let near = -6_553_600..6_553_600i32;
+    common::check("saturating_ops_near_physical_values", 20_000, (near.clone(), near), |(a, b)| {
+        saturating_ops_within_bound(a, b);
+    });
+}

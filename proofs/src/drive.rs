@@ -211,6 +211,33 @@ pub fn six_step_entry_is_well_formed(sector: Sector, direction: Direction) {
     assert_eq!(entry.count(LegState::Off), 1, "REQ-DRV-02: {sector:?} {direction:?} offs");
 }
 
+/// REQ-DRV-09, commutation: the sectors are numbered in the paper's forward Hall order, the
+/// release table is the pull table three sectors on (high and low exchanged), and moving one
+/// sector either way never changes a leg directly between high and low.
+pub fn commutation_is_consistent(sector: Sector, direction: Direction) {
+    let next = sector.advanced(1);
+    assert_eq!(
+        SectorStep::between(sector, next),
+        SectorStep::Forward,
+        "REQ-DRV-09: {sector:?}→{next:?} is not a forward step"
+    );
+    assert_eq!(
+        six_step(sector, Direction::Release),
+        six_step(sector.advanced(3), Direction::Pull),
+        "REQ-DRV-09: release table is not the pull table three sectors on"
+    );
+    let now = six_step(sector, direction);
+    for then in [six_step(next, direction), six_step(sector.advanced(5), direction)] {
+        for phase in Phase::ALL {
+            let swap = matches!(
+                (now.leg(phase), then.leg(phase)),
+                (LegState::High, LegState::Low) | (LegState::Low, LegState::High)
+            );
+            assert!(!swap, "REQ-DRV-09: adjacent sectors swap leg {phase:?} at {sector:?}");
+        }
+    }
+}
+
 /// What the sequence properties remember between calls, built only from the emitted outputs,
 /// the elapsed ticks and the accepted Hall state.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
@@ -527,12 +554,24 @@ mod verification {
         three_calls(|_, record| no_shoot_through(record));
     }
 
+    fn any_sector() -> Sector {
+        Sector::S0.advanced(kani::any::<u8>() % 6)
+    }
+
+    fn any_direction() -> Direction {
+        if kani::any() { Direction::Pull } else { Direction::Release }
+    }
+
     #[kani::proof]
     #[kani::unwind(8)]
     fn verify_six_step_table() {
-        let sector = Sector::ALL[usize::from(kani::any::<u8>() % 6)];
-        let direction = if kani::any() { Direction::Pull } else { Direction::Release };
-        six_step_entry_is_well_formed(sector, direction);
+        six_step_entry_is_well_formed(any_sector(), any_direction());
+    }
+
+    #[kani::proof]
+    #[kani::unwind(8)]
+    fn verify_commutation_consistent() {
+        commutation_is_consistent(any_sector(), any_direction());
     }
 
     #[kani::proof]

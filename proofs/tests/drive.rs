@@ -21,7 +21,8 @@ use taut_core::drive::{
 use taut_core::sense::current;
 use taut_proofs::drive::{
     CheckedDrive, CommandInput, Observer, StepInput, apply, bounded_duty, check_all,
-    no_shoot_through, pattern_is_safe, sequencer_step_is_safe, six_step_entry_is_well_formed,
+    commutation_is_consistent, no_shoot_through, pattern_is_safe, sequencer_step_is_safe,
+    six_step_entry_is_well_formed,
 };
 
 /// The lowest current code that is an overcurrent, found from the conversion (not from the
@@ -147,6 +148,7 @@ fn six_step_table_exhaustive() {
     for sector in Sector::ALL {
         for direction in Direction::ALL {
             six_step_entry_is_well_formed(sector, direction);
+            commutation_is_consistent(sector, direction);
             cases += 1;
         }
     }

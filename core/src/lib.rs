@@ -32,4 +32,5 @@ pub mod drive;
 pub mod io;
 pub mod sense;
 pub mod store;
+pub mod tension;
 pub mod units;

@@ -4,5 +4,6 @@
 //! them meaning — reference voltage, amplifier gains, calibration — lives here so that the
 //! twin, the tests and the board all read the same numbers the same way.
 
+pub mod calibration;
 pub mod current;
 pub mod load_cell;

@@ -1,0 +1,404 @@
+//! Four-point calibration of the load cell against a reference gauge: raw kgf → true kgf.
+//!
+//! # Theory of operation
+//!
+//! The paper's calibration (section 6.2): a reference force gauge is hooked in at the
+//! machine's right side, the machine pulls to **10, 20, 30 and 40 kg** by its own (raw)
+//! reading, and at each point the operator keys in what the gauge shows. Together with the
+//! reading at no load (the **zero** point, whose true value is exactly 0 kgf) that gives
+//! five pairs (raw reading, reference reading): [`CalibrationPoints`].
+//!
+//! The paper's own load-cell test (fig. 21) found the chain linear from 5 to 40 kg but
+//! **poorly linear below 5 kg**. taut therefore corrects in two pieces:
+//!
+//! - **Working range, at and above the knee (5 kgf true):** a straight line
+//!   `true = gain × raw + offset`, fitted by least squares through the four loaded points.
+//!   A line, rather than a polyline through every point, because the reference gauge has its
+//!   own error (a good digital tension calibrator: σ ≈ 0.02 kgf) and the least-squares fit
+//!   averages it over the four points: the fitted line's error is σ·√(1/4 + (x − x̄)²/Σ(xᵢ − x̄)²),
+//!   i.e. 0.5 σ at 25 kgf and ≤ 0.9 σ anywhere in 8–40 kgf, where a polyline would pass every
+//!   point's full error σ straight into the tensions near that point.
+//! - **Below the knee:** the sensor's non-linearity there is not captured by any of the loaded
+//!   points, so the fitted line is not trusted; instead the correction interpolates linearly
+//!   from the zero point (raw `zero` → 0 kgf, exact by definition) to the line's value at the
+//!   knee (raw `knee` → 5 kgf). The correction is continuous and strictly increasing over the
+//!   whole range. Below 5 kgf the machine only needs to know "the slack is gone" and "the
+//!   string is loose", for which this is more than adequate; no pull is ever set below 5 kgf.
+//!
+//! Below the zero reading the low piece continues with its slope, so a reading slightly
+//! below zero (noise on an unloaded cell) stays slightly negative instead of jumping.
+//!
+//! # Validation
+//!
+//! [`Calibration::new`] rejects a set of points that cannot come from a healthy chain and a
+//! careful operator ([`CalibrationError`]): raw or reference readings not strictly
+//! increasing, a reference outside the plausible band, a fitted gain off by more than 25 %
+//! or an offset beyond ±3 kgf (the four-point calibration corrects a chain, it cannot make a
+//! broken one right), a point more than 0.5 kgf off the fitted line (a mistyped reading),
+//! and a zero reading at or above the knee. The per-sample [`Calibration::correct`] has no
+//! error path.
+//!
+//! # Fixed point
+//!
+//! Tensions are Q15.16 ([`Kgf`]). The gain and the low-range slope are **Q1.30** (`i32`,
+//! range ±2, resolution 9.3 × 10⁻¹⁰): a 2⁻¹⁶ gain (Q15.16's resolution) would already cost
+//! 0.8 mkgf at 50 kgf. `correct` is one 32 × 32 → 64-bit product, a shift and an add, and
+//! rounds once: `|correct(raw) − exact| ≤ 2⁻¹⁶ kgf` for the stored parameters. The fit itself
+//! (at construction) is exact integer arithmetic on the raw bits up to the final rounding of
+//! the gain and offset.
+
+use crate::units::Kgf;
+
+/// The tensions the calibration pulls to, by the raw reading: 10, 20, 30, 40 kgf.
+pub const CALIBRATION_TARGETS: [Kgf; 4] =
+    [Kgf::from_int(10), Kgf::from_int(20), Kgf::from_int(30), Kgf::from_int(40)];
+
+/// The true tension above which the straight-line fit is used: 5 kgf (paper fig. 21).
+pub const KNEE: Kgf = Kgf::from_int(5);
+
+/// The fitted gain must lie in `[0.8, 1.25]` (Q1.30 bits).
+pub const GAIN_RANGE_Q30: (i32, i32) = (858_993_459, 1_342_177_280);
+
+/// The fitted offset must lie within ±3 kgf.
+pub const OFFSET_LIMIT: Kgf = Kgf::from_int(3);
+
+/// Largest distance of a calibration point from the fitted line: 0.5 kgf.
+pub const RESIDUAL_LIMIT: Kgf = Kgf(crate::units::Q16::lit("0.5"));
+
+/// Reference readings must lie in `[KNEE, 55 kgf]`: every calibration point is a loaded one.
+pub const REFERENCE_MAX: Kgf = Kgf::from_int(55);
+
+/// The low piece's slope must be within `[0.5, 2]` (Q1.30; `2` is stored as `i32::MAX`): a
+/// chain whose sensitivity below 5 kgf differs from the fitted one by more than ×2 is broken.
+const LOW_SLOPE_RANGE_Q30: (i32, i32) = (536_870_912, i32::MAX);
+
+/// One in Q1.30.
+const ONE_Q30: i32 = 1 << 30;
+
+/// Why a calibration was rejected.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub enum CalibrationError {
+    /// The raw readings (zero, then the four points) or the reference readings do not
+    /// strictly increase.
+    NotMonotonic,
+    /// A reference reading lies outside `[KNEE, REFERENCE_MAX]`.
+    ReferenceOutOfRange,
+    /// The fitted gain lies outside [`GAIN_RANGE_Q30`].
+    GainOutOfRange,
+    /// The fitted offset lies beyond ±[`OFFSET_LIMIT`].
+    OffsetOutOfRange,
+    /// A point lies more than [`RESIDUAL_LIMIT`] from the fitted line (a mistyped reading).
+    PointOffLine,
+    /// The no-load reading is at or above the line's 5 kgf reading, or implies a low-range
+    /// sensitivity more than ×2 away from the fitted one.
+    ZeroImplausible,
+}
+
+/// One calibration point: what the machine read and what the reference gauge read.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
+pub struct CalibrationPoint {
+    /// The machine's uncorrected reading ([`crate::sense::load_cell::LoadCellScale::to_kgf`]),
+    /// averaged while holding.
+    pub raw: Kgf,
+    /// The reference gauge's reading, keyed in by the operator.
+    pub reference: Kgf,
+}
+
+/// The raw material of a calibration, as stored in the persisted record.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
+pub struct CalibrationPoints {
+    /// The machine's reading with no string loaded (true tension 0).
+    pub zero: Kgf,
+    /// The four loaded points, in increasing order.
+    pub points: [CalibrationPoint; 4],
+}
+
+impl CalibrationPoints {
+    /// Points that make the identity correction: raw = reference at 10/20/30/40 kgf, zero 0.
+    pub const IDENTITY: Self = Self {
+        zero: Kgf::ZERO,
+        points: [
+            CalibrationPoint { raw: CALIBRATION_TARGETS[0], reference: CALIBRATION_TARGETS[0] },
+            CalibrationPoint { raw: CALIBRATION_TARGETS[1], reference: CALIBRATION_TARGETS[1] },
+            CalibrationPoint { raw: CALIBRATION_TARGETS[2], reference: CALIBRATION_TARGETS[2] },
+            CalibrationPoint { raw: CALIBRATION_TARGETS[3], reference: CALIBRATION_TARGETS[3] },
+        ],
+    };
+}
+
+/// A validated load-cell correction. See the module docs for the two pieces.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct Calibration {
+    points: CalibrationPoints,
+    /// Working-range gain, Q1.30.
+    gain_q30: i32,
+    /// Working-range offset.
+    offset: Kgf,
+    /// The raw reading where the line gives [`KNEE`].
+    knee_raw: Kgf,
+    /// Low-range slope, Q1.30: `KNEE / (knee_raw − zero)`.
+    low_slope_q30: i32,
+}
+
+impl Default for Calibration {
+    fn default() -> Self {
+        Self::IDENTITY
+    }
+}
+
+/// `(a × b_q30) >> 30`, rounded to nearest: a Q15.16 value times a Q1.30 factor.
+fn mul_q30(a: Kgf, factor_q30: i32) -> i64 {
+    let product = i64::from(a.to_bits()).saturating_mul(i64::from(factor_q30));
+    product.saturating_add(1 << 29) >> 30
+}
+
+/// `num / den` as Q1.30 by restoring long division, for `0 ≤ num < 2·den`, `den > 0`;
+/// `None` otherwise. A constant 31-step loop, so no wide intermediate is needed.
+fn ratio_q30(num: i64, den: i64) -> Option<i32> {
+    if den <= 0 || num < 0 || num >= den.checked_mul(2)? {
+        return None;
+    }
+    let mut quotient: i64 = 0;
+    let mut remainder = num;
+    // 31 quotient bits: one integer bit and 30 fraction bits (bound: 31 iterations).
+    for _ in 0..31 {
+        quotient = quotient.checked_mul(2)?;
+        if remainder >= den {
+            remainder = remainder.checked_sub(den)?;
+            quotient = quotient.checked_add(1)?;
+        }
+        remainder = remainder.checked_mul(2)?;
+    }
+    // The loop computed floor(num·2³⁰ / den) with the first bit being the integer part.
+    // Round on the next bit.
+    if remainder >= den {
+        quotient = quotient.checked_add(1)?;
+    }
+    i32::try_from(quotient).ok().or(Some(i32::MAX))
+}
+
+impl Calibration {
+    /// The identity correction: `correct(raw) == raw` everywhere.
+    pub const IDENTITY: Self = Self {
+        points: CalibrationPoints::IDENTITY,
+        gain_q30: ONE_Q30,
+        offset: Kgf::ZERO,
+        knee_raw: KNEE,
+        low_slope_q30: ONE_Q30,
+    };
+
+    /// Fits and validates a correction from five points (see the module docs).
+    ///
+    /// # Errors
+    /// [`CalibrationError`] when the points cannot come from a healthy chain.
+    pub fn new(points: &CalibrationPoints) -> Result<Self, CalibrationError> {
+        let mut previous_raw = points.zero;
+        let mut previous_reference = Kgf::ZERO;
+        for point in &points.points {
+            if point.raw <= previous_raw || point.reference <= previous_reference {
+                return Err(CalibrationError::NotMonotonic);
+            }
+            if point.reference < KNEE || point.reference > REFERENCE_MAX {
+                return Err(CalibrationError::ReferenceOutOfRange);
+            }
+            previous_raw = point.raw;
+            previous_reference = point.reference;
+        }
+
+        // Least squares on the raw bits: gain = (nΣxy − ΣxΣy) / (nΣx² − (Σx)²).
+        // |x|, |y| < 2³¹ bits but are bounded in practice by the plausibility checks below;
+        // every sum saturates, and a saturated sum fails those checks.
+        let (mut sx, mut sy, mut sxx, mut sxy) = (0_i64, 0_i64, 0_i64, 0_i64);
+        for point in &points.points {
+            let x = i64::from(point.raw.to_bits());
+            let y = i64::from(point.reference.to_bits());
+            sx = sx.saturating_add(x);
+            sy = sy.saturating_add(y);
+            sxx = sxx.saturating_add(x.saturating_mul(x));
+            sxy = sxy.saturating_add(x.saturating_mul(y));
+        }
+        let n = 4_i64;
+        let den = n.saturating_mul(sxx).saturating_sub(sx.saturating_mul(sx));
+        let num = n.saturating_mul(sxy).saturating_sub(sx.saturating_mul(sy));
+        let gain_q30 = ratio_q30(num, den).ok_or(CalibrationError::GainOutOfRange)?;
+        if gain_q30 < GAIN_RANGE_Q30.0 || gain_q30 > GAIN_RANGE_Q30.1 {
+            return Err(CalibrationError::GainOutOfRange);
+        }
+        // offset = (Σy − gain·Σx) / n, in Q15.16 bits.
+        let gain_sx = i64::from(gain_q30).saturating_mul(sx).saturating_add(1 << 29) >> 30;
+        let offset_bits = sy.saturating_sub(gain_sx).saturating_add(2) >> 2;
+        let offset_bits =
+            i32::try_from(offset_bits).map_err(|_| CalibrationError::OffsetOutOfRange)?;
+        let offset = Kgf::from_bits(offset_bits);
+        if offset.abs() > OFFSET_LIMIT {
+            return Err(CalibrationError::OffsetOutOfRange);
+        }
+
+        let mut calibration =
+            Self { points: *points, gain_q30, offset, knee_raw: KNEE, low_slope_q30: ONE_Q30 };
+        for point in &points.points {
+            let residual = calibration.on_line(point.raw).saturating_sub(point.reference);
+            if residual.abs() > RESIDUAL_LIMIT {
+                return Err(CalibrationError::PointOffLine);
+            }
+        }
+
+        // knee_raw = (KNEE − offset) / gain; gain ∈ [0.8, 1.25] and |offset| ≤ 3 keep it in
+        // 1.6 ..= 10 kgf, far inside i32 bits after the division.
+        let knee_num = i64::from(KNEE.saturating_sub(offset).to_bits()) << 30;
+        let knee_bits = knee_num.checked_div(i64::from(gain_q30)).unwrap_or(0);
+        let knee_raw = Kgf::from_bits(i32::try_from(knee_bits).unwrap_or(0));
+        let span = i64::from(knee_raw.saturating_sub(points.zero).to_bits());
+        if span <= 0 {
+            return Err(CalibrationError::ZeroImplausible);
+        }
+        let low_slope_q30 = ratio_q30(i64::from(KNEE.to_bits()), span)
+            .filter(|slope| *slope >= LOW_SLOPE_RANGE_Q30.0 && *slope <= LOW_SLOPE_RANGE_Q30.1)
+            .ok_or(CalibrationError::ZeroImplausible)?;
+        calibration.knee_raw = knee_raw;
+        calibration.low_slope_q30 = low_slope_q30;
+        Ok(calibration)
+    }
+
+    /// The points this correction was fitted from (what the stored record keeps).
+    #[must_use]
+    pub const fn points(&self) -> &CalibrationPoints {
+        &self.points
+    }
+
+    /// The working-range gain, Q1.30 (`1 << 30` = 1.0).
+    #[must_use]
+    pub const fn gain_q30(&self) -> i32 {
+        self.gain_q30
+    }
+
+    /// The working-range offset.
+    #[must_use]
+    pub const fn offset(&self) -> Kgf {
+        self.offset
+    }
+
+    /// The raw reading where the working range starts (the line reads [`KNEE`] there).
+    #[must_use]
+    pub const fn knee_raw(&self) -> Kgf {
+        self.knee_raw
+    }
+
+    /// The straight line's value at `raw`.
+    fn on_line(&self, raw: Kgf) -> Kgf {
+        let bits = mul_q30(raw, self.gain_q30).saturating_add(i64::from(self.offset.to_bits()));
+        Kgf::from_bits(saturate_i32(bits))
+    }
+
+    /// The true tension for an uncorrected reading `raw`: the line at and above the knee,
+    /// the zero-to-knee interpolation below it. Continuous, non-decreasing, saturating.
+    #[must_use]
+    pub fn correct(&self, raw: Kgf) -> Kgf {
+        if raw >= self.knee_raw {
+            self.on_line(raw)
+        } else {
+            let above_zero = raw.saturating_sub(self.points.zero);
+            Kgf::from_bits(saturate_i32(mul_q30(above_zero, self.low_slope_q30)))
+        }
+    }
+
+    /// The invariant every constructed calibration satisfies (for proofs and the stored
+    /// record): gain in range, the knee above the zero reading, low slope in range.
+    #[must_use]
+    pub fn is_valid(&self) -> bool {
+        self.gain_q30 >= GAIN_RANGE_Q30.0
+            && self.gain_q30 <= GAIN_RANGE_Q30.1
+            && self.offset.abs() <= OFFSET_LIMIT
+            && self.knee_raw > self.points.zero
+            && self.low_slope_q30 >= LOW_SLOPE_RANGE_Q30.0
+    }
+}
+
+/// An `i64` clamped into `i32`.
+fn saturate_i32(value: i64) -> i32 {
+    i32::try_from(value).unwrap_or(if value < 0 { i32::MIN } else { i32::MAX })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Thousandths of a kgf (`Kgf::from_milli` only takes ±32 767).
+    fn milli(value: i32) -> Kgf {
+        Kgf::from_bits(((i64::from(value) << 16) / 1000) as i32)
+    }
+
+    fn points(zero: i32, pairs: [(i32, i32); 4]) -> CalibrationPoints {
+        let mut out = CalibrationPoints { zero: milli(zero), ..CalibrationPoints::default() };
+        for (slot, (raw, reference)) in out.points.iter_mut().zip(pairs) {
+            *slot = CalibrationPoint { raw: milli(raw), reference: milli(reference) };
+        }
+        out
+    }
+
+    #[test]
+    fn identity_is_identity() {
+        assert_eq!(Calibration::new(&CalibrationPoints::IDENTITY), Ok(Calibration::IDENTITY));
+        for m in (-2_000..=55_000).step_by(37) {
+            let raw = milli(m);
+            assert_eq!(Calibration::IDENTITY.correct(raw), raw);
+        }
+    }
+
+    #[test]
+    fn recovers_an_exact_line() {
+        // raw = (true − 0.4) / 1.05 → true = 1.05·raw + 0.4.
+        let raw_of = |t: i32| (t - 400) * 100 / 105;
+        let cal = Calibration::new(&points(
+            -200,
+            [
+                (raw_of(10_000), 10_000),
+                (raw_of(20_000), 20_000),
+                (raw_of(30_000), 30_000),
+                (raw_of(40_000), 40_000),
+            ],
+        ))
+        .unwrap();
+        for t in (6_000..=50_000).step_by(100) {
+            let got = ((i64::from(cal.correct(milli(raw_of(t))).to_bits()) * 1000) >> 16) as i32;
+            assert!((got - t).abs() <= 2, "{t}: {got}");
+        }
+        assert!(cal.is_valid());
+    }
+
+    #[test]
+    fn rejects_bad_points() {
+        let good = [(10_000, 10_000), (20_000, 20_000), (30_000, 30_000), (40_000, 40_000)];
+        assert!(Calibration::new(&points(0, good)).is_ok());
+        let mut swapped = good;
+        swapped.swap(1, 2);
+        assert_eq!(Calibration::new(&points(0, swapped)), Err(CalibrationError::NotMonotonic));
+        assert_eq!(Calibration::new(&points(10_500, good)), Err(CalibrationError::NotMonotonic));
+        let mistyped = [(10_000, 10_000), (20_000, 21_000), (30_000, 30_000), (40_000, 40_000)];
+        assert_eq!(Calibration::new(&points(0, mistyped)), Err(CalibrationError::PointOffLine));
+        let steep = [(10_000, 14_000), (20_000, 28_000), (30_000, 42_000), (40_000, 54_000)];
+        assert_eq!(Calibration::new(&points(0, steep)), Err(CalibrationError::GainOutOfRange));
+        let shifted = [(10_000, 14_000), (20_000, 24_000), (30_000, 34_000), (40_000, 44_000)];
+        assert_eq!(Calibration::new(&points(0, shifted)), Err(CalibrationError::OffsetOutOfRange));
+        let low = [(10_000, 4_000), (20_000, 20_000), (30_000, 30_000), (40_000, 40_000)];
+        assert_eq!(Calibration::new(&points(0, low)), Err(CalibrationError::ReferenceOutOfRange));
+        assert_eq!(Calibration::new(&points(4_000, good)), Err(CalibrationError::ZeroImplausible));
+    }
+
+    #[test]
+    fn correction_is_continuous_and_increasing() {
+        let cal = Calibration::new(&points(
+            300,
+            [(9_800, 10_010), (19_700, 19_990), (29_650, 30_020), (39_600, 40_000)],
+        ))
+        .unwrap();
+        let mut previous = cal.correct(milli(-5_000));
+        for m in -4_999..=55_000 {
+            let now = cal.correct(milli(m));
+            assert!(now >= previous, "{m}");
+            assert!(now.saturating_sub(previous) < milli(3), "jump at {m}");
+            previous = now;
+        }
+        assert_eq!(cal.correct(milli(300)), Kgf::ZERO);
+    }
+}

@@ -1,0 +1,413 @@
+//! From a force to a duty: the motor's electrical model, back-EMF compensation, the current
+//! limit, and the carriage speed measured from Hall steps.
+//!
+//! # Theory of operation
+//!
+//! The control laws produce a pull `F` in kgf; the bridge takes a duty. Between them is the
+//! BLDC: with six-step drive two windings conduct in series, so
+//! `V_bus·duty = R·I + Ke·ω` and the pull at the carriage is `F = Kt·I·(2π·N/L)·η / g`
+//! (gear ratio `N` = 20, lead `L` = 25.4 mm, efficiency `η`, `g` = 9.806 65 N/kgf). Two
+//! mappings are offered ([`DutyMap`]):
+//!
+//! - **Proportional** — `duty = F / F_stall`, the duty that would produce `F` with the rotor
+//!   at rest. This is what a controller that treats duty as force does (the paper's firmware
+//!   applies its RSMC output to the PWM); a negative force is applied as a release command.
+//!   At speed the back-EMF eats the voltage, so the real pull falls short of `F` and the
+//!   loop sees an unmodelled, speed-dependent damping.
+//! - **Back-EMF compensated** (taut) — `duty = (R·I_cmd + Ke·ω̂)/V_bus` with
+//!   `I_cmd = F/(kgf per ampere)`, where `ω̂` comes from the carriage speed measured by
+//!   counting Hall steps ([`SpeedEstimator`]). The force is first limited to the pull that
+//!   the current limit allows, in both directions, so neither a pull nor the braking of a
+//!   fast carriage (duty below the back-EMF) can draw more than the limit. The duty is then
+//!   clamped to `[0, DUTY_MAX]`; zero duty with the pull pattern shorts the two windings
+//!   through the low sides, which brakes, so a pull never has to reverse the bridge.
+//!
+//! # Speed from Hall steps
+//!
+//! One Hall step is 1/24 motor turn = 1/480 screw turn = 25.4 mm / 480 ≈ 52.9 µm of
+//! carriage travel. [`SpeedEstimator`] differences the drive's step counter every tick
+//! (wrapping, clamped to ±16 steps per tick — 0.85 mm/ms, ten times the top speed) and
+//! low-pass filters the result with time constant `τ_v`; at the 78 mm/s top speed a 1 ms
+//! tick sees ≈ 1.5 steps, so `τ_v` of a few ms averages the step quantisation.
+//!
+//! # Fixed point
+//!
+//! The two duty coefficients (duty per kgf ≈ 2 × 10⁻³, duty per mm/s ≈ 1.3 × 10⁻²) are
+//! Q7.24 `i32` (range ±128, resolution 6 × 10⁻⁸, ≤ 3 × 10⁻⁵ relative). Speeds are Q15.16 mm/s.
+//! They are derived from the motor's data at construction in 128-bit integer arithmetic
+//! (construction only; the per-tick path uses 32 × 32 → 64-bit products).
+
+use crate::drive::{DUTY_MAX, Direction, DriveCommand, Duty};
+use crate::tension::law::{Coef, Saturation, mul_wide, narrow, saturate_i32};
+use crate::tension::settings::MmPerSecond;
+use crate::units::{Amps, Kgf, Q16, Seconds};
+
+/// Fraction bits of the duty coefficients.
+pub const DUTY_COEF_FRAC: u32 = 24;
+
+/// Carriage travel per Hall step, nm: 25.4 mm / 480 = 52 916.7 nm.
+pub const NM_PER_STEP: i64 = 52_917;
+
+/// The motor and transmission, in integer engineering units.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct MotorModel {
+    /// Bus voltage, mV (paper: 24 V).
+    pub bus_mv: u32,
+    /// Resistance of the two conducting windings in series, mΩ.
+    pub resistance_mohm: u32,
+    /// Back-EMF constant, µV·s/rad (line-to-line, two windings): 24 V at 3 700 rpm.
+    pub ke_micro: u32,
+    /// Torque constant, µN·m/A.
+    pub kt_micro: u32,
+    /// Gearbox reduction (paper: 20).
+    pub gear_ratio: u32,
+    /// Lead-screw lead, µm (paper: 25 400).
+    pub lead_um: u32,
+    /// Forward (pulling) efficiency of gearbox and screw, percent.
+    pub efficiency_pct: u32,
+}
+
+impl MotorModel {
+    /// The paper's machine: 24 V, Ke from 3 700 rpm no-load (61.94 mV·s/rad), Kt = Ke
+    /// (SI units make them equal for an ideal motor; the rated 2.85 kgf·cm at 5.5 A gives
+    /// 50.8 mN·m/A once the no-load current is accounted for), 1:20, 25.4 mm lead.
+    /// Winding resistance and efficiency are those documented by the twin (`sim/README.md`):
+    /// 0.8 Ω and 60 %.
+    pub const PAPER: Self = Self {
+        bus_mv: 24_000,
+        resistance_mohm: 800,
+        ke_micro: 61_940,
+        kt_micro: 61_940,
+        gear_ratio: 20,
+        lead_um: 25_400,
+        efficiency_pct: 60,
+    };
+}
+
+/// Why a motor model was rejected.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub enum MotorError {
+    /// A parameter is zero or implausible (bus outside 5–60 V, efficiency above 100 %).
+    Parameter,
+    /// A derived coefficient does not fit its fixed-point format.
+    Range,
+}
+
+/// How a force becomes a duty (see the module docs).
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub enum DutyMap {
+    /// `duty = F / F_stall`, negative force → release.
+    Proportional,
+    /// `duty = F·c_f + v·c_v`, force limited by `current_limit`, duty clamped to
+    /// `[0, DUTY_MAX]` in the pull direction.
+    BackEmf {
+        /// The largest current the mapping asks for, A.
+        current_limit: Amps,
+    },
+}
+
+/// The validated, precomputed force → duty mapping.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct ForceToDuty {
+    /// Duty per kgf at stall, Q7.24.
+    duty_per_kgf: i32,
+    /// Duty per mm/s of carriage speed (back-EMF), Q7.24.
+    duty_per_mm_s: i32,
+    /// The force limit of the back-EMF mapping, kgf bits (`i32::MAX` for proportional).
+    force_limit: i32,
+    /// Whether to compensate back-EMF.
+    compensate: bool,
+}
+
+fn q24_ratio(num: i128, den: i128) -> Result<i32, MotorError> {
+    if den <= 0 {
+        return Err(MotorError::Parameter);
+    }
+    let scaled = num.checked_mul(1 << DUTY_COEF_FRAC).ok_or(MotorError::Range)?;
+    i32::try_from(scaled.checked_div(den).ok_or(MotorError::Range)?).map_err(|_| MotorError::Range)
+}
+
+/// 2π in units of 10⁻⁹.
+const TWO_PI_NANO: i128 = 6_283_185_307;
+/// Standard gravity in units of 10⁻⁵ N/kgf.
+const G_1E5: i128 = 980_665;
+
+impl ForceToDuty {
+    /// All coefficients zero: every command is zero duty.
+    pub(crate) const ZERO: Self =
+        Self { duty_per_kgf: 0, duty_per_mm_s: 0, force_limit: 0, compensate: true };
+
+    /// Precomputes the mapping.
+    ///
+    /// # Errors
+    /// [`MotorError`] for implausible data or coefficients outside Q7.24.
+    pub fn new(motor: &MotorModel, map: DutyMap) -> Result<Self, MotorError> {
+        if motor.bus_mv < 5_000
+            || motor.bus_mv > 60_000
+            || motor.resistance_mohm == 0
+            || motor.ke_micro == 0
+            || motor.kt_micro == 0
+            || motor.gear_ratio == 0
+            || motor.lead_um == 0
+            || motor.efficiency_pct == 0
+            || motor.efficiency_pct > 100
+        {
+            return Err(MotorError::Parameter);
+        }
+        let bus = i128::from(motor.bus_mv);
+        let r = i128::from(motor.resistance_mohm);
+        let ke = i128::from(motor.ke_micro);
+        let kt = i128::from(motor.kt_micro);
+        let gear = i128::from(motor.gear_ratio);
+        let lead = i128::from(motor.lead_um);
+        let eta = i128::from(motor.efficiency_pct);
+        // rad of motor per mm of carriage = 2π·N / (lead_um/1000).
+        // duty per mm/s = Ke·(2π·N·1000/lead_um)/V
+        //   = ke_micro·1e-6 · 2π_nano·1e-9 · N · 1000 / lead_um / (bus_mv·1e-3)
+        //   = ke · 2π_nano · N / (lead · bus · 1e9)
+        let duty_per_mm_s = q24_ratio(
+            ke.saturating_mul(TWO_PI_NANO).saturating_mul(gear),
+            lead.saturating_mul(bus).saturating_mul(1_000_000_000),
+        )?;
+        // kgf per A = kt·1e-6 · 2π_nano·1e-9·N/(lead_um·1e-6) · η/100 / (G_1E5·1e-5)
+        //           = kt · 2π_nano · N · η / (lead · G_1E5 · 1e6)
+        // duty per kgf = R/(V · kgf per A) = r·1e-3 / (bus·1e-3 · kgf per A)
+        //           = r · lead · G_1E5 · 1e6 / (bus · kt · 2π_nano · N · η)
+        let duty_per_kgf = q24_ratio(
+            r.saturating_mul(lead).saturating_mul(G_1E5).saturating_mul(1_000_000),
+            bus.saturating_mul(kt)
+                .saturating_mul(TWO_PI_NANO)
+                .saturating_mul(gear)
+                .saturating_mul(eta),
+        )?;
+        if duty_per_kgf <= 0 || duty_per_mm_s <= 0 {
+            return Err(MotorError::Range);
+        }
+        let (force_limit, compensate) = match map {
+            DutyMap::Proportional => (i32::MAX, false),
+            DutyMap::BackEmf { current_limit } => {
+                if current_limit.0 <= Q16::ZERO {
+                    return Err(MotorError::Parameter);
+                }
+                // F_lim = I_lim·R/V / duty_per_kgf = I_lim · kgf per A.
+                // kgf per A = (R/V)/duty_per_kgf; compute from the same integers.
+                let limit = i128::from(current_limit.0.to_bits())
+                    .saturating_mul(kt)
+                    .saturating_mul(TWO_PI_NANO)
+                    .saturating_mul(gear)
+                    .saturating_mul(eta)
+                    .checked_div(lead.saturating_mul(G_1E5).saturating_mul(1_000_000))
+                    .ok_or(MotorError::Range)?;
+                (i32::try_from(limit).map_err(|_| MotorError::Range)?, true)
+            }
+        };
+        Ok(Self { duty_per_kgf, duty_per_mm_s, force_limit, compensate })
+    }
+
+    /// Duty per kgf at stall, Q7.24.
+    #[must_use]
+    pub const fn duty_per_kgf_q24(&self) -> i32 {
+        self.duty_per_kgf
+    }
+
+    /// Duty per mm/s of carriage speed, Q7.24.
+    #[must_use]
+    pub const fn duty_per_mm_s_q24(&self) -> i32 {
+        self.duty_per_mm_s
+    }
+
+    /// The force limit, kgf (`Kgf::MAX` without one).
+    #[must_use]
+    pub const fn force_limit(&self) -> Kgf {
+        Kgf::from_bits(self.force_limit)
+    }
+
+    /// A signed duty fraction (Q15.16 bits) for force `force` at speed `speed`.
+    fn signed_duty(&self, force: i32, speed: i32) -> i64 {
+        let force = force.clamp(self.force_limit.saturating_neg(), self.force_limit);
+        let from_force = mul_wide(force, self.duty_per_kgf);
+        let from_speed = if self.compensate { mul_wide(speed, self.duty_per_mm_s) } else { 0 };
+        // Q15.16 × Q7.24 = Q?.40 → Q15.16.
+        from_force.saturating_add(from_speed) >> (DUTY_COEF_FRAC)
+    }
+
+    /// The drive command for `force` at carriage speed `speed`, and whether it saturated.
+    #[must_use]
+    pub fn command(&self, force: Kgf, speed: MmPerSecond) -> (DriveCommand, Saturation) {
+        let duty_bits = self.signed_duty(force.to_bits(), speed.0.to_bits());
+        let max = i64::from(DUTY_MAX.raw());
+        let limited = force.to_bits().abs_diff(0) > self.force_limit.unsigned_abs();
+        if self.compensate {
+            let saturation = if duty_bits > max {
+                Saturation::High
+            } else if duty_bits < 0 {
+                Saturation::Low
+            } else if limited {
+                if force.to_bits() > 0 { Saturation::High } else { Saturation::Low }
+            } else {
+                Saturation::None
+            };
+            let duty = Duty::from_fraction_clamped(Q16::from_bits(saturate_i32(duty_bits)));
+            (DriveCommand::Drive { direction: Direction::Pull, duty }, saturation)
+        } else {
+            let (direction, magnitude) = if duty_bits >= 0 {
+                (Direction::Pull, duty_bits)
+            } else {
+                (Direction::Release, duty_bits.saturating_neg())
+            };
+            let saturation = match (magnitude > max, direction) {
+                (false, _) => Saturation::None,
+                (true, Direction::Pull) => Saturation::High,
+                (true, Direction::Release) => Saturation::Low,
+            };
+            let duty = Duty::from_fraction_clamped(Q16::from_bits(saturate_i32(magnitude)));
+            (DriveCommand::Drive { direction, duty }, saturation)
+        }
+    }
+
+    /// The duty that keeps the carriage moving at `speed` against `load` (velocity
+    /// feed-forward: back-EMF plus the resistive drop of the load current), clamped to
+    /// `[0, ceiling]`.
+    #[must_use]
+    pub fn velocity_duty(&self, speed: MmPerSecond, load: Kgf, ceiling: Duty) -> Duty {
+        let bits = mul_wide(speed.0.to_bits(), self.duty_per_mm_s)
+            .saturating_add(mul_wide(load.to_bits(), self.duty_per_kgf))
+            >> DUTY_COEF_FRAC;
+        let duty = Duty::from_fraction_clamped(Q16::from_bits(saturate_i32(bits)));
+        if duty > ceiling { ceiling } else { duty }
+    }
+}
+
+/// Carriage speed from the drive's Hall step counter (see the module docs).
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct SpeedEstimator {
+    /// mm/s per (step per tick): 52.917 µm × ticks per second, Q15.16.
+    mm_s_per_step: Coef,
+    /// Filter gain `dt/(τ_v + dt)`, Q15.16.
+    alpha: Coef,
+    /// The step count at the previous tick.
+    last_steps: i32,
+    /// The filtered speed, mm/s bits.
+    speed: i32,
+    /// Whether `last_steps` has been initialised.
+    primed: bool,
+}
+
+/// Largest step difference one tick may contribute (±16 steps = 0.85 mm per tick).
+pub const MAX_STEPS_PER_TICK: i32 = 16;
+
+impl SpeedEstimator {
+    /// An estimator that always reads zero.
+    pub(crate) const ZERO: Self =
+        Self { mm_s_per_step: 0, alpha: 1, last_steps: 0, speed: 0, primed: false };
+
+    /// An estimator for a tick of `period_us` µs and filter constant `tau`.
+    ///
+    /// # Errors
+    /// [`MotorError::Parameter`] for a zero period or negative `tau`.
+    pub fn new(period_us: u32, tau: Seconds) -> Result<Self, MotorError> {
+        if period_us == 0 || tau.0 < Q16::ZERO {
+            return Err(MotorError::Parameter);
+        }
+        // mm/s per step per tick = 52 917 nm / period_us µs = 52.917/period_ms … in Q16.
+        let per_step = (NM_PER_STEP << 16)
+            .checked_div(i64::from(period_us))
+            .and_then(|v| i32::try_from(v).ok())
+            .ok_or(MotorError::Parameter)?;
+        let dt = Q16::from_num(period_us).saturating_div_int(1_000_000);
+        let dt = if dt == Q16::ZERO { Q16::DELTA } else { dt };
+        let alpha =
+            dt.checked_div(tau.0.saturating_add(dt)).ok_or(MotorError::Parameter)?.to_bits().max(1);
+        Ok(Self { mm_s_per_step: per_step, alpha, last_steps: 0, speed: 0, primed: false })
+    }
+
+    /// Forgets the history (next update only primes).
+    pub fn reset(&mut self) {
+        self.primed = false;
+        self.speed = 0;
+    }
+
+    /// The filtered speed.
+    #[must_use]
+    pub fn speed(&self) -> MmPerSecond {
+        MmPerSecond(Q16::from_bits(self.speed))
+    }
+
+    /// Replaces the filter state (proofs, fuzzing).
+    pub fn set_state(&mut self, last_steps: i32, speed: MmPerSecond, primed: bool) {
+        self.last_steps = last_steps;
+        self.speed = speed.0.to_bits();
+        self.primed = primed;
+    }
+
+    /// One tick: the new step count in, the filtered speed out.
+    pub fn update(&mut self, steps: i32) -> MmPerSecond {
+        let delta = if self.primed {
+            steps.wrapping_sub(self.last_steps).clamp(-MAX_STEPS_PER_TICK, MAX_STEPS_PER_TICK)
+        } else {
+            0
+        };
+        self.primed = true;
+        self.last_steps = steps;
+        // |delta| ≤ 16, per_step ≤ 2³¹/16 is not guaranteed, so saturate.
+        let instant = delta.saturating_mul(self.mm_s_per_step);
+        let error = i64::from(instant).saturating_sub(i64::from(self.speed));
+        let step = narrow(error.saturating_mul(i64::from(self.alpha)));
+        self.speed = self.speed.saturating_add(step);
+        self.speed()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_motor_coefficients() {
+        let map = ForceToDuty::new(&MotorModel::PAPER, DutyMap::Proportional).unwrap();
+        // duty per mm/s ≈ 0.06194 · 2π·20/25.4 / 24 = 0.012 77 → 78.3 mm/s at 100 %.
+        let per_mm_s = f_q24(map.duty_per_mm_s_q24());
+        assert!((per_mm_s - 12_770).abs() < 10, "{per_mm_s}");
+        // kgf per A = 0.06194 · 4947 · 0.6 / 9.80665 = 18.75; duty/kgf = 0.8/(24·18.75) = 0.001778.
+        let per_kgf = f_q24(map.duty_per_kgf_q24());
+        assert!((per_kgf - 1_778).abs() < 5, "{per_kgf}");
+    }
+
+    /// A Q7.24 coefficient in millionths.
+    fn f_q24(bits: i32) -> i64 {
+        (i64::from(bits) * 1_000_000) >> 24
+    }
+
+    #[test]
+    fn back_emf_map_limits_and_brakes() {
+        let map = ForceToDuty::new(
+            &MotorModel::PAPER,
+            DutyMap::BackEmf { current_limit: Amps::from_int(8) },
+        )
+        .unwrap();
+        // 8 A × 18.75 kgf/A = 150 kgf.
+        let limit_milli = (i64::from(map.force_limit().to_bits()) * 1000) >> 16;
+        assert!((limit_milli - 150_000).abs() < 200, "{limit_milli}");
+        let (cmd, sat) = map.command(Kgf::from_int(-500), MmPerSecond::from_int(0));
+        assert_eq!(cmd.duty(), Duty::ZERO);
+        assert_eq!(sat, Saturation::Low);
+        let (cmd, sat) = map.command(Kgf::from_int(10), MmPerSecond::from_int(40));
+        assert_eq!(sat, Saturation::None);
+        assert_eq!(cmd.direction(), Some(Direction::Pull));
+        // 10·0.001778 + 40·0.01277 = 0.5286
+        assert!((i32::from(cmd.duty().raw()) - 34_642).abs() < 40, "{cmd:?}");
+    }
+
+    #[test]
+    fn speed_from_steps() {
+        let mut est = SpeedEstimator::new(1_000, Seconds::from_milli(5)).unwrap();
+        let mut steps = 0_i32;
+        let mut speed = MmPerSecond::default();
+        // 1 step per tick = 52.9 mm/s.
+        for _ in 0..200 {
+            steps = steps.wrapping_add(1);
+            speed = est.update(steps);
+        }
+        assert!((speed.0.to_num::<i32>() - 53).abs() <= 1, "{speed:?}");
+    }
+}

@@ -137,6 +137,8 @@ pub struct Leds {
     pub holding: bool,
     /// A fault is latched.
     pub fault: bool,
+    /// Knot mode: the next pull is a knot pull (set tension plus the knot boost).
+    pub knot: bool,
 }
 
 /// Everything the machine learns in one tick.

@@ -30,6 +30,7 @@
 
 pub mod drive;
 pub mod io;
+pub mod machine;
 pub mod sense;
 pub mod store;
 pub mod tension;

@@ -27,7 +27,7 @@
 //! | 4 | 6 | current settings (see below) |
 //! | 10 | 54 | presets 1–9, 6 bytes each |
 //! | 64 | 1 | calibration present (0 or 1) |
-//! | 65 | 32 | calibration: 4 × (raw reading, reference reading), each an `i32` in gram-force |
+//! | 65 | 32 | calibration: 4 × (raw reading, reference reading), each Q15.16 kgf bits (`i32`) |
 //! | 97 | 4 | counter: pulls (`u32`) |
 //! | 101 | 4 | counter: string used, millimetres (`u32`) |
 //! | 105 | 19 | reserved, 0 |
@@ -67,10 +67,7 @@ const OFFSET_CALIBRATION: usize = OFFSET_PRESETS + SETTINGS_LEN * PRESET_COUNT;
 const OFFSET_COUNTERS: usize = OFFSET_CALIBRATION + 1 + 8 * CALIBRATION_POINTS;
 const OFFSET_RESERVED: usize = OFFSET_COUNTERS + 8;
 const OFFSET_CRC: usize = RECORD_LEN - 4;
-const _: () = assert!(
-    OFFSET_RESERVED <= OFFSET_CRC && RECORD_LEN <= 256,
-    "layout overflows"
-);
+const _: () = assert!(OFFSET_RESERVED <= OFFSET_CRC && RECORD_LEN <= 256, "layout overflows");
 
 /// The unit the operator sets and reads tension in.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
@@ -159,10 +156,7 @@ impl Default for SetPoint {
 
 impl SetPoint {
     /// 25.0 kg, a common tennis tension.
-    pub const DEFAULT: Self = Self {
-        unit: Unit::Kilograms,
-        tenths: 250,
-    };
+    pub const DEFAULT: Self = Self { unit: Unit::Kilograms, tenths: 250 };
 
     /// A set point of `tenths` tenths of `unit`.
     ///
@@ -205,10 +199,7 @@ impl SetPoint {
         let delta = i32::from(steps).saturating_mul(i32::from(self.unit.step_tenths()));
         let wanted = i32::from(self.tenths).saturating_add(delta);
         let clamped = wanted.clamp(i32::from(low), i32::from(high));
-        Self {
-            unit: self.unit,
-            tenths: u16::try_from(clamped).unwrap_or(low),
-        }
+        Self { unit: self.unit, tenths: u16::try_from(clamped).unwrap_or(low) }
     }
 
     /// The same tension in the other unit, rounded to the nearest step of that unit and
@@ -227,10 +218,7 @@ impl SetPoint {
         };
         let (low, high) = target.range_tenths();
         let clamped = tenths.clamp(i32::from(low), i32::from(high));
-        Self {
-            unit: target,
-            tenths: u16::try_from(clamped).unwrap_or(low),
-        }
+        Self { unit: target, tenths: u16::try_from(clamped).unwrap_or(low) }
     }
 
     /// The invariant [`SetPoint::new`] establishes.
@@ -268,12 +256,8 @@ impl Settings {
     pub const KNOT_STEP: u8 = 5;
 
     /// 25.0 kg, speed 5, no pre-stretch, knot off.
-    pub const DEFAULT: Self = Self {
-        set_point: SetPoint::DEFAULT,
-        speed: 5,
-        pre_stretch_percent: 0,
-        knot_percent: 0,
-    };
+    pub const DEFAULT: Self =
+        Self { set_point: SetPoint::DEFAULT, speed: 5, pre_stretch_percent: 0, knot_percent: 0 };
 
     /// Validated settings.
     ///
@@ -297,12 +281,7 @@ impl Settings {
         if knot_percent > Self::KNOT_MAX {
             return Err(SettingsError::KnotOutOfRange);
         }
-        Ok(Self {
-            set_point,
-            speed,
-            pre_stretch_percent,
-            knot_percent,
-        })
+        Ok(Self { set_point, speed, pre_stretch_percent, knot_percent })
     }
 
     /// The tension set point.
@@ -338,10 +317,7 @@ impl Settings {
     /// These settings with the speed moved by `steps`, clamped to 1–9.
     #[must_use]
     pub fn with_speed_stepped(self, steps: i8) -> Self {
-        let speed = self
-            .speed
-            .saturating_add_signed(steps)
-            .clamp(1, Self::SPEED_MAX);
+        let speed = self.speed.saturating_add_signed(steps).clamp(1, Self::SPEED_MAX);
         Self { speed, ..self }
     }
 
@@ -349,32 +325,21 @@ impl Settings {
     #[must_use]
     pub fn with_pre_stretch_stepped(self, steps: i8) -> Self {
         let pre = step_percent(self.pre_stretch_percent, steps, Self::PRE_STRETCH_STEP);
-        Self {
-            pre_stretch_percent: pre.min(Self::PRE_STRETCH_MAX),
-            ..self
-        }
+        Self { pre_stretch_percent: pre.min(Self::PRE_STRETCH_MAX), ..self }
     }
 
     /// These settings with the knot increase moved by `steps` × 5 %, clamped to 0–20 %.
     #[must_use]
     pub fn with_knot_stepped(self, steps: i8) -> Self {
         let knot = step_percent(self.knot_percent, steps, Self::KNOT_STEP);
-        Self {
-            knot_percent: knot.min(Self::KNOT_MAX),
-            ..self
-        }
+        Self { knot_percent: knot.min(Self::KNOT_MAX), ..self }
     }
 
     /// The invariant [`Settings::new`] establishes.
     #[must_use]
     pub const fn is_valid(self) -> bool {
-        Settings::new(
-            self.set_point,
-            self.speed,
-            self.pre_stretch_percent,
-            self.knot_percent,
-        )
-        .is_ok()
+        Settings::new(self.set_point, self.speed, self.pre_stretch_percent, self.knot_percent)
+            .is_ok()
     }
 
     fn encode_into(self, out: &mut [u8]) {
@@ -402,28 +367,15 @@ impl Settings {
     }
 }
 
-/// One calibration reference point: what the uncorrected sensor read and what the reference
-/// gauge read, both in gram-force (thousandths of a kgf).
+/// One calibration reference point: what the uncorrected sensor read (averaged while
+/// holding) and what the reference gauge read. Stored as exact Q15.16 bits, so the correction
+/// rebuilt at boot is bit-identical to the one accepted.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
 pub struct CalibrationPoint {
-    /// The load cell's uncorrected reading, gram-force.
-    pub raw_gf: i32,
-    /// The reference gauge's reading keyed in by the operator, gram-force.
-    pub reference_gf: i32,
-}
-
-impl CalibrationPoint {
-    /// The raw reading as a tension.
-    #[must_use]
-    pub fn raw(self) -> Kgf {
-        Kgf::from_milli(self.raw_gf)
-    }
-
-    /// The reference reading as a tension.
-    #[must_use]
-    pub fn reference(self) -> Kgf {
-        Kgf::from_milli(self.reference_gf)
-    }
+    /// The load cell's uncorrected reading (tared, nominal scale).
+    pub raw: Kgf,
+    /// The reference gauge's reading keyed in by the operator.
+    pub reference: Kgf,
 }
 
 /// The four reference points of an accepted calibration, 10/20/30/40 kgf in order.
@@ -480,10 +432,7 @@ impl Record {
     pub fn encode(&self) -> [u8; RECORD_LEN] {
         let mut out = [0u8; RECORD_LEN];
         let (header, rest) = out.split_at_mut(OFFSET_SETTINGS);
-        for (slot, byte) in header
-            .iter_mut()
-            .zip([MAGIC[0], MAGIC[1], FORMAT_VERSION, 0])
-        {
+        for (slot, byte) in header.iter_mut().zip([MAGIC[0], MAGIC[1], FORMAT_VERSION, 0]) {
             *slot = byte;
         }
         let (current, rest) = rest.split_at_mut(SETTINGS_LEN);
@@ -501,8 +450,8 @@ impl Record {
             for (chunk, point) in pairs.chunks_exact_mut(8).zip(points) {
                 let mut bytes = [0u8; 8];
                 let (raw, reference) = bytes.split_at_mut(4);
-                raw.copy_from_slice(&point.raw_gf.to_le_bytes());
-                reference.copy_from_slice(&point.reference_gf.to_le_bytes());
+                raw.copy_from_slice(&point.raw.to_bits().to_le_bytes());
+                reference.copy_from_slice(&point.reference.to_bits().to_le_bytes());
                 chunk.copy_from_slice(&bytes);
             }
         }
@@ -536,23 +485,17 @@ impl Record {
             return Err(StoreError::CrcMismatch);
         }
         let reserved_zero = bytes.get(3) == Some(&0)
-            && body
-                .get(OFFSET_RESERVED..)
-                .is_some_and(|tail| tail.iter().all(|&b| b == 0));
+            && body.get(OFFSET_RESERVED..).is_some_and(|tail| tail.iter().all(|&b| b == 0));
         if !reserved_zero {
             return Err(StoreError::ReservedNotZero);
         }
         let slice = |from: usize, len: usize| {
-            body.get(from..from.saturating_add(len))
-                .ok_or(StoreError::TooShort)
+            body.get(from..from.saturating_add(len)).ok_or(StoreError::TooShort)
         };
         let settings = Settings::decode_from(slice(OFFSET_SETTINGS, SETTINGS_LEN)?)?;
         let mut presets = [Settings::DEFAULT; PRESET_COUNT];
         let preset_bytes = slice(OFFSET_PRESETS, SETTINGS_LEN * PRESET_COUNT)?;
-        for (preset, chunk) in presets
-            .iter_mut()
-            .zip(preset_bytes.chunks_exact(SETTINGS_LEN))
-        {
+        for (preset, chunk) in presets.iter_mut().zip(preset_bytes.chunks_exact(SETTINGS_LEN)) {
             *preset = Settings::decode_from(chunk)?;
         }
         let calibration_bytes = slice(OFFSET_CALIBRATION, 1 + 8 * CALIBRATION_POINTS)?;
@@ -567,8 +510,8 @@ impl Record {
                 let mut points = [CalibrationPoint::default(); CALIBRATION_POINTS];
                 let pairs = calibration_bytes.get(1..).ok_or(StoreError::TooShort)?;
                 for (point, chunk) in points.iter_mut().zip(pairs.chunks_exact(8)) {
-                    point.raw_gf = i32::from_le_bytes(word(chunk, 0)?);
-                    point.reference_gf = i32::from_le_bytes(word(chunk, 4)?);
+                    point.raw = Kgf::from_bits(i32::from_le_bytes(word(chunk, 0)?));
+                    point.reference = Kgf::from_bits(i32::from_le_bytes(word(chunk, 4)?));
                 }
                 Some(points)
             }
@@ -579,12 +522,7 @@ impl Record {
             pulls: u32::from_le_bytes(word(counter_bytes, 0)?),
             string_used_mm: u32::from_le_bytes(word(counter_bytes, 4)?),
         };
-        Ok(Self {
-            settings,
-            presets,
-            calibration,
-            counters,
-        })
+        Ok(Self { settings, presets, calibration, counters })
     }
 
     /// Whether every settings field satisfies its invariant (true of every decoded record
@@ -603,9 +541,7 @@ fn step_percent(value: u8, steps: i8, step: u8) -> u8 {
 
 /// Four bytes of `bytes` from `at`.
 fn word(bytes: &[u8], at: usize) -> Result<[u8; 4], StoreError> {
-    let slice = bytes
-        .get(at..at.saturating_add(4))
-        .ok_or(StoreError::TooShort)?;
+    let slice = bytes.get(at..at.saturating_add(4)).ok_or(StoreError::TooShort)?;
     let mut out = [0u8; 4];
     out.copy_from_slice(slice);
     Ok(out)
@@ -623,27 +559,12 @@ mod tests {
         record.presets[3] =
             Settings::new(SetPoint::new(Unit::Kilograms, 235).unwrap(), 3, 0, 0).unwrap();
         record.calibration = Some([
-            CalibrationPoint {
-                raw_gf: 9_870,
-                reference_gf: 10_000,
-            },
-            CalibrationPoint {
-                raw_gf: 19_900,
-                reference_gf: 20_000,
-            },
-            CalibrationPoint {
-                raw_gf: 30_050,
-                reference_gf: 30_000,
-            },
-            CalibrationPoint {
-                raw_gf: 40_100,
-                reference_gf: 40_000,
-            },
+            CalibrationPoint { raw: Kgf::from_tenths(98), reference: Kgf::from_tenths(100) },
+            CalibrationPoint { raw: Kgf::from_tenths(199), reference: Kgf::from_tenths(200) },
+            CalibrationPoint { raw: Kgf::from_tenths(300), reference: Kgf::from_tenths(300) },
+            CalibrationPoint { raw: Kgf::from_tenths(401), reference: Kgf::from_tenths(400) },
         ]);
-        record.counters = Counters {
-            pulls: 1234,
-            string_used_mm: 987_654,
-        };
+        record.counters = Counters { pulls: 1234, string_used_mm: 987_654 };
         record
     }
 
@@ -651,10 +572,7 @@ mod tests {
     fn round_trips() {
         let record = sample();
         assert_eq!(Record::decode(&record.encode()), Ok(record));
-        assert_eq!(
-            Record::decode(&Record::default().encode()),
-            Ok(Record::default())
-        );
+        assert_eq!(Record::decode(&Record::default().encode()), Ok(Record::default()));
     }
 
     #[test]
@@ -671,10 +589,7 @@ mod tests {
 
     #[test]
     fn erased_flash_is_no_record() {
-        assert_eq!(
-            Record::decode(&[0xFF; RECORD_LEN]),
-            Err(StoreError::NoRecord)
-        );
+        assert_eq!(Record::decode(&[0xFF; RECORD_LEN]), Err(StoreError::NoRecord));
         assert_eq!(Record::decode(&[0; 10]), Err(StoreError::TooShort));
     }
 
@@ -708,10 +623,7 @@ mod tests {
         );
         assert_eq!(lb.converted().tenths(), 249, "55.0 lb = 24.95 kg");
         assert_eq!(lb.stepped(1).tenths(), 555);
-        assert_eq!(
-            SetPoint::new(Unit::Pounds, 551),
-            Err(SettingsError::TensionOutOfRange)
-        );
+        assert_eq!(SetPoint::new(Unit::Pounds, 551), Err(SettingsError::TensionOutOfRange));
         // Every valid set point in either unit converts to a valid one.
         for unit in [Unit::Kilograms, Unit::Pounds] {
             for tenths in 0..=1200 {

@@ -27,3 +27,4 @@
 
 pub mod drive;
 pub mod fixed_point;
+pub mod machine;

@@ -1,0 +1,996 @@
+//! The statechart itself: one function per state, superstates for the shared safety rules.
+//!
+//! # Theory of operation
+//!
+//! This file is the machine's behaviour, written for [`statig`]: each `#[state]` function is
+//! one state of `docs/spec/machine.md`, each `#[superstate]` a group of states sharing rules,
+//! each `#[action]` what happens on entering or leaving one.
+//!
+//! ```text
+//! operational ─┬─ self_test            (boot: limits, load cell, tare)
+//!              ├─ calibration_window   (boot: Function → calibrate)
+//!              ├─ ready                (set tension, speed, pre-stretch, knot, unit, presets)
+//!              └─ motion ─┬─ motor_test          (boot: brief low-duty drive, Hall check)
+//!                         ├─ releasing           (to the home limit; homing at boot)
+//!                         └─ tensioned ─┬─ pulling, holding
+//!                                       └─ calibration_pull, calibration_entry
+//! fault                                 (latched; outside `operational`)
+//! ```
+//!
+//! **Propose, then dispose.** Every tick is one [`Tick`] event. A leaf state computes its
+//! drive command, display and lamps into the context and *proposes* its next state
+//! (`context.next`), then returns `Super` — it never transitions by itself. The event then
+//! climbs the superstates, innermost first: `tensioned` applies the tension rules, `motion`
+//! the moving rules (never toward an active limit, stall, sensor rails), `operational` the
+//! rules that hold everywhere (both limits, drive fault, overcurrent). Any of them may veto
+//! with a fault: it zeroes the drive command *in this tick* and transitions to `fault`.
+//! Only `operational`, the outermost, commits the leaf's proposal. So no state can skip a
+//! safety rule, and a fault always wins over a proposal.
+//!
+//! **Safe entries and exits.** Leaving `motion` and entering `fault` zero the drive command;
+//! a non-moving state never writes one, so it coasts (the context starts every tick at
+//! coast).
+
+use statig::prelude::*;
+
+use crate::drive::{Direction, DriveCommand, Duty};
+use crate::io::{Inputs, Key, Leds, LimitSwitches, Outputs};
+use crate::machine::fault::FaultCode;
+use crate::machine::log::{PullRecord, string_mm};
+use crate::machine::panel::{self, Beep, KeyEvent};
+use crate::machine::safety::{self, TensionSample, TensionWatch};
+use crate::machine::{Checkpoint, MachineState};
+use crate::sense::calibration::{CALIBRATION_TARGETS, Calibration, CalibrationPoints};
+use crate::sense::load_cell::LoadCellScale;
+use crate::store::{CALIBRATION_POINTS, CalibrationPoint, PRESET_COUNT, Record, Settings, Unit};
+use crate::tension::{
+    KnotBoost, Measurement, PreStretch, PullKind, PullSettings, Speed, TensionController,
+};
+use crate::units::{Amps, Kgf};
+
+/// Ticks the self-test averages the unloaded load cell over (and watches the limits).
+pub const SELF_TEST_TICKS: u16 = 64;
+/// The motor test's duty: 15 %.
+pub const MOTOR_TEST_DUTY: Duty = Duty::from_raw_clamped(9_830);
+/// Hall steps the motor test must see in the commanded direction: 48 = two motor turns,
+/// 2.5 mm of carriage travel — enough to leave a limit switch's actuation zone.
+pub const MOTOR_TEST_STEPS: i32 = 48;
+/// Ticks the motor test may take.
+pub const MOTOR_TEST_TIMEOUT: u32 = 1_500;
+/// How long after the self-test the calibration key is accepted.
+pub const CALIBRATION_WINDOW: u32 = 5_000;
+/// Ticks a calibration point must be held at tension before the operator is asked for the
+/// reference reading (the raw reading's average settles meanwhile).
+pub const CALIBRATION_SETTLE: u32 = 1_000;
+/// The speed setting used to pull calibration points.
+pub const CALIBRATION_SPEED: u8 = 3;
+/// A pull that has not reached tension after this many ticks faults.
+pub const PULL_TIMEOUT: u32 = 40_000;
+/// A release that has not reached home after this many ticks faults.
+pub const RELEASE_TIMEOUT: u32 = 40_000;
+/// Ticks the fault state keeps asking the drive to clear after the operator's Start.
+pub const CLEAR_ATTEMPT: u16 = 100;
+/// Ticks without a key before a settings change is written to the store.
+pub const STORE_DELAY: u32 = 2_000;
+/// Ticks without a key before the panel returns from a settings page to the tension.
+pub const VIEW_TIMEOUT: u32 = 5_000;
+
+/// What one tick tells the machine: the inputs and what the machine made of them before
+/// dispatch (the debounced key event, the tension readings).
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct Sample {
+    /// The raw inputs.
+    pub inputs: Inputs,
+    /// The key event of this tick, if any.
+    pub key: Option<KeyEvent>,
+    /// The tared, uncorrected tension.
+    pub raw: Kgf,
+    /// The calibrated tension.
+    pub tension: Kgf,
+    /// The uncorrected tension averaged over ≈ 64 ms (calibration points).
+    pub raw_average: Kgf,
+    /// String-encoder counts since the previous tick.
+    pub string_counts: i16,
+}
+
+/// The statig event: one per 1 ms tick.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Tick(pub Sample);
+
+/// What states write during a tick.
+#[derive(Debug)]
+pub struct Context {
+    /// This tick's sample (for entry and exit actions, which see no event).
+    pub sample: Sample,
+    /// The outputs being built; starts at coast with a blank panel.
+    pub out: Outputs,
+    /// The leaf state's proposal, committed by `operational` unless a rule vetoes it.
+    pub next: Option<State>,
+    /// A beeper pattern to start.
+    pub beep: Option<Beep>,
+    /// A pull completed this tick: log it.
+    pub completed: Option<PullRecord>,
+}
+
+impl Context {
+    /// A fresh context for `sample`.
+    #[must_use]
+    pub fn new(sample: Sample) -> Self {
+        Self { sample, out: Outputs::default(), next: None, beep: None, completed: None }
+    }
+}
+
+/// Where a fault's clearing leads.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+#[cfg_attr(kani, derive(kani::Arbitrary))]
+pub enum Recovery {
+    /// Raised during the boot sequence: run the self-test again (the paper: fix, power-cycle).
+    SelfTest,
+    /// Raised in operation: release to the home limit, then Ready.
+    Home,
+}
+
+/// Where a release leads once home.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+#[cfg_attr(kani, derive(kani::Arbitrary))]
+pub enum AfterRelease {
+    /// Boot homing: on to the calibration window.
+    CalibrationWindow,
+    /// After a pull, an abort or a fault: Ready.
+    Ready,
+}
+
+/// The page the Ready panel shows.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
+#[cfg_attr(kani, derive(kani::Arbitrary))]
+pub enum View {
+    /// The tension set point (`25.0`).
+    #[default]
+    Tension,
+    /// Speed 1–9 (`SP 5`).
+    Speed,
+    /// Pre-stretch 0–30 % (`PS10`).
+    PreStretch,
+    /// Knot boost 0–20 % (`Kn15`).
+    Knot,
+    /// Unit (` kg` / ` lb`).
+    Unit,
+    /// Preset selection (`P 3`); the number is 0-based.
+    Preset(u8),
+}
+
+impl View {
+    /// The page Function moves to.
+    #[must_use]
+    pub const fn next(self) -> Self {
+        match self {
+            Self::Tension => Self::Speed,
+            Self::Speed => Self::PreStretch,
+            Self::PreStretch => Self::Knot,
+            Self::Knot => Self::Unit,
+            Self::Unit | Self::Preset(_) => Self::Tension,
+        }
+    }
+}
+
+/// The machine's shared storage: what every state may read and change.
+#[derive(Clone, Debug)]
+pub struct Chart {
+    /// The persisted record.
+    pub record: Record,
+    /// The load-cell correction (from the record's calibration, or identity).
+    pub calibration: Calibration,
+    /// The load-cell scale, tared by the self-test.
+    pub scale: LoadCellScale,
+    /// The tension controller.
+    pub controller: TensionController,
+    /// A notice to show in Ready until a key is pressed.
+    pub notice: Option<FaultCode>,
+    /// Whether the boot sequence is still running (faults then recover by a new self-test).
+    pub booting: bool,
+    /// The record changed and is not yet stored.
+    pub dirty: bool,
+    /// Ticks since the last key event (saturating).
+    pub idle: u32,
+    /// Knot mode: the next pulls are knot pulls.
+    pub knot_mode: bool,
+    /// The tension rules' state for the present pull.
+    pub watch: TensionWatch,
+    /// The present pull's peak target (for the overload rule).
+    pub peak_target: Kgf,
+    /// Ticks from Start to "at tension" of the present pull.
+    pub time_to_tension: u32,
+    /// String-encoder counts of the present pull.
+    pub string_counts: i32,
+    /// The calibration points taken so far.
+    pub calibration_points: [CalibrationPoint; CALIBRATION_POINTS],
+    /// A watch to resume with instead of a fresh one at the next pull start
+    /// ([`crate::machine::Machine::resume`]).
+    pub resume_watch: Option<TensionWatch>,
+}
+
+impl Chart {
+    /// The shared storage for `record`: its calibration rebuilt and validated (an invalid
+    /// one is replaced by identity and reported as a notice).
+    #[must_use]
+    pub fn new(record: Record) -> Self {
+        let (calibration, notice) = match record.calibration {
+            None => (Calibration::IDENTITY, None),
+            Some(points) => match Calibration::new(&calibration_points(&points)) {
+                Ok(calibration) => (calibration, None),
+                Err(_) => (Calibration::IDENTITY, Some(FaultCode::StoredCalibrationInvalid)),
+            },
+        };
+        Self {
+            record,
+            calibration,
+            scale: LoadCellScale::NOMINAL,
+            controller: TensionController::taut(),
+            notice,
+            booting: true,
+            dirty: false,
+            idle: 0,
+            knot_mode: false,
+            watch: TensionWatch::new(0),
+            peak_target: Kgf::ZERO,
+            time_to_tension: 0,
+            string_counts: 0,
+            calibration_points: [CalibrationPoint::default(); CALIBRATION_POINTS],
+            resume_watch: None,
+        }
+    }
+
+    /// The controller's measurement for this tick, with the given tension.
+    fn measurement(sample: &Sample, tension: Kgf) -> Measurement {
+        Measurement {
+            tension,
+            drive: sample.inputs.drive,
+            current: Amps(crate::sense::current::amps(sample.inputs.motor_current).0),
+            limits: sample.inputs.limits,
+        }
+    }
+
+    /// Where a fault raised now recovers to.
+    const fn recovery(&self) -> Recovery {
+        if self.booting { Recovery::SelfTest } else { Recovery::Home }
+    }
+
+    /// Latch `code`: coast now, then the fault state.
+    fn trip(&self, context: &mut Context, code: FaultCode) -> Outcome<State> {
+        context.out.drive = DriveCommand::Coast;
+        context.next = None;
+        Transition(State::fault(code, self.recovery(), 0))
+    }
+
+    /// The operator's settings as controller settings.
+    fn pull_settings(&self) -> PullSettings {
+        to_pull_settings(&self.record.settings)
+    }
+
+    /// The tension in the operator's unit, for the display.
+    fn show_tension(&self, context: &mut Context, tension: Kgf) {
+        context.out.display = tension_display(tension, self.record.settings.set_point().unit());
+    }
+
+    /// The unit lamps.
+    fn unit_leds(&self) -> Leds {
+        let unit = self.record.settings.set_point().unit();
+        Leds {
+            kg: unit == Unit::Kilograms,
+            lb: unit == Unit::Pounds,
+            knot: self.knot_mode,
+            ..Leds::default()
+        }
+    }
+
+    /// Starts tracking a pull (or calibration point) of peak target `peak`.
+    fn begin_pull(&mut self, context: &Context, peak: Kgf) {
+        self.watch = self
+            .resume_watch
+            .take()
+            .unwrap_or(TensionWatch::new(context.sample.inputs.drive.steps));
+        self.peak_target = peak;
+        self.time_to_tension = 0;
+        self.string_counts = 0;
+    }
+}
+
+/// The controller settings for panel settings. Every valid [`Settings`] converts (a unit
+/// test checks all of them); the fallback is unreachable and only keeps this panic-free.
+#[must_use]
+pub fn to_pull_settings(settings: &Settings) -> PullSettings {
+    let speed = Speed::new(settings.speed()).unwrap_or(Speed::MIN);
+    let pre = PreStretch::new(settings.pre_stretch_percent()).unwrap_or(PreStretch::NONE);
+    let knot = KnotBoost::new(settings.knot_percent()).unwrap_or(KnotBoost::NONE);
+    PullSettings::new(settings.set_point().to_kgf(), speed, pre, knot)
+        .unwrap_or_else(|_| calibration_settings(0))
+}
+
+/// The controller settings for calibration point `point` (0–3): its target by the raw
+/// reading, [`CALIBRATION_SPEED`], no pre-stretch.
+#[must_use]
+pub fn calibration_settings(point: u8) -> PullSettings {
+    let target = CALIBRATION_TARGETS.get(usize::from(point)).copied().unwrap_or(Kgf::from_int(10));
+    let speed = Speed::new(CALIBRATION_SPEED).unwrap_or(Speed::MIN);
+    PullSettings::new(target, speed, PreStretch::NONE, KnotBoost::NONE).unwrap_or_default()
+}
+
+/// The stored points as the calibration's input (zero is the tare: 0 by definition).
+#[must_use]
+pub fn calibration_points(points: &[CalibrationPoint; CALIBRATION_POINTS]) -> CalibrationPoints {
+    let mut out = CalibrationPoints { zero: Kgf::ZERO, ..CalibrationPoints::IDENTITY };
+    for (slot, point) in out.points.iter_mut().zip(points) {
+        slot.raw = point.raw;
+        slot.reference = point.reference;
+    }
+    out
+}
+
+/// A tension on the display in `unit`.
+#[must_use]
+pub fn tension_display(tension: Kgf, unit: Unit) -> crate::io::Display {
+    match unit {
+        Unit::Kilograms => panel::tenths(tension.to_tenths_rounded()),
+        Unit::Pounds => panel::tenths(tension.to_lbf_tenths_rounded()),
+    }
+}
+
+/// The 1-based label digit of calibration point `point`.
+const fn point_label(point: u8) -> [u8; 4] {
+    [b'C', b'A', b'L', b'1'.saturating_add(point)]
+}
+
+/// Whether a key event is a press of any key.
+const fn pressed(key: Option<KeyEvent>) -> bool {
+    matches!(key, Some(KeyEvent::Press(_)))
+}
+
+#[state_machine(
+    initial = "State::self_test(0, 0)",
+    state(derive(Clone, Copy, PartialEq, Eq, Debug)),
+    superstate(derive(Debug)),
+    visibility = "pub"
+)]
+impl Chart {
+    // ───────────────────────────── superstates ─────────────────────────────
+
+    /// Rules that hold in every state but `fault`; commits the leaf's proposal.
+    #[superstate]
+    fn operational(&mut self, context: &mut Context, event: &Tick) -> Outcome<State> {
+        let Tick(sample) = event;
+        if let Some(code) = safety::global_fault(&sample.inputs) {
+            return self.trip(context, code);
+        }
+        match context.next.take() {
+            Some(next) => Transition(next),
+            None => Handled,
+        }
+    }
+
+    /// Rules for every state that may drive the motor.
+    #[superstate(superstate = "operational", exit_action = "exit_motion")]
+    fn motion(&mut self, context: &mut Context, event: &Tick) -> Outcome<State> {
+        let Tick(sample) = event;
+        context.out.drive = safety::limit_guard(context.out.drive, sample.inputs.limits);
+        if safety::stall(context.out.drive, &sample.inputs) {
+            return self.trip(context, FaultCode::Stall);
+        }
+        if let Some(code) = safety::load_cell_rail(sample.inputs.load_cell) {
+            return self.trip(context, code);
+        }
+        Super
+    }
+
+    /// Leaving motion: the bridge coasts.
+    #[action]
+    fn exit_motion(&mut self, context: &mut Context) {
+        context.out.drive = DriveCommand::Coast;
+    }
+
+    /// Rules for every state that holds the string under tension.
+    #[superstate(superstate = "motion")]
+    fn tensioned(&mut self, context: &mut Context, event: &Tick) -> Outcome<State> {
+        let Tick(sample) = event;
+        let check = TensionSample {
+            tension: sample.tension,
+            raw: sample.raw,
+            steps: sample.inputs.drive.steps,
+            limits: sample.inputs.limits,
+            peak_target: self.peak_target,
+        };
+        if let Some(code) = self.watch.check(&check) {
+            return self.trip(context, code);
+        }
+        self.string_counts = self.string_counts.saturating_add(i32::from(sample.string_counts));
+        Super
+    }
+
+    // ───────────────────────────── boot ─────────────────────────────
+
+    /// Power-on self-test: limits not both active, load cell off its rails and inside the
+    /// zero band (then tared), for [`SELF_TEST_TICKS`].
+    #[state(superstate = "operational", entry_action = "enter_self_test")]
+    fn self_test(
+        &mut self,
+        context: &mut Context,
+        event: &Tick,
+        elapsed: &mut u16,
+        code_sum: &mut u32,
+    ) -> Outcome<State> {
+        let Tick(sample) = event;
+        context.out.display = panel::text(b"tESt");
+        *code_sum = code_sum.saturating_add(u32::from(sample.inputs.load_cell.get()));
+        *elapsed = elapsed.saturating_add(1);
+        if *elapsed >= SELF_TEST_TICKS {
+            // 64 samples of ≤ 4095: the sum fits, and ÷ 64 is the mean code.
+            let mean = crate::units::AdcCode::new(
+                u16::try_from(code_sum.checked_div(u32::from(SELF_TEST_TICKS)).unwrap_or(0))
+                    .unwrap_or(u16::MAX),
+            );
+            context.next = Some(if let Some(code) = safety::load_cell_rail(mean) {
+                State::fault(code, Recovery::SelfTest, 0)
+            } else {
+                match self.scale.tared_at(mean) {
+                    Ok(scale) => {
+                        self.scale = scale;
+                        let limits = sample.inputs.limits;
+                        let direction =
+                            if limits.end { Direction::Release } else { Direction::Pull };
+                        State::motor_test(0, direction, sample.inputs.drive.steps, limits)
+                    }
+                    Err(_) => State::fault(FaultCode::LoadCellZero, Recovery::SelfTest, 0),
+                }
+            });
+        }
+        Super
+    }
+
+    /// Entering the self-test: the boot sequence starts (again).
+    #[action]
+    fn enter_self_test(&mut self) {
+        self.booting = true;
+        self.controller.stop();
+    }
+
+    /// Motor test: a brief low-duty drive must give [`MOTOR_TEST_STEPS`] Hall steps in the
+    /// commanded direction within [`MOTOR_TEST_TIMEOUT`]; the switch the carriage started on
+    /// must have opened.
+    #[state(superstate = "motion")]
+    fn motor_test(
+        &mut self,
+        context: &mut Context,
+        event: &Tick,
+        elapsed: &mut u32,
+        direction: &mut Direction,
+        start_steps: &mut i32,
+        start_limits: &mut LimitSwitches,
+    ) -> Outcome<State> {
+        let Tick(sample) = event;
+        context.out.display = panel::text(b"tESt");
+        context.out.drive = DriveCommand::Drive { direction: *direction, duty: MOTOR_TEST_DUTY };
+        *elapsed = elapsed.saturating_add(1);
+        let moved = sample.inputs.drive.steps.wrapping_sub(*start_steps);
+        let forward = match direction {
+            Direction::Pull => moved,
+            Direction::Release => moved.saturating_neg(),
+        };
+        let limits = sample.inputs.limits;
+        let stuck = (start_limits.home && limits.home) || (start_limits.end && limits.end);
+        context.next = if forward >= MOTOR_TEST_STEPS {
+            context.out.drive = DriveCommand::Coast;
+            Some(if stuck {
+                State::fault(FaultCode::LimitStuck, Recovery::SelfTest, 0)
+            } else {
+                State::releasing(0, AfterRelease::CalibrationWindow)
+            })
+        } else if forward <= MOTOR_TEST_STEPS.saturating_neg() {
+            Some(State::fault(FaultCode::MotorWrongDirection, Recovery::SelfTest, 0))
+        } else if *elapsed >= MOTOR_TEST_TIMEOUT {
+            Some(State::fault(FaultCode::MotorNoRotation, Recovery::SelfTest, 0))
+        } else {
+            None
+        };
+        Super
+    }
+
+    /// After the self-test: the calibration key (Function) starts a calibration; any other
+    /// key, or [`CALIBRATION_WINDOW`] without one, goes to Ready.
+    #[state(superstate = "operational", entry_action = "enter_calibration_window")]
+    fn calibration_window(
+        &mut self,
+        context: &mut Context,
+        event: &Tick,
+        elapsed: &mut u32,
+    ) -> Outcome<State> {
+        let Tick(sample) = event;
+        context.out.display = panel::text(b"CAL?");
+        context.out.leds = self.unit_leds();
+        *elapsed = elapsed.saturating_add(1);
+        context.next = match sample.key {
+            Some(KeyEvent::Press(Key::Function)) => Some(State::calibration_pull(0, 0)),
+            Some(KeyEvent::Press(_)) => Some(State::ready(View::Tension)),
+            _ if *elapsed >= CALIBRATION_WINDOW => Some(State::ready(View::Tension)),
+            _ => None,
+        };
+        Super
+    }
+
+    /// The boot sequence is over.
+    #[action]
+    fn enter_calibration_window(&mut self) {
+        self.booting = false;
+    }
+
+    // ───────────────────────────── calibration ─────────────────────────────
+
+    /// Pull to calibration point `point` by the raw reading and hold it for
+    /// [`CALIBRATION_SETTLE`]; any key aborts.
+    #[state(superstate = "tensioned", entry_action = "enter_calibration_pull")]
+    fn calibration_pull(
+        &mut self,
+        context: &mut Context,
+        event: &Tick,
+        point: &mut u8,
+        settled: &mut u32,
+    ) -> Outcome<State> {
+        let Tick(sample) = event;
+        context.out.display = panel::text(&point_label(*point));
+        let output = self.controller.step(&Self::measurement(sample, sample.raw));
+        context.out.drive = output.command;
+        context.out.leds = Leds { pulling: true, holding: output.at_tension, ..self.unit_leds() };
+        *settled = if output.at_tension { settled.saturating_add(1) } else { 0 };
+        context.next = if pressed(sample.key) {
+            context.out.drive = DriveCommand::Coast;
+            Some(State::releasing(0, AfterRelease::Ready))
+        } else if *settled >= CALIBRATION_SETTLE {
+            let entered =
+                u16::try_from(sample.raw_average.to_tenths_rounded().clamp(50, 550)).unwrap_or(100);
+            Some(State::calibration_entry(*point, entered))
+        } else {
+            None
+        };
+        Super
+    }
+
+    /// Arms the controller for a calibration point.
+    #[action]
+    fn enter_calibration_pull(&mut self, context: &mut Context, point: &mut u8) {
+        let settings = calibration_settings(*point);
+        self.controller.start(&settings, PullKind::Main);
+        if *point == 0 {
+            self.begin_pull(context, settings.peak_target(PullKind::Main));
+        } else {
+            // Keep the watch (the string stays loaded between points); raise the overload
+            // threshold to the new target.
+            self.peak_target = settings.peak_target(PullKind::Main);
+        }
+        context.beep = Some(Beep::Click);
+    }
+
+    /// Holding point `point`: the operator keys in the reference gauge's reading (Up/Down,
+    /// 0.1 kg) and confirms with Start; Function or Preset abort.
+    #[state(superstate = "tensioned")]
+    fn calibration_entry(
+        &mut self,
+        context: &mut Context,
+        event: &Tick,
+        point: &mut u8,
+        entered: &mut u16,
+    ) -> Outcome<State> {
+        let Tick(sample) = event;
+        let output = self.controller.step(&Self::measurement(sample, sample.raw));
+        context.out.drive = output.command;
+        context.out.display = panel::tenths(i32::from(*entered));
+        context.out.leds = Leds { holding: true, ..self.unit_leds() };
+        context.next = match sample.key {
+            Some(key @ (KeyEvent::Press(Key::Up | Key::Down) | KeyEvent::Repeat(_))) => {
+                let stepped = i32::from(*entered).saturating_add(i32::from(key.step()));
+                *entered = u16::try_from(stepped.clamp(50, 550)).unwrap_or(*entered);
+                None
+            }
+            Some(KeyEvent::Press(Key::Start)) => {
+                Some(self.confirm_point(context, sample, *point, *entered))
+            }
+            Some(KeyEvent::Press(Key::Function | Key::Preset)) => {
+                context.out.drive = DriveCommand::Coast;
+                Some(State::releasing(0, AfterRelease::Ready))
+            }
+            _ => None,
+        };
+        Super
+    }
+
+    // ───────────────────────────── operation ─────────────────────────────
+
+    /// Ready: the panel shows the set tension (or a settings page) and the keys change it;
+    /// Start pulls.
+    #[state(superstate = "operational", entry_action = "enter_ready")]
+    fn ready(&mut self, context: &mut Context, event: &Tick, view: &mut View) -> Outcome<State> {
+        let Tick(sample) = event;
+        context.out.leds = self.unit_leds();
+        self.idle = if sample.key.is_some() { 0 } else { self.idle.saturating_add(1) };
+        if self.dirty && self.idle >= STORE_DELAY {
+            self.dirty = false;
+            context.out.store = true;
+        }
+        if *view != View::Tension && self.idle >= VIEW_TIMEOUT {
+            *view = View::Tension;
+        }
+        if let Some(notice) = self.notice {
+            context.out.display = panel::fault(notice.number());
+            if pressed(sample.key) {
+                // The key acknowledges the notice and does nothing else.
+                self.notice = None;
+            }
+            return Super;
+        }
+        if let Some(key) = sample.key {
+            context.next = self.ready_key(context, sample, view, key);
+        }
+        context.out.display = self.render(*view);
+        Super
+    }
+
+    /// Entering Ready: the controller idles.
+    #[action]
+    fn enter_ready(&mut self) {
+        self.controller.stop();
+        self.booting = false;
+    }
+
+    /// Closed-loop pull to the set tension (the controller's profile); any key aborts to
+    /// releasing; at tension → holding.
+    #[state(superstate = "tensioned", entry_action = "enter_pulling")]
+    fn pulling(
+        &mut self,
+        context: &mut Context,
+        event: &Tick,
+        elapsed: &mut u32,
+    ) -> Outcome<State> {
+        let Tick(sample) = event;
+        let output = self.controller.step(&Self::measurement(sample, sample.tension));
+        context.out.drive = output.command;
+        context.out.leds = Leds { pulling: true, ..self.unit_leds() };
+        self.show_tension(context, sample.tension);
+        *elapsed = elapsed.saturating_add(1);
+        context.next = if pressed(sample.key) {
+            context.out.drive = DriveCommand::Coast;
+            Some(State::releasing(0, AfterRelease::Ready))
+        } else if output.at_tension {
+            self.time_to_tension = *elapsed;
+            Some(State::holding())
+        } else if *elapsed >= PULL_TIMEOUT {
+            Some(State::fault(FaultCode::PullTimeout, Recovery::Home, 0))
+        } else {
+            None
+        };
+        Super
+    }
+
+    /// Arms the controller with the operator's settings.
+    #[action]
+    fn enter_pulling(&mut self, context: &mut Context) {
+        let kind = if self.knot_mode { PullKind::Knot } else { PullKind::Main };
+        let settings = self.pull_settings();
+        self.controller.start(&settings, kind);
+        self.begin_pull(context, settings.peak_target(kind));
+    }
+
+    /// Constant pull at the set tension; the beeper sounds on arrival; any key releases and
+    /// logs the pull.
+    #[state(superstate = "tensioned", entry_action = "enter_holding")]
+    fn holding(&mut self, context: &mut Context, event: &Tick) -> Outcome<State> {
+        let Tick(sample) = event;
+        let output = self.controller.step(&Self::measurement(sample, sample.tension));
+        context.out.drive = output.command;
+        context.out.leds = Leds { holding: true, ..self.unit_leds() };
+        self.show_tension(context, sample.tension);
+        if pressed(sample.key) {
+            let kind = if self.knot_mode { PullKind::Knot } else { PullKind::Main };
+            let record = PullRecord {
+                target: self.pull_settings().final_target(kind),
+                reached: sample.tension,
+                time_to_tension_ms: self.time_to_tension,
+                peak: self.watch.peak,
+                string_mm: string_mm(self.string_counts),
+            };
+            let counters = &mut self.record.counters;
+            counters.pulls = counters.pulls.saturating_add(1);
+            counters.string_used_mm = counters.string_used_mm.saturating_add(record.string_mm);
+            self.dirty = true;
+            context.completed = Some(record);
+            context.out.drive = DriveCommand::Coast;
+            context.next = Some(State::releasing(0, AfterRelease::Ready));
+        }
+        Super
+    }
+
+    /// At tension.
+    #[action]
+    fn enter_holding(&mut self, context: &mut Context) {
+        context.beep = Some(Beep::AtTension);
+    }
+
+    /// Reverse to the home limit at the controller's bounded release speed, then go on.
+    #[state(superstate = "motion", entry_action = "enter_releasing")]
+    fn releasing(
+        &mut self,
+        context: &mut Context,
+        event: &Tick,
+        elapsed: &mut u32,
+        then: &mut AfterRelease,
+    ) -> Outcome<State> {
+        let Tick(sample) = event;
+        match then {
+            AfterRelease::CalibrationWindow => context.out.display = panel::text(b"HOME"),
+            AfterRelease::Ready => self.show_tension(context, sample.tension),
+        }
+        context.out.leds = self.unit_leds();
+        *elapsed = elapsed.saturating_add(1);
+        context.next = if sample.inputs.limits.home {
+            Some(match then {
+                AfterRelease::CalibrationWindow => State::calibration_window(0),
+                AfterRelease::Ready => State::ready(View::Tension),
+            })
+        } else if *elapsed >= RELEASE_TIMEOUT {
+            Some(State::fault(FaultCode::ReleaseTimeout, self.recovery(), 0))
+        } else {
+            context.out.drive =
+                self.controller.step(&Self::measurement(sample, sample.tension)).command;
+            None
+        };
+        Super
+    }
+
+    /// Start the release move.
+    #[action]
+    fn enter_releasing(&mut self) {
+        self.controller.release();
+    }
+
+    // ───────────────────────────── fault ─────────────────────────────
+
+    /// A latched fault: coast, show `E-nn`; Start (with the drive command zeroed and the
+    /// cause gone) asks the drive to clear for up to [`CLEAR_ATTEMPT`] ticks, then recovers.
+    #[state(entry_action = "enter_fault")]
+    fn fault(
+        &mut self,
+        context: &mut Context,
+        event: &Tick,
+        code: &mut FaultCode,
+        recovery: &mut Recovery,
+        clearing: &mut u16,
+    ) -> Outcome<State> {
+        let Tick(sample) = event;
+        context.out.drive = DriveCommand::Coast;
+        context.out.display = panel::fault(code.number());
+        context.out.leds = Leds { fault: true, ..self.unit_leds() };
+        let persists = fault_persists(*code, &sample.inputs);
+        if *clearing > 0 {
+            context.out.clear_drive_fault = true;
+            *clearing = clearing.saturating_sub(1);
+            if sample.inputs.drive.fault.is_none() && !persists {
+                return Transition(match recovery {
+                    Recovery::SelfTest => State::self_test(0, 0),
+                    Recovery::Home => State::releasing(0, AfterRelease::Ready),
+                });
+            }
+            if *clearing == 0 {
+                context.beep = Some(Beep::Refused);
+            }
+        } else if sample.key == Some(KeyEvent::Press(Key::Start)) {
+            if persists {
+                context.beep = Some(Beep::Refused);
+            } else {
+                context.out.clear_drive_fault = true;
+                *clearing = CLEAR_ATTEMPT;
+            }
+        }
+        Handled
+    }
+
+    /// Entering a fault: coast, show the code, stop the controller, sound the fault pattern.
+    #[action]
+    fn enter_fault(&mut self, context: &mut Context, code: &mut FaultCode) {
+        context.out.drive = DriveCommand::Coast;
+        context.out.display = panel::fault(code.number());
+        context.out.leds = Leds { fault: true, ..self.unit_leds() };
+        context.next = None;
+        self.controller.stop();
+        context.beep = Some(Beep::Fault);
+    }
+}
+
+/// Whether a fault cannot clear now: its own cause, or any rule that holds everywhere (both
+/// limits, a latched drive fault, overcurrent), is still visible in `inputs`. A latched drive
+/// fault is cleared by the drive itself when asked with the command at coast, so the fault
+/// state keeps asking while it waits for it.
+#[must_use]
+pub fn fault_persists(code: FaultCode, inputs: &Inputs) -> bool {
+    let own = match code {
+        FaultCode::LoadCellOpen | FaultCode::LoadCellShort => {
+            safety::load_cell_rail(inputs.load_cell) == Some(code)
+        }
+        _ => false,
+    };
+    let global = inputs.limits.both() || inputs.motor_current >= safety::OVERCURRENT_CODE;
+    own || global
+}
+
+impl Chart {
+    /// Records calibration point `point` and proposes the next step.
+    fn confirm_point(
+        &mut self,
+        context: &mut Context,
+        sample: &Sample,
+        point: u8,
+        entered: u16,
+    ) -> State {
+        if let Some(slot) = self.calibration_points.get_mut(usize::from(point)) {
+            *slot = CalibrationPoint {
+                raw: sample.raw_average,
+                reference: Kgf::from_tenths(i32::from(entered)),
+            };
+        }
+        let next_point = point.saturating_add(1);
+        if usize::from(next_point) < CALIBRATION_POINTS {
+            return State::calibration_pull(next_point, 0);
+        }
+        match Calibration::new(&calibration_points(&self.calibration_points)) {
+            Ok(calibration) => {
+                self.calibration = calibration;
+                self.record.calibration = Some(self.calibration_points);
+                self.dirty = true;
+                context.out.store = true;
+                context.beep = Some(Beep::AtTension);
+            }
+            Err(_) => {
+                self.notice = Some(FaultCode::CalibrationRejected);
+                context.beep = Some(Beep::Refused);
+            }
+        }
+        State::releasing(0, AfterRelease::Ready)
+    }
+
+    /// One key in Ready; returns the proposed next state.
+    fn ready_key(
+        &mut self,
+        context: &mut Context,
+        sample: &Sample,
+        view: &mut View,
+        key: KeyEvent,
+    ) -> Option<State> {
+        let settings = self.record.settings;
+        let step = key.step();
+        match (key, *view) {
+            (KeyEvent::Press(Key::Start), View::Preset(index)) => {
+                if let Some(preset) = self.record.presets.get(usize::from(index)) {
+                    self.record.settings = *preset;
+                    self.dirty = true;
+                }
+                *view = View::Tension;
+                None
+            }
+            (KeyEvent::Press(Key::Start), _) => {
+                if sample.inputs.limits.end {
+                    context.beep = Some(Beep::Refused);
+                    None
+                } else {
+                    if self.dirty {
+                        self.dirty = false;
+                        context.out.store = true;
+                    }
+                    Some(State::pulling(0))
+                }
+            }
+            (KeyEvent::Press(Key::Function), _) => {
+                *view = view.next();
+                None
+            }
+            (KeyEvent::Long(Key::Function), _) => {
+                self.knot_mode = !self.knot_mode;
+                None
+            }
+            (KeyEvent::Press(Key::Preset), View::Preset(_)) => None,
+            (KeyEvent::Press(Key::Preset), _) => {
+                *view = View::Preset(0);
+                None
+            }
+            (KeyEvent::Long(Key::Preset), View::Preset(index)) => {
+                if let Some(preset) = self.record.presets.get_mut(usize::from(index)) {
+                    *preset = settings;
+                    self.dirty = true;
+                    context.beep = Some(Beep::AtTension);
+                }
+                *view = View::Tension;
+                None
+            }
+            (_, View::Preset(index)) if step != 0 => {
+                let last = u8::try_from(PRESET_COUNT.saturating_sub(1)).unwrap_or(0);
+                *view = View::Preset(index.saturating_add_signed(step).min(last));
+                None
+            }
+            (_, page) if step != 0 => {
+                let updated = match page {
+                    View::Tension => {
+                        settings.with_set_point(settings.set_point().stepped(i16::from(step)))
+                    }
+                    View::Speed => settings.with_speed_stepped(step),
+                    View::PreStretch => settings.with_pre_stretch_stepped(step),
+                    View::Knot => settings.with_knot_stepped(step),
+                    View::Unit => settings.with_set_point(settings.set_point().converted()),
+                    View::Preset(_) => settings,
+                };
+                if updated != settings {
+                    self.record.settings = updated;
+                    self.dirty = true;
+                }
+                None
+            }
+            _ => None,
+        }
+    }
+
+    /// The Ready display for `view`.
+    fn render(&self, view: View) -> crate::io::Display {
+        let settings = self.record.settings;
+        match view {
+            View::Tension => panel::tenths(i32::from(settings.set_point().tenths())),
+            View::Speed => panel::labelled(b"SP", settings.speed()),
+            View::PreStretch => panel::labelled(b"PS", settings.pre_stretch_percent()),
+            View::Knot => panel::labelled(b"Kn", settings.knot_percent()),
+            View::Unit => match settings.set_point().unit() {
+                Unit::Kilograms => panel::text(b" kg "),
+                Unit::Pounds => panel::text(b" lb "),
+            },
+            View::Preset(index) => panel::labelled(b"P ", index.saturating_add(1)),
+        }
+    }
+}
+
+/// The state at power-up: the self-test, from its start.
+pub(crate) fn power_up() -> State {
+    State::self_test(0, 0)
+}
+
+/// The statechart state for a checkpoint.
+pub(crate) fn state_at(checkpoint: &Checkpoint) -> State {
+    let elapsed = checkpoint.elapsed;
+    match checkpoint.state {
+        MachineState::SelfTest => State::self_test(u16::try_from(elapsed).unwrap_or(u16::MAX), 0),
+        MachineState::MotorTest => State::motor_test(
+            elapsed,
+            checkpoint.direction,
+            checkpoint.start_steps,
+            checkpoint.start_limits,
+        ),
+        MachineState::Homing => State::releasing(elapsed, AfterRelease::CalibrationWindow),
+        MachineState::CalibrationWindow => State::calibration_window(elapsed),
+        MachineState::CalibrationPull { point } => State::calibration_pull(point, elapsed),
+        MachineState::CalibrationEntry { point } => {
+            State::calibration_entry(point, checkpoint.entered_tenths)
+        }
+        MachineState::Ready => State::ready(checkpoint.view),
+        MachineState::Pulling => State::pulling(elapsed),
+        MachineState::Holding => State::holding(),
+        MachineState::Releasing => State::releasing(elapsed, checkpoint.then),
+        MachineState::Fault(code) => State::fault(code, checkpoint.recovery, checkpoint.clearing),
+    }
+}
+
+/// The public name of a statechart state.
+pub(crate) fn public_state(state: &State) -> MachineState {
+    match state {
+        State::SelfTest { .. } => MachineState::SelfTest,
+        State::MotorTest { .. } => MachineState::MotorTest,
+        State::Releasing { then: AfterRelease::CalibrationWindow, .. } => MachineState::Homing,
+        State::Releasing { then: AfterRelease::Ready, .. } => MachineState::Releasing,
+        State::CalibrationWindow { .. } => MachineState::CalibrationWindow,
+        State::CalibrationPull { point, .. } => MachineState::CalibrationPull { point: *point },
+        State::CalibrationEntry { point, .. } => MachineState::CalibrationEntry { point: *point },
+        State::Ready { .. } => MachineState::Ready,
+        State::Pulling { .. } => MachineState::Pulling,
+        State::Holding {} => MachineState::Holding,
+        State::Fault { code, .. } => MachineState::Fault(*code),
+    }
+}

@@ -1,0 +1,169 @@
+//! Fault and notice codes: what the display shows as `E-nn` when something is wrong.
+//!
+//! # Theory of operation
+//!
+//! A [`FaultCode`] names one detected failure. Codes `E-01`…`E-19` are **faults**: they latch
+//! (the machine enters its fault state, the bridge coasts in the same tick, the display shows
+//! the code, the fault lamp lights and the beeper sounds three times) and are cleared only by
+//! the operator pressing Start while the drive command is zero and the condition is gone.
+//! Codes `E-20`…`E-22` are **notices**: the machine goes on working (on defaults, or on the
+//! previous calibration) and shows the code until the next key press.
+//!
+//! The table with causes and how to clear each code is in `docs/spec/machine.md`; the doc
+//! line of each variant is its one-line meaning.
+
+use crate::drive::DriveFault;
+use crate::store::StoreError;
+
+/// A fault or notice, shown as `E-nn`.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+#[cfg_attr(kani, derive(kani::Arbitrary))]
+pub enum FaultCode {
+    /// E-01: both limit switches active at once (mechanically impossible: wiring fault).
+    LimitsBoth,
+    /// E-02: a limit switch stays active after the carriage moved away from it (stuck switch).
+    LimitStuck,
+    /// E-03: the load cell reads at the bottom rail (open circuit, amplifier unpowered).
+    LoadCellOpen,
+    /// E-04: the load cell reads at the top rail (short circuit or far over range).
+    LoadCellShort,
+    /// E-05: the unloaded load-cell reading at power-up is outside the plausible zero band.
+    LoadCellZero,
+    /// E-06: the tension reads below zero while pulling (reversed bridge wiring).
+    LoadCellReversed,
+    /// E-07: the motor test saw no Hall transitions (motor, bridge or Hall wiring).
+    MotorNoRotation,
+    /// E-08: the motor turned the opposite way to the command (phase or Hall order swapped).
+    MotorWrongDirection,
+    /// E-09: high duty with no Hall transitions while moving (stall, jam).
+    Stall,
+    /// E-10: motor current at or above the overcurrent limit.
+    Overcurrent,
+    /// E-11: the hardware overcurrent comparator tripped.
+    OvercurrentTrip,
+    /// E-12: the Hall sensors read `000` or `111` (sensor supply or line lost).
+    HallInvalid,
+    /// E-13: the rotor position skipped a sector (lost Hall edges).
+    HallSequence,
+    /// E-14: the end-of-travel limit was reached while pulling (tension not reached).
+    EndOfTravel,
+    /// E-15: the tension collapsed while pulling or holding (string broke or slipped).
+    StringBreak,
+    /// E-16: the carriage travelled its no-string distance without any tension.
+    NoString,
+    /// E-17: the tension exceeded the allowed maximum (overload).
+    Overload,
+    /// E-18: the set tension was not reached within the pull timeout.
+    PullTimeout,
+    /// E-19: the home limit was not reached within the release timeout.
+    ReleaseTimeout,
+    /// E-20 (notice): the stored record was missing or corrupt; defaults are in use.
+    StoreInvalid,
+    /// E-21 (notice): a new calibration was rejected; the previous one is kept.
+    CalibrationRejected,
+    /// E-22 (notice): the stored calibration failed validation; the sensor runs uncorrected.
+    StoredCalibrationInvalid,
+}
+
+impl FaultCode {
+    /// Every code, in number order.
+    pub const ALL: [Self; 22] = [
+        Self::LimitsBoth,
+        Self::LimitStuck,
+        Self::LoadCellOpen,
+        Self::LoadCellShort,
+        Self::LoadCellZero,
+        Self::LoadCellReversed,
+        Self::MotorNoRotation,
+        Self::MotorWrongDirection,
+        Self::Stall,
+        Self::Overcurrent,
+        Self::OvercurrentTrip,
+        Self::HallInvalid,
+        Self::HallSequence,
+        Self::EndOfTravel,
+        Self::StringBreak,
+        Self::NoString,
+        Self::Overload,
+        Self::PullTimeout,
+        Self::ReleaseTimeout,
+        Self::StoreInvalid,
+        Self::CalibrationRejected,
+        Self::StoredCalibrationInvalid,
+    ];
+
+    /// The number shown after `E-`.
+    #[must_use]
+    pub const fn number(self) -> u8 {
+        match self {
+            Self::LimitsBoth => 1,
+            Self::LimitStuck => 2,
+            Self::LoadCellOpen => 3,
+            Self::LoadCellShort => 4,
+            Self::LoadCellZero => 5,
+            Self::LoadCellReversed => 6,
+            Self::MotorNoRotation => 7,
+            Self::MotorWrongDirection => 8,
+            Self::Stall => 9,
+            Self::Overcurrent => 10,
+            Self::OvercurrentTrip => 11,
+            Self::HallInvalid => 12,
+            Self::HallSequence => 13,
+            Self::EndOfTravel => 14,
+            Self::StringBreak => 15,
+            Self::NoString => 16,
+            Self::Overload => 17,
+            Self::PullTimeout => 18,
+            Self::ReleaseTimeout => 19,
+            Self::StoreInvalid => 20,
+            Self::CalibrationRejected => 21,
+            Self::StoredCalibrationInvalid => 22,
+        }
+    }
+
+    /// Whether this code is a notice (shown, not latched) rather than a fault.
+    #[must_use]
+    pub const fn is_notice(self) -> bool {
+        matches!(
+            self,
+            Self::StoreInvalid | Self::CalibrationRejected | Self::StoredCalibrationInvalid
+        )
+    }
+
+    /// The code for a fault the drive latched.
+    #[must_use]
+    pub const fn from_drive(fault: DriveFault) -> Self {
+        match fault {
+            DriveFault::Overcurrent => Self::Overcurrent,
+            DriveFault::OvercurrentTrip => Self::OvercurrentTrip,
+            DriveFault::HallInvalid => Self::HallInvalid,
+            DriveFault::SectorSkipped => Self::HallSequence,
+        }
+    }
+
+    /// The notice for a record that could not be loaded. Every store error maps to
+    /// [`FaultCode::StoreInvalid`]; the precise cause is in the error itself for the log.
+    #[must_use]
+    pub const fn from_store(_error: StoreError) -> Self {
+        Self::StoreInvalid
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_are_unique_and_in_order() {
+        for (index, code) in FaultCode::ALL.iter().enumerate() {
+            assert_eq!(usize::from(code.number()), index + 1, "{code:?}");
+        }
+    }
+
+    #[test]
+    fn only_the_last_three_are_notices() {
+        for code in FaultCode::ALL {
+            assert_eq!(code.is_notice(), code.number() >= 20, "{code:?}");
+        }
+    }
+}

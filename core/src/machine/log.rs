@@ -1,0 +1,123 @@
+//! The per-pull log and the string-length counter.
+//!
+//! # Theory of operation
+//!
+//! Every pull that reaches tension and is released leaves one [`PullRecord`] (target,
+//! tension when released, time to tension, peak) in a fixed-capacity ring buffer
+//! ([`PullLog`], a `heapless::Deque`): when it is full the oldest record is dropped, so the
+//! log always holds the most recent pulls and never allocates. The log lives in RAM only;
+//! the lifetime totals go to the persisted [`crate::store::Counters`].
+//!
+//! The string drawn through the machine is measured by the quadrature encoder the string
+//! turns ([`crate::io::Inputs::string_counter`], a 16-bit counter that wraps). The machine
+//! takes the wrapping difference of consecutive readings every tick — far less than half
+//! the counter's range can pass in 1 ms — so the wrap never loses counts, and converts the
+//! pull's total to millimetres with [`STRING_COUNTS_PER_MM`] when the pull completes.
+
+use heapless::Deque;
+
+use crate::units::Kgf;
+
+/// Counts of the string encoder per millimetre of string: a 100-line (400 counts per turn
+/// in quadrature) encoder on a measuring wheel of 20 mm circumference.
+pub const STRING_COUNTS_PER_MM: i32 = 20;
+
+/// Default capacity of the pull log.
+pub const PULL_LOG_CAPACITY: usize = 32;
+
+/// One completed pull.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
+pub struct PullRecord {
+    /// The tension held (the final target).
+    pub target: Kgf,
+    /// The measured tension when the operator released.
+    pub reached: Kgf,
+    /// Milliseconds from Start to "at tension".
+    pub time_to_tension_ms: u32,
+    /// The highest tension measured during the pull.
+    pub peak: Kgf,
+    /// String drawn during the pull, millimetres.
+    pub string_mm: u32,
+}
+
+/// The most recent pulls, oldest first.
+#[derive(Clone, Debug, Default)]
+pub struct PullLog<const N: usize> {
+    entries: Deque<PullRecord, N>,
+}
+
+impl<const N: usize> PullLog<N> {
+    /// An empty log.
+    #[must_use]
+    pub const fn new() -> Self {
+        Self { entries: Deque::new() }
+    }
+
+    /// Appends `record`, dropping the oldest when full.
+    pub fn push(&mut self, record: PullRecord) {
+        if self.entries.is_full() {
+            let _oldest = self.entries.pop_front();
+        }
+        // After making room the push cannot fail (only a zero-capacity log refuses it,
+        // which then simply logs nothing).
+        let _refused = self.entries.push_back(record);
+    }
+
+    /// The records, oldest first.
+    pub fn iter(&self) -> impl Iterator<Item = &PullRecord> {
+        self.entries.iter()
+    }
+
+    /// The most recent record.
+    #[must_use]
+    pub fn last(&self) -> Option<&PullRecord> {
+        self.entries.back()
+    }
+
+    /// Number of records held.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.entries.storage_len()
+    }
+
+    /// Whether the log is empty.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+}
+
+/// Millimetres of string for `counts` encoder counts, rounded to the nearest millimetre;
+/// negative totals (string pulled back) count as zero.
+#[must_use]
+pub fn string_mm(counts: i32) -> u32 {
+    let half = STRING_COUNTS_PER_MM / 2;
+    let mm = counts.max(0).saturating_add(half).checked_div(STRING_COUNTS_PER_MM).unwrap_or(0);
+    u32::try_from(mm).unwrap_or(0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ring_keeps_the_latest() {
+        let mut log = PullLog::<3>::new();
+        for i in 0..5u32 {
+            log.push(PullRecord { time_to_tension_ms: i, ..PullRecord::default() });
+        }
+        let kept: heapless::Vec<u32, 3> = log.iter().map(|r| r.time_to_tension_ms).collect();
+        assert_eq!(kept.as_slice(), &[2, 3, 4]);
+        assert_eq!(log.len(), 3);
+        assert_eq!(log.last().map(|r| r.time_to_tension_ms), Some(4));
+    }
+
+    #[test]
+    fn counts_round_to_millimetres() {
+        assert_eq!(string_mm(0), 0);
+        assert_eq!(string_mm(-50), 0);
+        assert_eq!(string_mm(9), 0);
+        assert_eq!(string_mm(10), 1);
+        assert_eq!(string_mm(20 * 250), 250);
+    }
+}

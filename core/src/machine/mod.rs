@@ -1,0 +1,389 @@
+//! The operator's machine: boot self-test, calibration, set, pull, hold, release and faults,
+//! as a typed hierarchical state machine (statig), with the panel, the counters and the
+//! persisted record.
+//!
+//! # Theory of operation
+//!
+//! [`Machine::tick`] runs once per millisecond (the paper's control period). It
+//!
+//! 1. debounces the keys into at most one [`KeyEvent`] ([`panel::KeyPad`]),
+//! 2. converts the load-cell code into the tared raw tension and the calibrated tension,
+//!    keeps a short running average of the raw reading (for calibration points) and takes
+//!    the string encoder's count since the previous tick,
+//! 3. hands all of it to the statechart as **exactly one** statig event (`Tick`),
+//!    whose states write the drive command, display, lamps and store request into a
+//!    context,
+//! 4. logs a completed pull, starts any beeper pattern a state asked for, and returns the
+//!    [`Outputs`].
+//!
+//! The statechart is in `chart.rs` (one function per state; its header draws the state
+//! tree); read it next to `docs/spec/machine.md`, whose tables it implements. Its safety rules are in [`safety`], the fault codes in [`fault`], the
+//! panel's keys, digits and beeper in [`panel`], the pull log in [`log`].
+//!
+//! The drive's fast loop is separate ([`crate::drive::Drive`]): the machine sees it only
+//! through [`Inputs::drive`] and steers it only through [`Outputs::drive`] and
+//! [`Outputs::clear_drive_fault`]. The firmware applies `Outputs::drive` *before*
+//! `clear_drive_fault`, so a clear is always requested with the command already at coast.
+//!
+//! # Cost per tick
+//!
+//! One debounce pass over five keys, one multiplication for the tension, one for its
+//! correction, a shift-and-add average, one statig dispatch climbing at most three
+//! superstates, one controller step in the moving states and a four-digit render. Nothing
+//! loops over the log or the record.
+
+mod chart;
+pub mod fault;
+pub mod log;
+pub mod panel;
+pub mod safety;
+
+use statig::prelude::{InitializedStateMachine, IntoStateMachineExt};
+
+use crate::drive::Direction;
+use crate::io::{Inputs, LimitSwitches, Outputs};
+use crate::store::{Record, StoreError};
+use crate::units::{AdcCode, Kgf};
+
+pub use chart::{
+    AfterRelease, CALIBRATION_SETTLE, CALIBRATION_SPEED, CALIBRATION_WINDOW, CLEAR_ATTEMPT,
+    MOTOR_TEST_DUTY, MOTOR_TEST_STEPS, MOTOR_TEST_TIMEOUT, PULL_TIMEOUT, RELEASE_TIMEOUT, Recovery,
+    SELF_TEST_TICKS, STORE_DELAY, VIEW_TIMEOUT, View, calibration_settings, fault_persists,
+    tension_display, to_pull_settings,
+};
+pub use fault::FaultCode;
+pub use log::{PULL_LOG_CAPACITY, PullLog, PullRecord};
+pub use panel::{Beep, KeyEvent, KeyPad};
+
+use chart::{Chart, Context, Sample, State, Tick};
+use panel::Beeper;
+
+/// Shift of the raw-tension running average: a first-order filter with a time constant of
+/// 2⁶ = 64 ticks.
+const AVERAGE_SHIFT: u32 = 6;
+
+/// The state the machine is in, as a small value for displays, logs and tests.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+#[cfg_attr(kani, derive(kani::Arbitrary))]
+pub enum MachineState {
+    /// Power-on self-test of the limit switches and the load cell.
+    SelfTest,
+    /// Power-on motor test.
+    MotorTest,
+    /// Power-on homing to the home limit.
+    Homing,
+    /// Waiting for the calibration key after the self-test.
+    CalibrationWindow,
+    /// Pulling to calibration point `point` (0–3: 10, 20, 30, 40 kgf).
+    CalibrationPull {
+        /// 0-based point.
+        point: u8,
+    },
+    /// Holding calibration point `point` while the operator keys in the reference reading.
+    CalibrationEntry {
+        /// 0-based point.
+        point: u8,
+    },
+    /// Idle, showing and adjusting the settings.
+    Ready,
+    /// Pulling to the set tension.
+    Pulling,
+    /// Holding the set tension.
+    Holding,
+    /// Returning to the home limit after a pull, an abort or a cleared fault.
+    Releasing,
+    /// A fault is latched.
+    Fault(FaultCode),
+}
+
+impl MachineState {
+    /// Whether the machine may drive the motor in this state.
+    #[must_use]
+    pub const fn is_moving(self) -> bool {
+        matches!(
+            self,
+            Self::MotorTest
+                | Self::Homing
+                | Self::CalibrationPull { .. }
+                | Self::CalibrationEntry { .. }
+                | Self::Pulling
+                | Self::Holding
+                | Self::Releasing
+        )
+    }
+}
+
+/// A machine's starting point other than power-up, for verification and replay: the state
+/// to be in, the timer and data of that state, and the context a real run would have built
+/// on the way there. Every field takes any value of its type; [`Checkpoint::is_valid`] says
+/// which combinations the machine can actually reach, and [`Machine::resume`] is only
+/// specified for those.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Checkpoint {
+    /// The state.
+    pub state: MachineState,
+    /// Ticks already spent in it.
+    pub elapsed: u32,
+    /// Motor test: the direction under test; ignored elsewhere.
+    pub direction: Direction,
+    /// Motor test: Hall count at its start; the pull's start count in tensioned states.
+    pub start_steps: i32,
+    /// Motor test: the limits when it started.
+    pub start_limits: LimitSwitches,
+    /// Calibration entry: the value keyed in so far, tenths of a kg (50–550).
+    pub entered_tenths: u16,
+    /// Releasing: where it leads.
+    pub then: AfterRelease,
+    /// Fault: where clearing leads.
+    pub recovery: Recovery,
+    /// Fault: clear-attempt ticks left.
+    pub clearing: u16,
+    /// Ready: the page shown.
+    pub view: View,
+    /// The unloaded load-cell code the self-test tared at.
+    pub tare: AdcCode,
+    /// Tensioned states: the tension rules' state (start count, peak, persistence counters).
+    pub watch: safety::TensionWatch,
+    /// Knot mode.
+    pub knot_mode: bool,
+    /// The key pad's debounce state.
+    pub keypad: KeyPad,
+}
+
+impl Checkpoint {
+    /// A checkpoint for `state` with every other field at its power-up value.
+    #[must_use]
+    pub const fn at(state: MachineState) -> Self {
+        Self {
+            state,
+            elapsed: 0,
+            direction: Direction::Pull,
+            start_steps: 0,
+            start_limits: LimitSwitches { home: false, end: false },
+            entered_tenths: 100,
+            then: AfterRelease::Ready,
+            recovery: Recovery::Home,
+            clearing: 0,
+            view: View::Tension,
+            tare: AdcCode::new(41),
+            watch: safety::TensionWatch::new(0),
+            knot_mode: false,
+            keypad: KeyPad::new(),
+        }
+    }
+
+    /// Whether a real run can be in this checkpoint: calibration points 0–3, entered value
+    /// 50–550, preset index 0–8, clear attempt within its length, a tare inside the load
+    /// cell's zero band, a valid tension watch, a valid key pad.
+    #[must_use]
+    pub fn is_valid(&self) -> bool {
+        let point_ok = match self.state {
+            MachineState::CalibrationPull { point } | MachineState::CalibrationEntry { point } => {
+                point < 4
+            }
+            MachineState::Fault(code) => !code.is_notice(),
+            _ => true,
+        };
+        let view_ok = match self.view {
+            View::Preset(index) => usize::from(index) < crate::store::PRESET_COUNT,
+            _ => true,
+        };
+        point_ok
+            && view_ok
+            && (50..=550).contains(&self.entered_tenths)
+            && self.clearing <= CLEAR_ATTEMPT
+            && crate::sense::load_cell::LoadCellScale::NOMINAL.tared_at(self.tare).is_ok()
+            && self.watch.is_valid()
+            && self.keypad.is_valid()
+    }
+}
+
+/// The machine: the statechart, its panel and its log. `LOG` is the pull log's capacity.
+#[derive(Clone)]
+pub struct Machine<const LOG: usize = PULL_LOG_CAPACITY> {
+    chart: InitializedStateMachine<Chart>,
+    keypad: KeyPad,
+    beeper: Beeper,
+    log: PullLog<LOG>,
+    raw_average: Kgf,
+    string_counter: Option<u16>,
+}
+
+impl Machine {
+    /// A machine at power-up with the persisted `record`.
+    #[must_use]
+    pub fn new(record: Record) -> Self {
+        Self::with_record(record)
+    }
+
+    /// A machine at power-up with whatever the store yielded: a record that failed to load
+    /// is replaced by defaults and its notice (`E-20`) is shown once Ready.
+    #[must_use]
+    pub fn from_stored(stored: Result<Record, StoreError>) -> Self {
+        Self::with_stored(stored)
+    }
+}
+
+impl<const LOG: usize> Machine<LOG> {
+    /// A machine with a pull log of capacity `LOG` at power-up with `record`.
+    #[must_use]
+    pub fn with_record(record: Record) -> Self {
+        Self::build(Chart::new(record), chart::power_up(), Sample::default(), KeyPad::new())
+    }
+
+    /// As [`Machine::from_stored`], with a pull log of capacity `LOG`.
+    #[must_use]
+    pub fn with_stored(stored: Result<Record, StoreError>) -> Self {
+        match stored {
+            Ok(record) => Self::with_record(record),
+            Err(error) => {
+                let mut chart = Chart::new(Record::default());
+                chart.notice = Some(FaultCode::from_store(error));
+                Self::build(chart, chart::power_up(), Sample::default(), KeyPad::new())
+            }
+        }
+    }
+
+    /// A machine already at `checkpoint` (see [`Checkpoint`]): the state's entry actions run
+    /// as on a real entry, with `record`'s settings.
+    #[must_use]
+    pub fn resume(record: Record, checkpoint: &Checkpoint) -> Self {
+        let mut chart = Chart::new(record);
+        chart.booting = matches!(
+            checkpoint.state,
+            MachineState::SelfTest | MachineState::MotorTest | MachineState::Homing
+        );
+        chart.knot_mode = checkpoint.knot_mode;
+        if let Ok(scale) = chart.scale.tared_at(checkpoint.tare) {
+            chart.scale = scale;
+        }
+        let state = chart::state_at(checkpoint);
+        let sample = Sample {
+            inputs: Inputs {
+                drive: crate::drive::DriveStatus {
+                    steps: checkpoint.start_steps,
+                    ..Default::default()
+                },
+                ..Inputs::default()
+            },
+            ..Sample::default()
+        };
+        chart.resume_watch = Some(checkpoint.watch);
+        Self::build(chart, state, sample, checkpoint.keypad)
+    }
+
+    fn build(chart: Chart, state: State, sample: Sample, keypad: KeyPad) -> Self {
+        let mut uninitialized = chart.uninitialized_state_machine();
+        *uninitialized.state_mut() = state;
+        let mut context = Context::new(sample);
+        let initialized = uninitialized.init_with_context(&mut context);
+        Self {
+            chart: initialized,
+            keypad,
+            beeper: Beeper::new(),
+            log: PullLog::new(),
+            raw_average: Kgf::ZERO,
+            string_counter: None,
+        }
+    }
+
+    /// One 1 ms tick: exactly one statig event.
+    pub fn tick(&mut self, inputs: &Inputs) -> Outputs {
+        let key = self.keypad.tick(inputs.keys);
+        let chart = self.chart.inner();
+        let raw = chart.scale.to_kgf(inputs.load_cell);
+        let tension = chart.calibration.correct(raw);
+        // Running average: avg += (raw − avg) / 64.
+        let gap = raw.to_bits().saturating_sub(self.raw_average.to_bits());
+        self.raw_average =
+            Kgf::from_bits(self.raw_average.to_bits().saturating_add(gap >> AVERAGE_SHIFT));
+        let string_counts = match self.string_counter {
+            // The wrapping difference of a 16-bit counter, read as signed.
+            Some(previous) => {
+                i16::from_ne_bytes(inputs.string_counter.wrapping_sub(previous).to_ne_bytes())
+            }
+            None => 0,
+        };
+        self.string_counter = Some(inputs.string_counter);
+
+        let sample = Sample {
+            inputs: *inputs,
+            key,
+            raw,
+            tension,
+            raw_average: self.raw_average,
+            string_counts,
+        };
+        let mut context = Context::new(sample);
+        self.chart.handle_with_context(&Tick(sample), &mut context);
+
+        if let Some(record) = context.completed {
+            self.log.push(record);
+        }
+        match context.beep {
+            Some(beep) => self.beeper.play(beep, inputs.now_ms),
+            None => {
+                if matches!(key, Some(KeyEvent::Press(_))) {
+                    self.beeper.play(Beep::Click, inputs.now_ms);
+                }
+            }
+        }
+        let mut outputs = context.out;
+        outputs.beeper = self.beeper.sounding(inputs.now_ms);
+        outputs
+    }
+
+    /// The record to persist when [`Outputs::store`] is set.
+    #[must_use]
+    pub fn record(&self) -> &Record {
+        &self.chart.inner().record
+    }
+
+    /// The current state.
+    #[must_use]
+    pub fn state(&self) -> MachineState {
+        chart::public_state(self.chart.state())
+    }
+
+    /// The latched fault, if any.
+    #[must_use]
+    pub fn fault(&self) -> Option<FaultCode> {
+        match self.state() {
+            MachineState::Fault(code) => Some(code),
+            _ => None,
+        }
+    }
+
+    /// The notice shown in Ready until a key is pressed, if any.
+    #[must_use]
+    pub fn notice(&self) -> Option<FaultCode> {
+        self.chart.inner().notice
+    }
+
+    /// The recent pulls, oldest first.
+    #[must_use]
+    pub fn log(&self) -> &PullLog<LOG> {
+        &self.log
+    }
+
+    /// The page the Ready panel shows (Tension outside Ready).
+    #[must_use]
+    pub fn view(&self) -> View {
+        match self.chart.state() {
+            State::Ready { view } => *view,
+            _ => View::Tension,
+        }
+    }
+
+    /// Knot mode.
+    #[must_use]
+    pub fn knot_mode(&self) -> bool {
+        self.chart.inner().knot_mode
+    }
+
+    /// The tension rules' state of the present pull (for proofs and diagnostics).
+    #[must_use]
+    pub fn watch(&self) -> safety::TensionWatch {
+        self.chart.inner().watch
+    }
+}

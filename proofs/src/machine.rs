@@ -1,0 +1,426 @@
+//! The machine's safety properties (`REQ-SAFE-*`), each a plain function over one recorded
+//! tick.
+//!
+//! # How the properties are checked
+//!
+//! A tick is described by a [`TickInput`] of primitive values (converter codes, flags, a
+//! key bit set, counters), and a starting point by a [`CheckpointInput`] of primitive values
+//! that [`CheckpointInput::checkpoint`] turns into a [`Checkpoint`] through the machine's
+//! own constructors. [`apply`] feeds one tick to a [`Machine`] and returns a [`TickRecord`]:
+//! the state before, the inputs, the outputs and the state after. Each property is a
+//! function of the record that panics naming its requirement id when it fails.
+//!
+//! The drivers:
+//! - Kani ([`verification`]): from **any valid checkpoint** — every state, every timer value,
+//!   any tare, any tension-watch counters, any key-pad state — and any inputs, one tick. This
+//!   over-approximates "any state reachable within a bounded number of ticks": the boot
+//!   sequence alone takes thousands of ticks, far beyond a bounded unrolling, so the harness
+//!   starts from every state at once instead. Assumptions: the checkpoint satisfies
+//!   [`Checkpoint::is_valid`]; the record is the default one (its fields are validated at
+//!   decode and do not reach the safety rules); the pull log has capacity 1.
+//! - `proofs/tests/machine_properties.rs`: exhaustive over the finite part of that space
+//!   (every state × limits × faults × current × key × load-cell band), proptest over the
+//!   rest; `proofs/tests/machine_model.rs`: the whole-machine model check, which calls
+//!   [`check_tick`] on every tick it simulates.
+//! - `fuzz/fuzz_targets/machine.rs`: arbitrary tick sequences from power-up or a
+//!   checkpoint.
+//!
+//! # Independence
+//!
+//! The properties look only at the inputs, the outputs and the public state. Overcurrent is
+//! judged by converting the current code with [`current::amps`] and comparing with
+//! [`OVERCURRENT_LIMIT`], not with the machine's threshold code.
+
+use taut_core::drive::{
+    DUTY_MAX, Direction, DriveCommand, DriveFault, DriveStatus, OVERCURRENT_LIMIT, PwmTicks,
+};
+use taut_core::io::{Inputs, Keys, LimitSwitches, Outputs};
+use taut_core::machine::{
+    AfterRelease, Checkpoint, FaultCode, KeyPad, Machine, MachineState, Recovery, View, panel,
+    safety::TensionWatch,
+};
+use taut_core::sense::current;
+use taut_core::store::Record;
+use taut_core::units::{AdcCode, Kgf};
+
+/// One tick of inputs, in primitive values.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
+#[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
+#[cfg_attr(kani, derive(kani::Arbitrary))]
+pub struct TickInput {
+    /// Milliseconds since power-up.
+    pub now_ms: u32,
+    /// Load-cell code (saturated to 12 bits).
+    pub load_cell: u16,
+    /// Motor-current code (saturated to 12 bits).
+    pub motor_current: u16,
+    /// The drive's latched fault: 0 none, 1 overcurrent, 2 comparator, 3 Hall invalid,
+    /// 4 sector skipped, others none.
+    pub drive_fault: u8,
+    /// Hall steps since power-up.
+    pub steps: i32,
+    /// Milliseconds since the last Hall step.
+    pub quiet_ms: u16,
+    /// Home limit switch.
+    pub home: bool,
+    /// End limit switch.
+    pub end: bool,
+    /// Raw key bits.
+    pub keys: u8,
+    /// String-encoder count.
+    pub string_counter: u16,
+}
+
+impl TickInput {
+    /// The machine inputs this stands for.
+    #[must_use]
+    pub fn inputs(&self) -> Inputs {
+        let fault = match self.drive_fault {
+            1 => Some(DriveFault::Overcurrent),
+            2 => Some(DriveFault::OvercurrentTrip),
+            3 => Some(DriveFault::HallInvalid),
+            4 => Some(DriveFault::SectorSkipped),
+            _ => None,
+        };
+        Inputs {
+            now_ms: self.now_ms,
+            load_cell: AdcCode::new(self.load_cell),
+            motor_current: AdcCode::new(self.motor_current),
+            drive: DriveStatus {
+                fault,
+                steps: self.steps,
+                rotation: None,
+                quiet_for: PwmTicks::from_micros(u32::from(self.quiet_ms).saturating_mul(1_000)),
+                energized: None,
+            },
+            string_counter: self.string_counter,
+            limits: LimitSwitches { home: self.home, end: self.end },
+            keys: Keys::from_bits(self.keys),
+        }
+    }
+}
+
+/// A starting point, in primitive values.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
+#[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
+#[cfg_attr(kani, derive(kani::Arbitrary))]
+pub struct CheckpointInput {
+    /// Which state (modulo the number of kinds).
+    pub state: u8,
+    /// Calibration point, fault code index or preset index, by state.
+    pub index: u8,
+    /// Ticks already spent in the state.
+    pub elapsed: u32,
+    /// Motor test: pull (false) or release (true).
+    pub release: bool,
+    /// Hall count at the start of the motor test or pull.
+    pub start_steps: i32,
+    /// Motor test: home switch at its start.
+    pub start_home: bool,
+    /// Motor test: end switch at its start.
+    pub start_end: bool,
+    /// Calibration entry value, tenths of a kg.
+    pub entered: u16,
+    /// Releasing: to Ready (false) or to the calibration window (true).
+    pub to_window: bool,
+    /// Fault: recovery by self-test (true) or home (false).
+    pub self_test: bool,
+    /// Fault: clear-attempt ticks left.
+    pub clearing: u16,
+    /// Ready page (modulo 6; page 5 is the preset page of `index`).
+    pub view: u8,
+    /// Tare code.
+    pub tare: u16,
+    /// Peak tension seen, tenths of a kgf.
+    pub peak_tenths: u16,
+    /// Persistence counters: overload, break, reversed.
+    pub counters: [u8; 3],
+    /// Knot mode.
+    pub knot: bool,
+    /// Key-pad integrators.
+    pub integrators: [u8; 5],
+    /// Key-pad debounced and pending bits.
+    pub key_bits: (u8, u8),
+    /// Key-pad hold time.
+    pub held_ms: u16,
+    /// Key-pad long press sent.
+    pub long_sent: bool,
+}
+
+/// Number of state kinds [`CheckpointInput::state`] selects from.
+pub const STATE_KINDS: u8 = 11;
+
+impl CheckpointInput {
+    /// The checkpoint, built through the machine's constructors. Not every input gives a
+    /// valid checkpoint: check [`Checkpoint::is_valid`].
+    #[must_use]
+    pub fn checkpoint(&self) -> Checkpoint {
+        let point = self.index % 4;
+        let code_index = usize::from(self.index) % 19;
+        let code = FaultCode::ALL.get(code_index).copied().unwrap_or(FaultCode::LimitsBoth);
+        let state = match self.state % STATE_KINDS {
+            0 => MachineState::SelfTest,
+            1 => MachineState::MotorTest,
+            2 => MachineState::Homing,
+            3 => MachineState::CalibrationWindow,
+            4 => MachineState::CalibrationPull { point },
+            5 => MachineState::CalibrationEntry { point },
+            6 => MachineState::Ready,
+            7 => MachineState::Pulling,
+            8 => MachineState::Holding,
+            9 => MachineState::Releasing,
+            _ => MachineState::Fault(code),
+        };
+        let view = match self.view % 6 {
+            0 => View::Tension,
+            1 => View::Speed,
+            2 => View::PreStretch,
+            3 => View::Knot,
+            4 => View::Unit,
+            _ => View::Preset(self.index % 9),
+        };
+        let [overload, broken, reversed] = self.counters;
+        Checkpoint {
+            state,
+            elapsed: self.elapsed,
+            direction: if self.release { Direction::Release } else { Direction::Pull },
+            start_steps: self.start_steps,
+            start_limits: LimitSwitches { home: self.start_home, end: self.start_end },
+            entered_tenths: self.entered,
+            then: if self.to_window {
+                AfterRelease::CalibrationWindow
+            } else {
+                AfterRelease::Ready
+            },
+            recovery: if self.self_test { Recovery::SelfTest } else { Recovery::Home },
+            clearing: self.clearing,
+            view,
+            tare: AdcCode::new(self.tare),
+            watch: TensionWatch::from_parts(
+                self.start_steps,
+                Kgf::from_tenths(i32::from(self.peak_tenths)),
+                overload,
+                broken,
+                reversed,
+            ),
+            knot_mode: self.knot,
+            keypad: KeyPad::from_parts(
+                self.integrators,
+                Keys::from_bits(self.key_bits.0),
+                Keys::from_bits(self.key_bits.1),
+                self.held_ms,
+                self.long_sent,
+            ),
+        }
+    }
+}
+
+/// Everything about one tick that the properties look at.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct TickRecord {
+    /// The state before the tick.
+    pub before: MachineState,
+    /// The inputs of the tick.
+    pub inputs: Inputs,
+    /// The outputs of the tick.
+    pub outputs: Outputs,
+    /// The state after the tick.
+    pub after: MachineState,
+}
+
+/// One tick of `machine`, recorded.
+pub fn apply<const LOG: usize>(machine: &mut Machine<LOG>, inputs: &Inputs) -> TickRecord {
+    let before = machine.state();
+    let outputs = machine.tick(inputs);
+    TickRecord { before, inputs: *inputs, outputs, after: machine.state() }
+}
+
+/// Whether the motor current of `inputs` is at or above the overcurrent limit, judged by the
+/// conversion (not by the machine's threshold code).
+#[must_use]
+pub fn overcurrent(inputs: &Inputs) -> bool {
+    current::amps(inputs.motor_current) >= OVERCURRENT_LIMIT
+}
+
+/// REQ-SAFE-01: the drive command never points toward an active limit switch.
+pub fn never_toward_active_limit(record: &TickRecord) {
+    if let Some(direction) = record.outputs.drive.direction() {
+        assert!(
+            !direction.blocked_by(record.inputs.limits),
+            "REQ-SAFE-01: {direction:?} commanded into an active limit ({:?}) in {:?}",
+            record.inputs.limits,
+            record.before
+        );
+    }
+}
+
+/// REQ-SAFE-02: both limit switches active → a latched fault and the bridge off, in the
+/// same tick.
+pub fn both_limits_fault_and_coast(record: &TickRecord) {
+    if record.inputs.limits.both() {
+        assert_eq!(
+            record.outputs.drive,
+            DriveCommand::Coast,
+            "REQ-SAFE-02: drive with both limits"
+        );
+        assert!(
+            matches!(record.after, MachineState::Fault(_)),
+            "REQ-SAFE-02: both limits active but {:?} → {:?}",
+            record.before,
+            record.after
+        );
+    }
+}
+
+/// REQ-SAFE-03: overcurrent (or any latched drive fault) → the bridge off in the same tick,
+/// and a latched fault.
+pub fn overcurrent_coasts(record: &TickRecord) {
+    if overcurrent(&record.inputs) || record.inputs.drive.fault.is_some() {
+        assert_eq!(
+            record.outputs.drive,
+            DriveCommand::Coast,
+            "REQ-SAFE-03: drive command with overcurrent/drive fault in {:?}",
+            record.before
+        );
+        assert!(
+            matches!(record.after, MachineState::Fault(_)),
+            "REQ-SAFE-03: overcurrent but {:?} → {:?}",
+            record.before,
+            record.after
+        );
+    }
+}
+
+/// REQ-SAFE-04: releasing (or homing) stops at the home limit: with home active the command
+/// is not Release and the machine has left the releasing state.
+pub fn releasing_stops_at_home(record: &TickRecord) {
+    let releasing = matches!(record.before, MachineState::Releasing | MachineState::Homing);
+    if releasing && record.inputs.limits.home {
+        assert_ne!(
+            record.outputs.drive.direction(),
+            Some(Direction::Release),
+            "REQ-SAFE-04: still releasing at home"
+        );
+        assert!(
+            !matches!(record.after, MachineState::Releasing | MachineState::Homing),
+            "REQ-SAFE-04: stayed in {:?} at home",
+            record.after
+        );
+    }
+}
+
+/// REQ-SAFE-05: the duty is bounded by `DUTY_MAX` in every state.
+pub fn duty_bounded(record: &TickRecord) {
+    let duty = record.outputs.drive.duty();
+    assert!(duty <= DUTY_MAX && duty.is_valid(), "REQ-SAFE-05: duty {} above the cap", duty.raw());
+}
+
+/// REQ-SAFE-06: a latched fault coasts and shows its code; a state that does not move never
+/// drives.
+pub fn fault_and_idle_coast(record: &TickRecord) {
+    if let MachineState::Fault(code) = record.after {
+        assert_eq!(record.outputs.drive, DriveCommand::Coast, "REQ-SAFE-06: drive while faulted");
+        assert_eq!(
+            record.outputs.display,
+            panel::fault(code.number()),
+            "REQ-SAFE-06: fault {code:?} not on the display"
+        );
+        assert!(record.outputs.leds.fault, "REQ-SAFE-06: fault lamp off");
+    }
+    if !record.after.is_moving() {
+        assert_eq!(
+            record.outputs.drive,
+            DriveCommand::Coast,
+            "REQ-SAFE-06: {:?} is not a moving state but drives",
+            record.after
+        );
+    }
+}
+
+/// REQ-SAFE-07: a drive-fault clear is only ever requested with the drive command zeroed,
+/// and only from the fault state.
+pub fn clear_only_with_zero_command(record: &TickRecord) {
+    if record.outputs.clear_drive_fault {
+        assert_eq!(record.outputs.drive, DriveCommand::Coast, "REQ-SAFE-07: clear with a command");
+        assert!(
+            matches!(record.before, MachineState::Fault(_)),
+            "REQ-SAFE-07: clear requested from {:?}",
+            record.before
+        );
+    }
+}
+
+/// Every per-tick property.
+pub fn check_tick(record: &TickRecord) {
+    never_toward_active_limit(record);
+    both_limits_fault_and_coast(record);
+    overcurrent_coasts(record);
+    releasing_stops_at_home(record);
+    duty_bounded(record);
+    fault_and_idle_coast(record);
+    clear_only_with_zero_command(record);
+}
+
+/// A machine at `input`'s checkpoint with the default record, if the checkpoint is valid.
+#[must_use]
+pub fn resume<const LOG: usize>(input: &CheckpointInput) -> Option<Machine<LOG>> {
+    let checkpoint = input.checkpoint();
+    checkpoint.is_valid().then(|| Machine::<LOG>::resume(Record::default(), &checkpoint))
+}
+
+#[cfg(kani)]
+mod verification {
+    use super::*;
+
+    /// A machine at an arbitrary valid checkpoint and one arbitrary tick.
+    fn one_tick() -> TickRecord {
+        let input: CheckpointInput = kani::any();
+        let checkpoint = input.checkpoint();
+        kani::assume(checkpoint.is_valid());
+        let mut machine = Machine::<1>::resume(Record::default(), &checkpoint);
+        let tick: TickInput = kani::any();
+        apply(&mut machine, &tick.inputs())
+    }
+
+    #[kani::proof]
+    #[kani::unwind(10)]
+    fn verify_machine_never_toward_active_limit() {
+        never_toward_active_limit(&one_tick());
+    }
+
+    #[kani::proof]
+    #[kani::unwind(10)]
+    fn verify_machine_both_limits_fault_and_coast() {
+        both_limits_fault_and_coast(&one_tick());
+    }
+
+    #[kani::proof]
+    #[kani::unwind(10)]
+    fn verify_machine_overcurrent_coasts() {
+        overcurrent_coasts(&one_tick());
+    }
+
+    #[kani::proof]
+    #[kani::unwind(10)]
+    fn verify_machine_releasing_stops_at_home() {
+        releasing_stops_at_home(&one_tick());
+    }
+
+    #[kani::proof]
+    #[kani::unwind(10)]
+    fn verify_machine_duty_bounded() {
+        duty_bounded(&one_tick());
+    }
+
+    #[kani::proof]
+    #[kani::unwind(10)]
+    fn verify_machine_fault_and_idle_coast() {
+        fault_and_idle_coast(&one_tick());
+    }
+
+    #[kani::proof]
+    #[kani::unwind(10)]
+    fn verify_machine_clear_only_with_zero_command() {
+        clear_only_with_zero_command(&one_tick());
+    }
+}

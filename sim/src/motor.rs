@@ -1,0 +1,524 @@
+//! The motor's electrical side: trapezoidal back-EMF, Hall sensors, and the three-phase
+//! winding currents under the bridge's switch pattern, body diodes included.
+//!
+//! # Theory of operation
+//!
+//! **Back-EMF.** Each phase's back-EMF is `e_x = k_e · ω_m · f_x(θ_e)` with `f_x` a
+//! trapezoid of height ±1: phase A rises through zero at θ_e = 0°, is flat at +1 from
+//! `ramp/2` to `180° − ramp/2`, falls through zero at 180°, and is flat at −1 on the other
+//! side; B and C are A delayed by 120° and 240°. With the ideal 60° ramp the flat top is
+//! 120° wide and six-step drive gives constant torque; a real winding's top is narrower
+//! (the nominal ramp is 80°, a 100° top), so torque dips at each commutation — the
+//! six-step torque ripple the paper notes. `k_e` (per phase, peak) is chosen so that the
+//! line-to-line EMF **averaged over a sector** equals the motor's `Ke`, so the speed
+//! constant stays the one derived from the paper's 3 700 rpm whatever the ramp.
+//! Torque is power over speed: `T = k_e · Σ f_x · i_x`.
+//!
+//! **Hall sensors.** Hall X is high for the 180° that starts where phase X's flat top
+//! starts in the ideal machine (A over 30°–210°), the mounting `taut_core::drive::
+//! commutation` derives its table from; a mounting error shifts all three.
+//!
+//! **Currents.** The windings are a star of three `R`–`L` branches with EMFs. Each leg of
+//! the bridge either ties its phase to a voltage (high-side MOSFET on: the bus; low-side
+//! on: ground) or is off, when the phase can only conduct through a body diode: current
+//! flowing *into* the motor is drawn from ground through the low diode (terminal at
+//! `−V_d`), current flowing *out* returns to the bus through the high diode (terminal at
+//! `V_bus + V_d`), and a phase with no current floats. PWM is applied to the high side:
+//! within one PWM period the high leg is on for `duty · T` and off for the rest, when its
+//! current freewheels through the low diode; the low leg stays on. The twin integrates the
+//! two parts of every period separately (no PWM-edge detail is needed: the electrical
+//! time constant `L/R` ≈ 1 ms is twenty PWM periods), so the average is exact.
+//!
+//! Within a part every conducting branch obeys `L di/dt = u − R i` with `u` constant
+//! (the neutral point found from Kirchhoff's current law), solved exactly:
+//! `i(t) = u/R + (i₀ − u/R)·e^(−t/τ)`. The only events are a diode-conducting current
+//! reaching zero (the diode blocks: the phase floats from then on), a floating phase's
+//! terminal being pushed beyond a rail by its back-EMF (its diode starts conducting),
+//! and the bus current reaching the comparator level (the hardware break switches every
+//! leg off for the rest of the period). Each is found analytically and the integration
+//! restarts from it, so the solution is exact for piecewise-constant EMF and the step
+//! is unconditionally stable.
+
+use taut_core::drive::{HallCode, LegState, Phase, SwitchPattern};
+
+/// Most topology events handled within one part of a PWM period (each diode can block
+/// once, one can start, one comparator trip); more means a numerical pathology, and the
+/// remaining time is integrated in the last topology.
+const MAX_EVENTS: usize = 8;
+
+/// Below this a current is taken as zero, A.
+const ZERO_AMPS: f64 = 1e-12;
+
+/// The shape `f_x(θ_e)` of the three phases' back-EMF at electrical angle `theta_e_deg`
+/// (any real; reduced modulo 360°), for ramps `ramp_deg` wide.
+#[must_use]
+pub fn emf_shape(theta_e_deg: f64, ramp_deg: f64) -> [f64; 3] {
+    [
+        trapezoid(theta_e_deg, ramp_deg),
+        trapezoid(theta_e_deg - 120.0, ramp_deg),
+        trapezoid(theta_e_deg - 240.0, ramp_deg),
+    ]
+}
+
+/// An angle reduced to `[0, 360)` degrees (cheaper than `rem_euclid`, which calls `fmod`).
+#[must_use]
+pub fn wrap_degrees(theta_deg: f64) -> f64 {
+    let t = theta_deg - 360.0 * (theta_deg * (1.0 / 360.0)).floor();
+    // Rounding can leave exactly 360.0 for tiny negative inputs.
+    if t >= 360.0 { t - 360.0 } else { t }
+}
+
+/// Phase A's trapezoid: zero crossings at 0° (rising) and 180° (falling).
+fn trapezoid(theta_deg: f64, ramp_deg: f64) -> f64 {
+    let half = (ramp_deg * 0.5).max(1e-9);
+    let t = wrap_degrees(theta_deg);
+    // Distance to the rising crossing at 0°/360°, signed, in (−180, 180].
+    let from_rise = if t > 180.0 { t - 360.0 } else { t };
+    if from_rise >= 0.0 {
+        // Upper half: rising ramp from 0°, flat top, falling ramp to 180°.
+        (from_rise.min(180.0 - from_rise) / half).min(1.0)
+    } else {
+        -((-from_rise).min(180.0 + from_rise) / half).min(1.0)
+    }
+}
+
+/// The sector average of half the driven line's shape, `(f_high − f_low)/2`, over the
+/// sector 30°–90° with A high and B low (the same for every sector by symmetry): the
+/// factor between the peak per-phase EMF constant and the sector-averaged `Ke`.
+#[must_use]
+pub fn sector_shape_factor(ramp_deg: f64) -> f64 {
+    const SAMPLES: u32 = 600;
+    let mut sum = 0.0;
+    for k in 0..SAMPLES {
+        let theta = 30.0 + 60.0 * (f64::from(k) + 0.5) / f64::from(SAMPLES);
+        let [a, b, _] = emf_shape(theta, ramp_deg);
+        sum += (a - b) * 0.5;
+    }
+    sum / f64::from(SAMPLES)
+}
+
+/// The Hall code the sensors output at electrical angle `theta_e_deg` (A high over
+/// 30°–210°, B over 150°–330°, C over 270°–90°).
+#[must_use]
+pub fn hall_code(theta_e_deg: f64) -> HallCode {
+    let high = |start: f64| wrap_degrees(theta_e_deg - start) < 180.0;
+    HallCode::from_lines(high(30.0), high(150.0), high(270.0))
+}
+
+/// What one leg does during one part of a PWM period.
+#[derive(Clone, Copy, PartialEq, Debug)]
+enum Terminal {
+    /// A MOSFET ties the phase to this voltage (conducts both ways).
+    Source { volts: f64, bus: bool },
+    /// Both switches off: only the body diodes can conduct.
+    Diode,
+}
+
+/// The circuit constants of the winding and bridge.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct Circuit {
+    /// Phase resistance (winding + MOSFET), Ω.
+    pub resistance: f64,
+    /// Phase inductance, H.
+    pub inductance: f64,
+    /// Bus voltage, V.
+    pub bus_volts: f64,
+    /// Body-diode drop, V.
+    pub diode_drop: f64,
+    /// Comparator level on the bus current, A.
+    pub comparator_amps: f64,
+}
+
+/// What happened during one PWM period.
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct PeriodResult {
+    /// Time-average of each phase current over the period, A.
+    pub mean_current: [f64; 3],
+    /// Time-average of the bus current over the high side's on-time (what a shunt sample
+    /// taken during the on-time reads), A; zero when no high side conducted.
+    pub on_bus_current: f64,
+    /// The on-time that was actually applied, s (cut short by a comparator trip).
+    pub on_time: f64,
+    /// Largest |phase current| seen in the period, A.
+    pub peak_current: f64,
+    /// The comparator fired: the hardware break switched the bridge off.
+    pub comparator_tripped: bool,
+}
+
+/// Accumulates integrals while a PWM period is solved.
+#[derive(Default)]
+struct Accumulator {
+    current_integral: [f64; 3],
+    bus_integral: f64,
+    peak: f64,
+}
+
+impl Circuit {
+    /// Solves one PWM period of length `period_s`: the `pattern` with its high side on for
+    /// `duty` of the period, then off; `emf` the phase back-EMFs (V), held over the period.
+    /// `currents` are advanced in place.
+    pub fn pwm_period(
+        &self,
+        currents: &mut [f64; 3],
+        pattern: SwitchPattern,
+        duty: f64,
+        emf: [f64; 3],
+        period_s: f64,
+    ) -> PeriodResult {
+        let duty = duty.clamp(0.0, 1.0);
+        let has_high = pattern.count(LegState::High) > 0;
+        let on_time = if has_high { duty * period_s } else { 0.0 };
+        let mut acc = Accumulator::default();
+        let mut result = PeriodResult::default();
+
+        let on_legs = self.terminals(pattern, true);
+        let mut applied_on = on_time;
+        if on_time > 0.0 {
+            let (elapsed, tripped) = self.solve(currents, on_legs, emf, on_time, true, &mut acc);
+            applied_on = elapsed;
+            result.comparator_tripped = tripped;
+            if applied_on > 0.0 {
+                result.on_bus_current = acc.bus_integral / applied_on;
+            }
+        }
+        let rest = period_s - applied_on;
+        if rest > 0.0 {
+            let off_legs = if result.comparator_tripped {
+                [Terminal::Diode; 3]
+            } else {
+                self.terminals(pattern, false)
+            };
+            self.solve(currents, off_legs, emf, rest, false, &mut acc);
+        }
+        for (mean, integral) in result.mean_current.iter_mut().zip(acc.current_integral) {
+            *mean = integral / period_s;
+        }
+        result.on_time = applied_on;
+        result.peak_current = acc.peak;
+        result
+    }
+
+    /// The legs' terminals for the on part (`on = true`) or the off part of the period.
+    fn terminals(&self, pattern: SwitchPattern, on: bool) -> [Terminal; 3] {
+        Phase::ALL.map(|phase| match pattern.leg(phase) {
+            LegState::High if on => Terminal::Source { volts: self.bus_volts, bus: true },
+            LegState::Low => Terminal::Source { volts: 0.0, bus: false },
+            LegState::High | LegState::Off => Terminal::Diode,
+        })
+    }
+
+    /// Integrates `duration` seconds with fixed terminals, handling diode and comparator
+    /// events; returns the time integrated before a comparator trip (or `duration`) and
+    /// whether it tripped (only checked when `armed`).
+    fn solve(
+        &self,
+        currents: &mut [f64; 3],
+        legs: [Terminal; 3],
+        emf: [f64; 3],
+        duration: f64,
+        armed: bool,
+        acc: &mut Accumulator,
+    ) -> (f64, bool) {
+        let tau = self.inductance / self.resistance;
+        let mut remaining = duration;
+        // Constant bound: MAX_EVENTS topology changes per part.
+        for _ in 0..MAX_EVENTS {
+            if remaining <= 0.0 {
+                break;
+            }
+            let Some(volts) = self.topology(currents, legs, emf) else {
+                // No conducting path: every current is (and stays) zero.
+                *currents = [0.0; 3];
+                break;
+            };
+            let neutral = neutral_point(volts, emf);
+            // Asymptotes of the conducting branches; a floating branch has no current.
+            let asymptote: [f64; 3] =
+                core::array::from_fn(|k| match (volts.get(k).copied().flatten(), emf.get(k)) {
+                    (Some(v), Some(&e)) => (v - e - neutral) / self.resistance,
+                    _ => 0.0,
+                });
+
+            // The earliest event within `remaining`. A logarithm is taken only for a
+            // branch whose current really crosses its level before `remaining` is up.
+            let full_decay = (-remaining / tau).exp();
+            let mut step = remaining;
+            let mut blocking: Option<usize> = None;
+            let mut trip = false;
+            for (k, ((&i0, &a), &leg)) in
+                currents.iter().zip(asymptote.iter()).zip(legs.iter()).enumerate()
+            {
+                let at_end = a + (i0 - a) * full_decay;
+                if leg == Terminal::Diode && i0 != 0.0 && i0 * a < 0.0 && i0 * at_end <= 0.0 {
+                    // A diode current decaying toward the opposite sign: it blocks at zero.
+                    let t = tau * ((i0 - a) / (-a)).ln();
+                    if t < step {
+                        step = t.max(0.0);
+                        blocking = Some(k);
+                        trip = false;
+                    }
+                }
+                if armed
+                    && matches!(leg, Terminal::Source { bus: true, .. })
+                    && a > self.comparator_amps
+                    && i0 < self.comparator_amps
+                    && at_end >= self.comparator_amps
+                {
+                    let t = tau * ((i0 - a) / (self.comparator_amps - a)).ln();
+                    if t < step {
+                        step = t.max(0.0);
+                        blocking = None;
+                        trip = true;
+                    }
+                }
+            }
+
+            // Advance every branch exactly by `step`.
+            let decay = if step == remaining { full_decay } else { (-step / tau).exp() };
+            let integral_factor = tau * (1.0 - decay);
+            for (k, ((i, &a), &leg)) in
+                currents.iter_mut().zip(asymptote.iter()).zip(legs.iter()).enumerate()
+            {
+                let i0 = *i;
+                let integral = a * step + (i0 - a) * integral_factor;
+                if let Some(total) = acc.current_integral.get_mut(k) {
+                    *total += integral;
+                }
+                if matches!(leg, Terminal::Source { bus: true, .. }) {
+                    acc.bus_integral += integral;
+                }
+                *i = a + (i0 - a) * decay;
+                acc.peak = acc.peak.max(i0.abs()).max(i.abs());
+            }
+            if let Some(k) = blocking {
+                if let Some(i) = currents.get_mut(k) {
+                    *i = 0.0;
+                }
+            }
+            // Kirchhoff: the star point has no return, so the currents sum to zero.
+            let [ia, ib, _] = *currents;
+            currents[2] = -ia - ib;
+            for i in currents.iter_mut() {
+                if i.abs() < ZERO_AMPS {
+                    *i = 0.0;
+                }
+            }
+            remaining -= step;
+            if trip {
+                return (duration - remaining, true);
+            }
+        }
+        (duration, false)
+    }
+
+    /// The terminal voltage of every conducting leg (`None` = floating), or `None` when
+    /// fewer than two legs can conduct.
+    fn topology(
+        &self,
+        currents: &[f64; 3],
+        legs: [Terminal; 3],
+        emf: [f64; 3],
+    ) -> Option<[Option<f64>; 3]> {
+        let low_diode = -self.diode_drop;
+        let high_diode = self.bus_volts + self.diode_drop;
+        let mut volts: [Option<f64>; 3] = [None; 3];
+        for ((v, &leg), &i) in volts.iter_mut().zip(legs.iter()).zip(currents.iter()) {
+            *v = match leg {
+                Terminal::Source { volts, .. } => Some(volts),
+                Terminal::Diode if i > 0.0 => Some(low_diode),
+                Terminal::Diode if i < 0.0 => Some(high_diode),
+                Terminal::Diode => None,
+            };
+        }
+        let conducting = volts.iter().filter(|v| v.is_some()).count();
+        if conducting >= 2 {
+            // A floating phase whose terminal (e + neutral) leaves the rails starts
+            // conducting through the diode it forward-biases.
+            let neutral = neutral_point(volts, emf);
+            for (v, &e) in volts.iter_mut().zip(emf.iter()) {
+                if v.is_none() {
+                    let terminal = e + neutral;
+                    if terminal > high_diode {
+                        *v = Some(high_diode);
+                    } else if terminal < low_diode {
+                        *v = Some(low_diode);
+                    }
+                }
+            }
+            return Some(volts);
+        }
+        // At most one fixed terminal and no current: find the pair (p into the motor, q
+        // out of it) whose available voltage exceeds its back-EMF difference the most.
+        let into = |k: usize| -> Option<f64> {
+            match legs.get(k)? {
+                Terminal::Source { volts, .. } => Some(*volts),
+                Terminal::Diode => Some(low_diode),
+            }
+        };
+        let out_of = |k: usize| -> Option<f64> {
+            match legs.get(k)? {
+                Terminal::Source { volts, .. } => Some(*volts),
+                Terminal::Diode => Some(high_diode),
+            }
+        };
+        let mut best: Option<(usize, usize, f64, f64, f64)> = None;
+        for p in 0..3 {
+            for q in 0..3 {
+                if p == q {
+                    continue;
+                }
+                let (Some(vp), Some(vq), Some(ep), Some(eq)) =
+                    (into(p), out_of(q), emf.get(p), emf.get(q))
+                else {
+                    continue;
+                };
+                let drive = (vp - vq) - (ep - eq);
+                if drive > 0.0 && best.is_none_or(|(_, _, _, _, d)| drive > d) {
+                    best = Some((p, q, vp, vq, drive));
+                }
+            }
+        }
+        let (p, q, vp, vq, _) = best?;
+        let mut pair: [Option<f64>; 3] = [None; 3];
+        if let Some(slot) = pair.get_mut(p) {
+            *slot = Some(vp);
+        }
+        if let Some(slot) = pair.get_mut(q) {
+            *slot = Some(vq);
+        }
+        Some(pair)
+    }
+}
+
+/// The star point's voltage for the conducting legs: Kirchhoff's current law with equal
+/// branch impedances gives the mean of `v − e` over the conducting legs.
+fn neutral_point(volts: [Option<f64>; 3], emf: [f64; 3]) -> f64 {
+    let mut sum = 0.0;
+    let mut count = 0.0;
+    for (v, e) in volts.iter().zip(emf) {
+        if let Some(v) = v {
+            sum += v - e;
+            count += 1.0;
+        }
+    }
+    if count > 0.0 { sum / count } else { 0.0 }
+}
+
+#[cfg(test)]
+mod tests {
+    use taut_core::drive::{Direction, Sector, six_step};
+
+    use super::*;
+
+    #[test]
+    fn trapezoid_has_flat_tops_and_zero_crossings() {
+        for ramp in [60.0, 80.0, 120.0] {
+            assert!(trapezoid(0.0, ramp).abs() < 1e-12);
+            assert!(trapezoid(180.0, ramp).abs() < 1e-12);
+            assert!((trapezoid(90.0, ramp) - 1.0).abs() < 1e-12);
+            assert!((trapezoid(270.0, ramp) + 1.0).abs() < 1e-12);
+            assert!((trapezoid(-90.0, ramp) + 1.0).abs() < 1e-12);
+        }
+        // Ideal machine: flat top exactly 30°–150°.
+        assert!((trapezoid(30.0, 60.0) - 1.0).abs() < 1e-12);
+        assert!((trapezoid(150.0, 60.0) - 1.0).abs() < 1e-12);
+        assert!(trapezoid(29.0, 60.0) < 1.0);
+        assert!((sector_shape_factor(60.0) - 1.0).abs() < 1e-9);
+        assert!(sector_shape_factor(80.0) < 1.0);
+    }
+
+    #[test]
+    fn hall_sequence_matches_the_commutation_table() {
+        // Sector k spans 30° + 60°·k; its middle must read the sector's code.
+        for sector in Sector::ALL {
+            let middle = 60.0 + 60.0 * f64::from(sector.index());
+            assert_eq!(hall_code(middle), sector.hall_code(), "{sector:?}");
+        }
+    }
+
+    #[test]
+    fn six_step_pull_gives_positive_torque_release_negative() {
+        for sector in Sector::ALL {
+            for step in 0..60 {
+                let theta = 30.0 + 60.0 * f64::from(sector.index()) + f64::from(step) + 0.5;
+                let shape = emf_shape(theta, 60.0);
+                for (direction, sign) in [(Direction::Pull, 1.0), (Direction::Release, -1.0)] {
+                    let pattern = six_step(sector, direction);
+                    // Unit current into the high leg and out of the low leg.
+                    let torque: f64 = Phase::ALL
+                        .iter()
+                        .zip(shape)
+                        .map(|(&phase, f)| match pattern.leg(phase) {
+                            LegState::High => f,
+                            LegState::Low => -f,
+                            LegState::Off => 0.0,
+                        })
+                        .sum();
+                    assert!((torque * sign - 2.0).abs() < 1e-9, "{sector:?} {direction:?}");
+                }
+            }
+        }
+    }
+
+    fn circuit() -> Circuit {
+        Circuit {
+            resistance: 0.423,
+            inductance: 0.4e-3,
+            bus_volts: 24.0,
+            diode_drop: 0.8,
+            comparator_amps: 15.0,
+        }
+    }
+
+    #[test]
+    fn two_phase_current_settles_to_the_averaged_voltage_over_resistance() {
+        let c = circuit();
+        let pattern = six_step(Sector::S0, Direction::Pull); // A+ B−
+        let mut i = [0.0; 3];
+        for _ in 0..2000 {
+            c.pwm_period(&mut i, pattern, 0.25, [0.0; 3], 50e-6);
+        }
+        // Average line voltage 0.25·24 − 0.75·0.8 over 2R.
+        let expected = (0.25 * 24.0 - 0.75 * 0.8) / (2.0 * 0.423);
+        assert!((i[0] - expected).abs() < 0.2, "{i:?} vs {expected}");
+        assert!((i[0] + i[1]).abs() < 1e-9 && i[2] == 0.0);
+    }
+
+    #[test]
+    fn floating_phase_current_decays_through_the_diode_then_blocks() {
+        let c = circuit();
+        // Current flowing A → B, then every switch off: it must decay to zero and stay.
+        let mut i = [5.0, -5.0, 0.0];
+        let r = c.pwm_period(&mut i, SwitchPattern::ALL_OFF, 0.0, [0.0; 3], 50e-6);
+        assert!(i[0] >= 0.0 && i[0] < 5.0);
+        for _ in 0..20 {
+            c.pwm_period(&mut i, SwitchPattern::ALL_OFF, 0.0, [0.0; 3], 50e-6);
+        }
+        assert_eq!(i, [0.0; 3]);
+        assert!(r.peak_current >= 5.0 - 1e-9);
+    }
+
+    #[test]
+    fn comparator_breaks_the_bridge_at_its_level() {
+        let c = circuit();
+        let pattern = six_step(Sector::S0, Direction::Pull);
+        let mut i = [14.6, -14.6, 0.0];
+        let r = c.pwm_period(&mut i, pattern, 0.95, [0.0; 3], 50e-6);
+        assert!(r.comparator_tripped);
+        assert!(r.on_time < 0.95 * 50e-6);
+        assert!(r.peak_current <= 15.0 + 1e-6, "{}", r.peak_current);
+    }
+
+    #[test]
+    fn back_emf_beyond_the_bus_conducts_through_the_diodes() {
+        let c = circuit();
+        // All switches off, line EMF 40 V > 24 V + 2 diodes: current must flow.
+        let mut i = [0.0; 3];
+        c.pwm_period(&mut i, SwitchPattern::ALL_OFF, 0.0, [20.0, -20.0, 0.0], 50e-6);
+        assert!(i[0] < 0.0 && i[1] > 0.0, "{i:?}");
+        // 20 V line EMF < 25.6 V: nothing flows.
+        let mut j = [0.0; 3];
+        c.pwm_period(&mut j, SwitchPattern::ALL_OFF, 0.0, [10.0, -10.0, 0.0], 50e-6);
+        assert_eq!(j, [0.0; 3]);
+    }
+}

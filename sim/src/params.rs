@@ -1,0 +1,815 @@
+//! The twin's parameters: every number the model uses, where it comes from, and the
+//! Monte-Carlo ranges around it.
+//!
+//! # Theory of operation
+//!
+//! A [`TwinConfig`] is plain data — one struct per physical part — so a scenario can be
+//! printed, compared and reproduced. [`TwinConfig::nominal`] is the paper's machine with the
+//! assumptions of the crate documentation (the derivations with their arithmetic are in the
+//! crate's `//!` docs and in `sim/README.md`); [`TwinConfig::sample`] draws a plausible
+//! machine and string around it from a seed, for Monte-Carlo runs. Nothing here is
+//! validated at run time beyond [`TwinConfig::check`]: the twin is a host tool, and a config
+//! outside the physical ranges is reported, not silently repaired.
+
+use core::fmt;
+use core::str::FromStr;
+
+use crate::rng::SimRng;
+
+/// Standard gravity, N per kgf.
+pub const NEWTONS_PER_KGF: f64 = 9.806_65;
+
+/// The kinds of string the twin knows, from the softest badminton string to stiff tennis
+/// polyester, plus the empty machine.
+///
+/// Stiffness is `E·A / L` of the string between the clamp on the far side of the frame
+/// and the tension head's gripper (see [`StringSpec`]); the five string kinds span
+/// ≈ 1.4–15 kgf/cm.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub enum StringKind {
+    /// Thick (0.70 mm) durable badminton multifilament: the softest string, ≈ 1.7 kgf/cm.
+    BadmintonSoft,
+    /// Thin (0.62 mm) high-modulus "repulsion" badminton string, ≈ 2.5 kgf/cm.
+    BadmintonHard,
+    /// Natural gut, 1.30 mm: the softest tennis string, ≈ 5.4 kgf/cm.
+    TennisGut,
+    /// Nylon "synthetic gut", 1.30 mm, ≈ 7.6 kgf/cm.
+    TennisSynthetic,
+    /// Co-polyester monofilament, 1.25 mm: the stiffest common string, ≈ 12.5 kgf/cm.
+    TennisPolyester,
+    /// No string in the gripper: the carriage pulls on nothing (fault tests).
+    NoString,
+}
+
+/// Why a string-kind name was not understood.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct UnknownStringKind;
+
+impl fmt::Display for UnknownStringKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(
+            "unknown string kind (expected badminton-soft, badminton-hard, tennis-gut, \
+             tennis-synthetic, tennis-poly or none)",
+        )
+    }
+}
+
+impl std::error::Error for UnknownStringKind {}
+
+/// The physical description of a string kind: where its stiffness comes from, and how it
+/// relaxes.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct StringSpec {
+    /// String diameter, mm.
+    pub gauge_mm: f64,
+    /// Quasi-static Young's modulus, GPa (slow pull, not the higher impact-rate modulus
+    /// string labs quote).
+    pub modulus_gpa: f64,
+    /// Free length between the clamp and the gripper, m.
+    pub free_length_m: f64,
+    /// The Monte-Carlo range of the instantaneous stiffness, kgf/cm.
+    pub stiffness_range_kgf_per_cm: (f64, f64),
+    /// The two relaxation arms: (fraction of instantaneous stiffness, time constant s).
+    pub relaxation: [RelaxationArm; 2],
+}
+
+impl StringSpec {
+    /// `E·A / L` in kgf/cm.
+    #[must_use]
+    pub fn stiffness_kgf_per_cm(&self) -> f64 {
+        let radius_m = self.gauge_mm * 0.5e-3;
+        let area_m2 = core::f64::consts::PI * radius_m * radius_m;
+        let newtons_per_m = self.modulus_gpa * 1e9 * area_m2 / self.free_length_m;
+        newtons_per_m / NEWTONS_PER_KGF / 100.0
+    }
+}
+
+impl StringKind {
+    /// Every kind, including [`StringKind::NoString`].
+    pub const ALL: [Self; 6] = [
+        Self::BadmintonSoft,
+        Self::BadmintonHard,
+        Self::TennisGut,
+        Self::TennisSynthetic,
+        Self::TennisPolyester,
+        Self::NoString,
+    ];
+
+    /// The kinds that are real strings (what Monte-Carlo scenarios draw from).
+    pub const STRINGS: [Self; 5] = [
+        Self::BadmintonSoft,
+        Self::BadmintonHard,
+        Self::TennisGut,
+        Self::TennisSynthetic,
+        Self::TennisPolyester,
+    ];
+
+    /// The command-line name (`tennis-poly`, …), also what [`FromStr`] accepts.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::BadmintonSoft => "badminton-soft",
+            Self::BadmintonHard => "badminton-hard",
+            Self::TennisGut => "tennis-gut",
+            Self::TennisSynthetic => "tennis-synthetic",
+            Self::TennisPolyester => "tennis-poly",
+            Self::NoString => "none",
+        }
+    }
+
+    /// The kind's physical description, or `None` for [`StringKind::NoString`].
+    ///
+    /// Relaxation arms are assumptions of the order of published tension-loss tests: a
+    /// string held at fixed length loses a few per cent within seconds and 5–15 % within
+    /// minutes, polyester and thin badminton multifilaments the most, natural gut the least.
+    #[must_use]
+    pub const fn spec(self) -> Option<StringSpec> {
+        const fn arm(fraction: f64, time_constant_s: f64) -> RelaxationArm {
+            RelaxationArm { fraction, time_constant_s }
+        }
+        match self {
+            Self::BadmintonSoft => Some(StringSpec {
+                gauge_mm: 0.70,
+                modulus_gpa: 2.0,
+                free_length_m: 0.45,
+                stiffness_range_kgf_per_cm: (1.4, 2.2),
+                relaxation: [arm(0.05, 1.5), arm(0.10, 40.0)],
+            }),
+            Self::BadmintonHard => Some(StringSpec {
+                gauge_mm: 0.62,
+                modulus_gpa: 3.2,
+                free_length_m: 0.40,
+                stiffness_range_kgf_per_cm: (2.0, 3.2),
+                relaxation: [arm(0.04, 1.5), arm(0.08, 40.0)],
+            }),
+            Self::TennisGut => Some(StringSpec {
+                gauge_mm: 1.30,
+                modulus_gpa: 2.0,
+                free_length_m: 0.50,
+                stiffness_range_kgf_per_cm: (4.5, 6.5),
+                relaxation: [arm(0.02, 2.0), arm(0.05, 60.0)],
+            }),
+            Self::TennisSynthetic => Some(StringSpec {
+                gauge_mm: 1.30,
+                modulus_gpa: 2.8,
+                free_length_m: 0.50,
+                stiffness_range_kgf_per_cm: (6.0, 9.0),
+                relaxation: [arm(0.04, 1.5), arm(0.08, 40.0)],
+            }),
+            Self::TennisPolyester => Some(StringSpec {
+                gauge_mm: 1.25,
+                modulus_gpa: 4.5,
+                free_length_m: 0.45,
+                stiffness_range_kgf_per_cm: (10.0, 15.0),
+                relaxation: [arm(0.03, 2.0), arm(0.10, 60.0)],
+            }),
+            Self::NoString => None,
+        }
+    }
+}
+
+impl fmt::Display for StringKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for StringKind {
+    type Err = UnknownStringKind;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let lower = s.trim().to_ascii_lowercase().replace('_', "-");
+        Ok(match lower.as_str() {
+            "badminton-soft" | "badminton" => Self::BadmintonSoft,
+            "badminton-hard" | "badminton-repulsion" => Self::BadmintonHard,
+            "tennis-gut" | "gut" | "natural-gut" => Self::TennisGut,
+            "tennis-synthetic" | "synthetic" | "synthetic-gut" | "nylon" => Self::TennisSynthetic,
+            "tennis-poly" | "tennis-polyester" | "poly" | "polyester" => Self::TennisPolyester,
+            "none" | "no-string" => Self::NoString,
+            _ => return Err(UnknownStringKind),
+        })
+    }
+}
+
+/// One Maxwell arm of the string's viscoelastic (generalised standard-linear-solid) model.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct RelaxationArm {
+    /// The arm's share of the instantaneous stiffness (0 ..= 1; all arms together < 1).
+    pub fraction: f64,
+    /// The arm's relaxation time constant, s.
+    pub time_constant_s: f64,
+}
+
+/// The string between the frame clamp and the tension head.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct StringParams {
+    /// Which string.
+    pub kind: StringKind,
+    /// Instantaneous (fast-pull) stiffness `E·A/L`, kgf per cm of carriage travel.
+    pub stiffness_kgf_per_cm: f64,
+    /// Carriage travel from the start position before the string is straight, mm.
+    pub slack_mm: f64,
+    /// Length of the "toe" over which the string straightens and its stiffness ramps from
+    /// zero to full, mm (a C¹ quadratic blend).
+    pub toe_mm: f64,
+    /// The viscoelastic arms; the remaining `1 − Σ fraction` of the stiffness is the
+    /// long-term (equilibrium) spring.
+    pub relaxation: [RelaxationArm; 2],
+    /// The string breaks when its tension first reaches this, kgf (fault tests).
+    pub break_at_kgf: Option<f64>,
+    /// The string breaks at this time after power-up, s (fault tests).
+    pub break_at_s: Option<f64>,
+}
+
+impl StringParams {
+    /// The kind's nominal string: stiffness `E·A/L`, 30 mm of slack, 1.5 mm toe.
+    #[must_use]
+    pub fn nominal(kind: StringKind) -> Self {
+        let spec = kind.spec();
+        Self {
+            kind,
+            stiffness_kgf_per_cm: spec.map_or(0.0, |s| s.stiffness_kgf_per_cm()),
+            slack_mm: 30.0,
+            toe_mm: 1.5,
+            relaxation: spec
+                .map_or([RelaxationArm { fraction: 0.0, time_constant_s: 1.0 }; 2], |s| {
+                    s.relaxation
+                }),
+            break_at_kgf: None,
+            break_at_s: None,
+        }
+    }
+
+    /// Whether a string is in the machine.
+    #[must_use]
+    pub fn present(&self) -> bool {
+        self.kind != StringKind::NoString
+    }
+}
+
+/// The brushless motor (a 57 mm, 24 V, 3 700 rpm no-load, 2.85 kgf·cm rated BLDC).
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct MotorParams {
+    /// Winding resistance per phase including one MOSFET's on-resistance, Ω.
+    pub phase_resistance_ohm: f64,
+    /// Winding inductance per phase, H.
+    pub phase_inductance_h: f64,
+    /// Line-to-line back-EMF constant, averaged over a commutation sector, V per rad/s;
+    /// numerically equal to the torque constant in N·m/A.
+    pub ke_volts_per_rad_s: f64,
+    /// Width of each back-EMF ramp between the flat top and bottom, electrical degrees
+    /// (60° gives the ideal 120° flat top; more gives torque dips at commutation).
+    pub emf_ramp_deg: f64,
+    /// Pole pairs: one electrical turn is `1 / pole_pairs` of a mechanical turn.
+    pub pole_pairs: u32,
+    /// Rotor inertia, kg·m².
+    pub rotor_inertia_kg_m2: f64,
+    /// Bearing/seal Coulomb friction torque, N·m.
+    pub coulomb_torque_nm: f64,
+    /// Speed-proportional loss torque (iron losses, windage), N·m per rad/s.
+    pub viscous_nm_per_rad_s: f64,
+    /// Cogging torque amplitude, N·m.
+    pub cogging_torque_nm: f64,
+    /// Cogging periods per mechanical turn (LCM of 12 slots and 8 poles = 24).
+    pub cogging_periods_per_turn: u32,
+}
+
+/// The three-phase bridge and its supply.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct BridgeParams {
+    /// DC bus voltage, V (paper: 24 V).
+    pub bus_volts: f64,
+    /// MOSFET body-diode forward drop, V.
+    pub diode_drop_v: f64,
+    /// Level of the hardware overcurrent comparator on the bus shunt, A.
+    pub comparator_amps: f64,
+}
+
+/// The gearbox, lead screw and carriage.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct MechanicsParams {
+    /// Gearbox reduction (paper: 1:20).
+    pub gear_ratio: f64,
+    /// Lead-screw lead, mm of carriage travel per screw turn (paper: 2.54 cm).
+    pub lead_mm: f64,
+    /// Gearbox × screw efficiency when the motor drives the load.
+    pub efficiency_forward: f64,
+    /// Gearbox × screw efficiency when the load (string) back-drives the motor.
+    pub efficiency_backward: f64,
+    /// Gearbox and screw inertia referred to the motor shaft, kg·m².
+    pub gear_inertia_kg_m2: f64,
+    /// Carriage (gripper head, load cell) mass, kg.
+    pub carriage_mass_kg: f64,
+    /// No-load drag of gearbox and screw at the motor shaft, N·m (Coulomb).
+    pub drag_torque_nm: f64,
+    /// Coulomb friction of the carriage slide, N.
+    pub slide_friction_n: f64,
+    /// Static friction / Coulomb friction (stiction), ≥ 1.
+    pub stiction_ratio: f64,
+    /// Position where the home limit switch closes (at and below), mm.
+    pub home_switch_mm: f64,
+    /// Position where the end limit switch closes (at and above), mm.
+    pub end_switch_mm: f64,
+    /// How far past each switch the hard mechanical stop is, mm.
+    pub overtravel_mm: f64,
+    /// Carriage position at power-up, mm (resting on the home switch).
+    pub start_mm: f64,
+    /// The motor runs alone on the bench, uncoupled from gearbox and carriage (motor
+    /// tests: no-load speed, stall).
+    pub decoupled: bool,
+}
+
+/// Switching spikes on the load-cell amplifier (paper figure 22).
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct SpikeParams {
+    /// Probability that a sample taken while the bridge is switching lands in a PWM edge's
+    /// ringing.
+    pub pwm_probability: f64,
+    /// Probability of a spike when a commutation happened in the PWM period before the
+    /// sample.
+    pub commutation_probability: f64,
+    /// Spike amplitude independent of current, V.
+    pub base_volts: f64,
+    /// Spike amplitude per ampere switched, V/A.
+    pub volts_per_amp: f64,
+}
+
+/// The strain-gauge bridge, instrumentation amplifier and ADC input of the tension sensor.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct LoadCellParams {
+    /// Sensitivity, V per kgf (paper ≈ 0.092).
+    pub volts_per_kgf: f64,
+    /// Output at zero load, V.
+    pub zero_volts: f64,
+    /// Low-load sensitivity deficit: the response is `T − c·F_k·(1 − e^(−T/F_k))`, so the
+    /// slope at zero is `(1 − c)` of the slope above ≈ 3·F_k. This is `c`.
+    pub low_load_deficit: f64,
+    /// The scale `F_k` of the low-load non-linearity, kgf.
+    pub low_load_scale_kgf: f64,
+    /// Relative gain change at 50 kgf from a quadratic term (bar/bridge non-linearity).
+    pub quadratic_at_50_kgf: f64,
+    /// Amplifier/anti-alias bandwidth, Hz.
+    pub bandwidth_hz: f64,
+    /// White noise at the ADC input, V rms.
+    pub noise_volts: f64,
+    /// Switching spikes.
+    pub spikes: SpikeParams,
+}
+
+/// The motor-current shunt amplifier feeding the ADC.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct CurrentSenseParams {
+    /// Relative gain error of shunt × amplifier.
+    pub gain_error: f64,
+    /// Offset, A.
+    pub offset_amps: f64,
+    /// White noise per sample, A rms.
+    pub noise_amps: f64,
+}
+
+/// The Hall sensors.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct HallParams {
+    /// Mounting error: the sensors switch this many electrical degrees late.
+    pub offset_deg: f64,
+    /// Per-read, per-line probability that a read is flipped by switching noise (the
+    /// firmware votes over seven reads).
+    pub read_flip_probability: f64,
+    /// Per-PWM-period probability of a burst that corrupts one line for all seven reads.
+    pub burst_probability: f64,
+}
+
+/// The string-length quadrature encoder.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct EncoderParams {
+    /// Counts per mm of string (nominal: 400 counts/turn on a 50 mm circumference wheel).
+    pub counts_per_mm: f64,
+    /// Relative scale error (wheel wear, slip).
+    pub scale_error: f64,
+}
+
+/// Everything that defines one twin: the machine, the string, the sensors, the seed.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct TwinConfig {
+    /// Seed of every random process in the run (noise, spikes, glitches, rotor angle).
+    pub seed: u64,
+    /// The motor.
+    pub motor: MotorParams,
+    /// The bridge and supply.
+    pub bridge: BridgeParams,
+    /// Gearbox, screw, carriage.
+    pub mechanics: MechanicsParams,
+    /// The string.
+    pub string: StringParams,
+    /// The tension sensor.
+    pub load_cell: LoadCellParams,
+    /// The current sensor.
+    pub current_sense: CurrentSenseParams,
+    /// The Hall sensors.
+    pub hall: HallParams,
+    /// The string-length encoder.
+    pub encoder: EncoderParams,
+    /// Standard deviation of the reference gauge used for calibration, kgf.
+    pub reference_gauge_sigma_kgf: f64,
+}
+
+/// Why a configuration was rejected by [`TwinConfig::check`].
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum ConfigError {
+    /// A resistance, inductance, inertia, constant or ratio is not positive and finite.
+    NonPositive(&'static str),
+    /// An efficiency is outside `(0, 1]`, or the pair cannot come from one friction law.
+    Efficiency,
+    /// The string's relaxation fractions are negative or sum to 1 or more.
+    Relaxation,
+    /// The end switch is not beyond the home switch, or the start is outside the stops.
+    Travel,
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NonPositive(what) => write!(f, "{what} must be positive and finite"),
+            Self::Efficiency => f.write_str("efficiencies must be in (0, 1] and realisable"),
+            Self::Relaxation => f.write_str("relaxation fractions must be ≥ 0 and sum below 1"),
+            Self::Travel => f.write_str("travel limits are inconsistent"),
+        }
+    }
+}
+
+impl std::error::Error for ConfigError {}
+
+/// The motor's derived nominal constants (see the crate docs for the derivation).
+pub mod motor_nominal {
+    /// Bus voltage, V.
+    pub const BUS_VOLTS: f64 = 24.0;
+    /// No-load speed at the bus voltage, rpm (paper).
+    pub const NO_LOAD_RPM: f64 = 3700.0;
+    /// Rated torque, N·m: 2.85 kgf·cm × 9.806 65 N/kgf × 0.01 m/cm (paper).
+    pub const RATED_TORQUE_NM: f64 = 2.85 * 9.806_65 * 0.01;
+    /// Rated current, A (paper).
+    pub const RATED_AMPS: f64 = 5.5;
+    /// Phase winding resistance (assumption: 0.82 Ω line-to-line, typical of 57 mm 24 V
+    /// motors of this power), Ω.
+    pub const WINDING_OHM: f64 = 0.41;
+    /// IRF2807 on-resistance, Ω (paper: 13 mΩ).
+    pub const MOSFET_OHM: f64 = 0.013;
+    /// Phase resistance seen by the current: winding + one MOSFET, Ω.
+    pub const PHASE_OHM: f64 = WINDING_OHM + MOSFET_OHM;
+
+    /// The line-to-line `Ke` (= `Kt`) and no-load current `I₀` that satisfy both of the
+    /// paper's figures: `V = Ke·ω₀ + R·I₀` at no load and `T = Kt·(I − I₀)` at rated load,
+    /// solved as the positive root of `Ke²·ω₀ − (V − R·I)·Ke − R·T = 0`.
+    #[must_use]
+    pub fn ke_and_no_load_current() -> (f64, f64) {
+        let omega = NO_LOAD_RPM * core::f64::consts::TAU / 60.0;
+        let r = 2.0 * PHASE_OHM;
+        let a = BUS_VOLTS - r * RATED_AMPS;
+        let ke = (a + (a * a + 4.0 * omega * r * RATED_TORQUE_NM).sqrt()) / (2.0 * omega);
+        (ke, RATED_AMPS - RATED_TORQUE_NM / ke)
+    }
+}
+
+impl MotorParams {
+    /// The nominal motor (derivation in the crate docs).
+    #[must_use]
+    pub fn nominal() -> Self {
+        let (ke, i0) = motor_nominal::ke_and_no_load_current();
+        let omega0 = motor_nominal::NO_LOAD_RPM * core::f64::consts::TAU / 60.0;
+        let coulomb = 0.005;
+        // The no-load loss torque Kt·I₀ is split into bearing Coulomb friction and a
+        // speed-proportional part that reaches the rest at no-load speed.
+        let viscous = (ke * i0 - coulomb) / omega0;
+        Self {
+            phase_resistance_ohm: motor_nominal::PHASE_OHM,
+            phase_inductance_h: 0.4e-3,
+            ke_volts_per_rad_s: ke,
+            emf_ramp_deg: 80.0,
+            pole_pairs: 4,
+            rotor_inertia_kg_m2: 1.5e-5,
+            coulomb_torque_nm: coulomb,
+            viscous_nm_per_rad_s: viscous,
+            cogging_torque_nm: 0.003,
+            cogging_periods_per_turn: 24,
+        }
+    }
+
+    /// The no-load current `I₀` these parameters imply at no-load speed, A: loss torque
+    /// over the torque constant.
+    #[must_use]
+    pub fn no_load_amps(&self, omega_rad_s: f64) -> f64 {
+        (self.coulomb_torque_nm + self.viscous_nm_per_rad_s * omega_rad_s) / self.ke_volts_per_rad_s
+    }
+}
+
+impl BridgeParams {
+    /// 24 V bus, 0.8 V body diodes, 15 A comparator.
+    #[must_use]
+    pub const fn nominal() -> Self {
+        Self { bus_volts: 24.0, diode_drop_v: 0.8, comparator_amps: 15.0 }
+    }
+}
+
+impl MechanicsParams {
+    /// The nominal drivetrain (derivation in the crate docs).
+    #[must_use]
+    pub const fn nominal() -> Self {
+        Self {
+            gear_ratio: 20.0,
+            lead_mm: 25.4,
+            efficiency_forward: 0.644,
+            efficiency_backward: 0.600,
+            gear_inertia_kg_m2: 0.1e-5,
+            carriage_mass_kg: 2.0,
+            drag_torque_nm: 0.003,
+            slide_friction_n: 2.0,
+            stiction_ratio: 1.2,
+            home_switch_mm: 0.0,
+            end_switch_mm: 250.0,
+            overtravel_mm: 20.0,
+            start_mm: -0.5,
+            decoupled: false,
+        }
+    }
+
+    /// Carriage metres per motor radian: `lead / (2π · ratio)`.
+    #[must_use]
+    pub fn metres_per_radian(&self) -> f64 {
+        self.lead_mm * 1e-3 / (core::f64::consts::TAU * self.gear_ratio)
+    }
+
+    /// The two coefficients of the load-dependent Coulomb friction `a·|T_load| + b·|T_motor|`
+    /// that reproduce [`Self::efficiency_forward`] and [`Self::efficiency_backward`]:
+    /// `η_f = (1 − b)/(1 + a)`, `η_b = (1 − a)/(1 + b)` (derivation in the crate docs).
+    #[must_use]
+    pub fn friction_coefficients(&self) -> (f64, f64) {
+        let (f, b) = (self.efficiency_forward, self.efficiency_backward);
+        let a = (1.0 - 2.0 * b + b * f) / (1.0 - b * f);
+        (a, 1.0 - f * (1.0 + a))
+    }
+}
+
+impl LoadCellParams {
+    /// The paper's chain: `taut_core`'s nominal 92 mV/kgf and 50 mV zero, with the
+    /// assumptions of the crate docs for non-linearity, noise and spikes.
+    #[must_use]
+    pub fn nominal() -> Self {
+        use taut_core::sense::load_cell::{NOMINAL_VOLTS_PER_KGF, NOMINAL_ZERO};
+        Self {
+            volts_per_kgf: NOMINAL_VOLTS_PER_KGF.to_num::<f64>(),
+            zero_volts: NOMINAL_ZERO.0.to_num::<f64>(),
+            low_load_deficit: 0.3,
+            low_load_scale_kgf: 2.5,
+            quadratic_at_50_kgf: 0.001,
+            bandwidth_hz: 500.0,
+            noise_volts: 1.5e-3,
+            spikes: SpikeParams {
+                pwm_probability: 0.05,
+                commutation_probability: 0.5,
+                base_volts: 0.04,
+                volts_per_amp: 0.015,
+            },
+        }
+    }
+}
+
+impl CurrentSenseParams {
+    /// An ideal-gain sensor with 30 mA of noise per sample.
+    #[must_use]
+    pub const fn nominal() -> Self {
+        Self { gain_error: 0.0, offset_amps: 0.0, noise_amps: 0.03 }
+    }
+}
+
+impl HallParams {
+    /// Perfectly placed sensors, no glitches.
+    #[must_use]
+    pub const fn nominal() -> Self {
+        Self { offset_deg: 0.0, read_flip_probability: 0.0, burst_probability: 0.0 }
+    }
+}
+
+impl EncoderParams {
+    /// 400 counts per turn of a 50 mm-circumference wheel: 8 counts/mm.
+    #[must_use]
+    pub const fn nominal() -> Self {
+        Self { counts_per_mm: 8.0, scale_error: 0.0 }
+    }
+}
+
+impl TwinConfig {
+    /// The paper's machine with `kind` of string, seed 0.
+    #[must_use]
+    pub fn nominal(kind: StringKind) -> Self {
+        Self {
+            seed: 0,
+            motor: MotorParams::nominal(),
+            bridge: BridgeParams::nominal(),
+            mechanics: MechanicsParams::nominal(),
+            string: StringParams::nominal(kind),
+            load_cell: LoadCellParams::nominal(),
+            current_sense: CurrentSenseParams::nominal(),
+            hall: HallParams::nominal(),
+            encoder: EncoderParams::nominal(),
+            reference_gauge_sigma_kgf: 0.02,
+        }
+    }
+
+    /// The motor alone on the bench (no gearbox, carriage or string), for motor tests.
+    #[must_use]
+    pub fn motor_bench() -> Self {
+        let mut config = Self::nominal(StringKind::NoString);
+        config.mechanics.decoupled = true;
+        config
+    }
+
+    /// This configuration with another seed.
+    #[must_use]
+    pub const fn with_seed(mut self, seed: u64) -> Self {
+        self.seed = seed;
+        self
+    }
+
+    /// A Monte-Carlo scenario: a string kind drawn uniformly from [`StringKind::STRINGS`],
+    /// then [`TwinConfig::sample_kind`].
+    #[must_use]
+    pub fn sample(seed: u64) -> Self {
+        let mut rng = SimRng::substream(seed, 0x5CE7);
+        let index = rng.below(5);
+        let kind = StringKind::STRINGS.into_iter().nth(index as usize);
+        Self::sample_kind(kind.unwrap_or(StringKind::TennisSynthetic), seed)
+    }
+
+    /// A Monte-Carlo scenario with a given string kind: every parameter drawn uniformly from
+    /// its documented range around nominal (see `sim/README.md`): motor ±5–15 %, friction
+    /// ±50 %, efficiency, string stiffness/slack/creep, sensor gain/offset/non-linearity/
+    /// noise/spikes, Hall placement and rare glitches. The run's noise is seeded by `seed`.
+    #[must_use]
+    pub fn sample_kind(kind: StringKind, seed: u64) -> Self {
+        let mut rng = SimRng::substream(seed, 0xC0F1);
+        let mut c = Self::nominal(kind).with_seed(seed);
+        c.motor.phase_resistance_ohm *= rng.range(0.9, 1.1);
+        c.motor.phase_inductance_h *= rng.range(0.85, 1.15);
+        c.motor.ke_volts_per_rad_s *= rng.range(0.95, 1.05);
+        c.motor.rotor_inertia_kg_m2 *= rng.range(0.8, 1.2);
+        c.motor.coulomb_torque_nm *= rng.range(0.5, 1.5);
+        c.motor.viscous_nm_per_rad_s *= rng.range(0.5, 1.5);
+        c.motor.cogging_torque_nm *= rng.range(0.5, 1.5);
+        c.bridge.bus_volts *= rng.range(0.97, 1.03);
+
+        c.mechanics.drag_torque_nm *= rng.range(0.5, 1.5);
+        c.mechanics.slide_friction_n *= rng.range(0.5, 1.5);
+        c.mechanics.carriage_mass_kg *= rng.range(0.8, 1.2);
+        c.mechanics.efficiency_forward = rng.range(0.56, 0.72);
+        c.mechanics.efficiency_backward = c.mechanics.efficiency_forward * rng.range(0.88, 0.98);
+        c.mechanics.stiction_ratio = rng.range(1.05, 1.35);
+
+        if let Some(spec) = kind.spec() {
+            let (low, high) = spec.stiffness_range_kgf_per_cm;
+            c.string.stiffness_kgf_per_cm = rng.range(low, high);
+            c.string.slack_mm = rng.range(10.0, 60.0);
+            c.string.toe_mm = rng.range(0.5, 3.0);
+            for arm in &mut c.string.relaxation {
+                arm.fraction *= rng.range(0.5, 1.5);
+                arm.time_constant_s *= rng.range(0.6, 1.6);
+            }
+        }
+
+        c.load_cell.volts_per_kgf *= rng.range(0.97, 1.03);
+        c.load_cell.zero_volts = rng.range(0.03, 0.07);
+        c.load_cell.low_load_deficit = rng.range(0.15, 0.4);
+        c.load_cell.low_load_scale_kgf = rng.range(1.5, 3.0);
+        c.load_cell.quadratic_at_50_kgf = rng.range(-0.002, 0.002);
+        c.load_cell.noise_volts = rng.range(0.8e-3, 3e-3);
+        c.load_cell.spikes.pwm_probability = rng.range(0.0, 0.15);
+        c.load_cell.spikes.commutation_probability = rng.range(0.2, 0.8);
+        c.load_cell.spikes.base_volts *= rng.range(0.5, 2.0);
+        c.load_cell.spikes.volts_per_amp *= rng.range(0.5, 2.0);
+
+        c.current_sense.gain_error = rng.range(-0.03, 0.03);
+        c.current_sense.offset_amps = rng.range(-0.05, 0.05);
+        c.current_sense.noise_amps = rng.range(0.01, 0.06);
+
+        c.hall.offset_deg = rng.range(-4.0, 4.0);
+        c.hall.read_flip_probability = rng.range(0.0, 0.01);
+        c.hall.burst_probability = rng.range(0.0, 1e-5);
+
+        c.encoder.scale_error = rng.range(-0.02, 0.02);
+        c
+    }
+
+    /// Checks that the parameters describe a physical machine.
+    ///
+    /// # Errors
+    /// The first [`ConfigError`] found.
+    pub fn check(&self) -> Result<(), ConfigError> {
+        let positive = |value: f64, what| {
+            if value.is_finite() && value > 0.0 {
+                Ok(())
+            } else {
+                Err(ConfigError::NonPositive(what))
+            }
+        };
+        let m = &self.motor;
+        positive(m.phase_resistance_ohm, "phase resistance")?;
+        positive(m.phase_inductance_h, "phase inductance")?;
+        positive(m.ke_volts_per_rad_s, "Ke")?;
+        positive(m.rotor_inertia_kg_m2, "rotor inertia")?;
+        positive(f64::from(m.pole_pairs), "pole pairs")?;
+        positive(self.bridge.bus_volts, "bus voltage")?;
+        positive(self.bridge.comparator_amps, "comparator level")?;
+        let k = &self.mechanics;
+        positive(k.gear_ratio, "gear ratio")?;
+        positive(k.lead_mm, "lead")?;
+        positive(k.stiction_ratio, "stiction ratio")?;
+        if !(0.0..=180.0).contains(&m.emf_ramp_deg) {
+            return Err(ConfigError::NonPositive("back-EMF ramp"));
+        }
+        let (a, b) = k.friction_coefficients();
+        let in_unit = |e: f64| e > 0.0 && e <= 1.0;
+        if !in_unit(k.efficiency_forward) || !in_unit(k.efficiency_backward) || a < 0.0 || b < 0.0 {
+            return Err(ConfigError::Efficiency);
+        }
+        let fractions: f64 = self.string.relaxation.iter().map(|arm| arm.fraction).sum();
+        let arms_ok = self
+            .string
+            .relaxation
+            .iter()
+            .all(|arm| arm.fraction >= 0.0 && arm.time_constant_s > 0.0);
+        if !arms_ok || fractions >= 1.0 {
+            return Err(ConfigError::Relaxation);
+        }
+        let low_stop = k.home_switch_mm - k.overtravel_mm;
+        let high_stop = k.end_switch_mm + k.overtravel_mm;
+        if k.end_switch_mm <= k.home_switch_mm || k.start_mm < low_stop || k.start_mm > high_stop {
+            return Err(ConfigError::Travel);
+        }
+        positive(self.load_cell.bandwidth_hz, "load-cell bandwidth")?;
+        positive(self.encoder.counts_per_mm, "encoder counts per mm")?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn string_kinds_parse_and_print() {
+        for kind in StringKind::ALL {
+            assert_eq!(kind.name().parse::<StringKind>(), Ok(kind));
+        }
+        assert_eq!("Polyester".parse::<StringKind>(), Ok(StringKind::TennisPolyester));
+        assert!("spaghetti".parse::<StringKind>().is_err());
+    }
+
+    #[test]
+    fn stiffness_spans_soft_badminton_to_stiff_polyester() {
+        let mut lowest = f64::MAX;
+        let mut highest = 0.0_f64;
+        for kind in StringKind::STRINGS {
+            let spec = kind.spec().unwrap();
+            let k = spec.stiffness_kgf_per_cm();
+            let (low, high) = spec.stiffness_range_kgf_per_cm;
+            assert!(low <= k && k <= high, "{kind}: {k} outside {low}..{high}");
+            lowest = lowest.min(low);
+            highest = highest.max(high);
+        }
+        assert!(lowest <= 1.5 && highest >= 15.0, "{lowest}..{highest}");
+    }
+
+    #[test]
+    fn motor_constants_reconcile_the_paper() {
+        let (ke, i0) = motor_nominal::ke_and_no_load_current();
+        let omega0 = motor_nominal::NO_LOAD_RPM * core::f64::consts::TAU / 60.0;
+        let r = 2.0 * motor_nominal::PHASE_OHM;
+        assert!((ke * omega0 + r * i0 - 24.0).abs() < 1e-9);
+        assert!((ke * (5.5 - i0) - motor_nominal::RATED_TORQUE_NM).abs() < 1e-9);
+        assert!((0.5..1.2).contains(&i0), "I0 = {i0}");
+        let m = MotorParams::nominal();
+        assert!((m.no_load_amps(omega0) - i0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn friction_coefficients_reproduce_the_efficiencies() {
+        let m = MechanicsParams::nominal();
+        let (a, b) = m.friction_coefficients();
+        assert!(a > 0.0 && b > 0.0);
+        assert!(((1.0 - b) / (1.0 + a) - m.efficiency_forward).abs() < 1e-12);
+        assert!(((1.0 - a) / (1.0 + b) - m.efficiency_backward).abs() < 1e-12);
+    }
+
+    #[test]
+    fn nominal_and_sampled_configs_are_valid() {
+        for kind in StringKind::ALL {
+            assert_eq!(TwinConfig::nominal(kind).check(), Ok(()));
+        }
+        assert_eq!(TwinConfig::motor_bench().check(), Ok(()));
+        for seed in 0..500 {
+            let c = TwinConfig::sample(seed);
+            assert_eq!(c.check(), Ok(()), "seed {seed}");
+            assert_eq!(c, TwinConfig::sample(seed));
+            assert!(c.string.present());
+        }
+    }
+}

@@ -1,4 +1,137 @@
-//! `taut`: the host tool. Runs the stringing machine on its digital twin.
+//! `taut`: the host tool. Runs the stringing machine's controller on its digital twin.
+#![allow(clippy::float_arithmetic, reason = "host tool: reports in f64")]
+#![allow(clippy::print_stdout, reason = "a command-line tool prints")]
+#![allow(
+    clippy::arithmetic_side_effects,
+    clippy::cast_possible_truncation,
+    reason = "host tool: progress-bar and sample arithmetic on small counts"
+)]
+#![allow(
+    clippy::expect_used,
+    reason = "host tool: a failed write or a broken built-in configuration ends the command with               its message"
+)]
+
+use clap::{Parser, Subcommand};
+use taut::sil::{Rig, Sample};
+use taut_core::sense::calibration::Calibration;
+use taut_core::tension::{ControllerConfig, PullKind, PullSettings};
+use taut_sim::{StringKind, TwinConfig};
+
+#[derive(Parser)]
+#[command(name = "taut", about = "taut: the stringing machine's host tool (digital twin, reports)")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Reports on the twin.
+    Report {
+        #[command(subcommand)]
+        which: ReportKind,
+    },
+    /// One pull, hold and release on the twin.
+    Pull {
+        /// Target tension, kgf.
+        #[arg(long, default_value_t = 25.0)]
+        tension: f64,
+        /// String kind.
+        #[arg(long, default_value = "tennis-synthetic")]
+        string: StringKind,
+        /// Controller: taut, paper_rsmc, pd.
+        #[arg(long, default_value = "taut")]
+        controller: String,
+        /// Monte-Carlo scenario seed instead of the nominal machine.
+        #[arg(long)]
+        seed: Option<u64>,
+    },
+}
+
+#[derive(Subcommand)]
+enum ReportKind {
+    /// Monte-Carlo accuracy of taut, paper_rsmc and pd on the same scenarios.
+    Accuracy {
+        /// Number of scenarios.
+        #[arg(long, default_value_t = 200)]
+        scenarios: u64,
+        /// Seed of the scenario draw.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Write the JSON summary here.
+        #[arg(long)]
+        json: Option<std::path::PathBuf>,
+        /// Write SVG plots into this directory.
+        #[arg(long)]
+        svg: Option<std::path::PathBuf>,
+    },
+}
+
 fn main() {
-    println!("taut: host tool (work in progress)");
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Report { which: ReportKind::Accuracy { scenarios, seed, json, svg: _ } } => {
+            use std::io::Write as _;
+            let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+            let progress = |done: usize| {
+                let width = 40;
+                let filled = done * width / scenarios.max(1) as usize;
+                eprint!(
+                    "\r[{}{}] {done}/{scenarios}",
+                    "#".repeat(filled),
+                    "-".repeat(width - filled)
+                );
+                let _ = std::io::stderr().flush();
+            };
+            let results = taut::report::run_all(seed, scenarios, threads, &progress);
+            eprintln!();
+            println!("{}", taut::report::markdown(&results));
+            if let Some(path) = json {
+                let doc = taut::report::to_json(seed, &results);
+                std::fs::write(&path, serde_json::to_string_pretty(&doc).expect("json"))
+                    .expect("write JSON");
+            }
+            if std::env::var_os("TAUT_REPORT_DETAIL").is_some() {
+                for r in &results {
+                    println!(
+                        "{:4} {:16} T={:5.1} tmin={:?} cal={} {:?}",
+                        r.index, r.string, r.target_kgf, r.t_min, r.calibration_ok, r.metrics[0]
+                    );
+                }
+            }
+        }
+        Command::Pull { tension, string, controller, seed } => {
+            let config = match controller.as_str() {
+                "paper_rsmc" => ControllerConfig::PAPER_RSMC,
+                "pd" => ControllerConfig::PD,
+                _ => ControllerConfig::TAUT,
+            };
+            let twin = seed.map_or_else(
+                || TwinConfig::nominal(string),
+                |s| TwinConfig::sample_kind(string, s),
+            );
+            let mut rig = Rig::new(&twin, &config, Calibration::IDENTITY);
+            let settings = PullSettings::default()
+                .with_tension(taut::sil::to_kgf(tension))
+                .expect("tension 5–50 kgf");
+            rig.start(&settings, PullKind::Main);
+            let mut trace: Vec<Sample> = Vec::new();
+            rig.run(6_000, &mut trace);
+            for s in trace.iter().step_by(20).take(300) {
+                println!(
+                    "{:6.3} T={:7.3} m={:7.3} r={:7.3} d={:6.3} x={:7.2} i={:5.2} f={:8.2} {:?} {}",
+                    s.t,
+                    s.tension,
+                    s.measured,
+                    s.reference,
+                    s.duty,
+                    s.carriage_mm,
+                    s.current,
+                    s.force,
+                    s.phase,
+                    s.fault
+                );
+            }
+        }
+    }
 }

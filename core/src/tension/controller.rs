@@ -129,12 +129,13 @@ pub struct ControllerConfig {
     pub profile: ProfileConfig,
 }
 
-/// taut's nominal plant: `M̄` = the rotor inertia reflected to the carriage (≈ 1.5 × 10⁻⁵
-/// kg·m² × (2π·20/25.4 mm)² ≈ 370 kg ≈ 37.7 kgf·s²/m), `K̄` = a mid-range string,
-/// 5 kgf/cm = 500 kgf/m, `B̄` small (screw viscous friction only: back-EMF is compensated in
-/// the duty map): `D̄ = K̄/M̄ ≈ 13.3 s⁻²`, `Ā ≈ 2 s⁻¹`.
+/// taut's nominal plant: `M̄` = the rotor and gearbox inertia reflected to the carriage
+/// (1.6 × 10⁻⁵ kg·m² / (0.2021 mm/rad)² ≈ 392 kg, plus the 2 kg carriage: 394 kg =
+/// 40.2 kgf·s²/m), `K̄` = a mid-range string, 5 kgf/cm = 500 kgf/m, `B̄` small (screw
+/// viscous friction only: back-EMF is compensated in the duty map):
+/// `D̄ = K̄/M̄ ≈ 12.4 s⁻²`, `Ā ≈ 2 s⁻¹`.
 pub const TAUT_PLANT: NominalPlant =
-    NominalPlant { a_bar: Q16::const_from_int(2), d_bar: Q16::lit("13.3") };
+    NominalPlant { a_bar: Q16::const_from_int(2), d_bar: Q16::lit("12.4") };
 
 /// taut's RSMC: the paper's structure with every improvement on.
 pub const TAUT_GAINS: RsmcGains = RsmcGains {
@@ -279,6 +280,8 @@ pub struct ProfileState {
     pub at_tension: bool,
     /// Which way the previous output saturated.
     pub saturated: Saturation,
+    /// The last five tension samples, kgf bits (oldest first), for the spike filter.
+    pub window: [i32; 5],
 }
 
 /// The tension controller. See the module docs.
@@ -311,6 +314,16 @@ impl Default for TensionController {
     fn default() -> Self {
         Self::taut()
     }
+}
+
+/// The median of five values: `median(e, max(min(a,b), min(c,d)), min(max(a,b), max(c,d)))`
+/// (six comparisons, no branches on data beyond `min`/`max`).
+#[must_use]
+pub fn median5(a: i32, b: i32, c: i32, d: i32, e: i32) -> i32 {
+    let f = a.min(b).max(c.min(d));
+    let g = a.max(b).min(c.max(d));
+    // Median of three: max(min(e, f), min(max(e, f), g)).
+    e.min(f).max(e.max(f).min(g))
 }
 
 /// `dt` in Q15.16 seconds, at least one LSB.
@@ -436,6 +449,7 @@ impl TensionController {
             rate: 0,
             at_tension: false,
             saturated: Saturation::None,
+            window: self.profile.window,
         };
         self.reset_law(Kgf::ZERO, Kgf::ZERO);
     }
@@ -541,7 +555,12 @@ impl TensionController {
     /// One control tick.
     pub fn step(&mut self, m: &Measurement) -> ControlOutput {
         let speed = self.speed.update(m.drive.steps);
-        let y = m.tension.to_bits();
+        let [_, w1, w2, w3, w4] = self.profile.window;
+        let sample = m.tension.to_bits();
+        self.profile.window = [w1, w2, w3, w4, sample];
+        let y = median5(w1, w2, w3, w4, sample);
+        let filtered = Measurement { tension: Kgf::from_bits(y), ..*m };
+        let m = &filtered;
         // Tension rate: filtered backward difference (timing of the approach only).
         let raw_rate = saturate_i32(
             i64::from(y)
@@ -584,12 +603,16 @@ impl TensionController {
                     self.enter(PullPhase::Approach);
                     self.closed_loop(m, speed, &mut force)
                 } else {
+                    // Run at the speed limit, accelerating no harder than the current
+                    // limit allows (full duty from rest would draw the stall current).
                     let load = Kgf::from_bits(y.max(0));
-                    let duty = self.map.velocity_duty(
+                    let cruise = self.map.velocity_duty(
                         self.profile.speed_limit,
                         load,
                         crate::drive::DUTY_MAX,
                     );
+                    let (limited, _) = self.map.command(self.map.force_limit(), speed);
+                    let duty = if limited.duty() < cruise { limited.duty() } else { cruise };
                     DriveCommand::Drive { direction: Direction::Pull, duty }
                 }
             }
@@ -692,6 +715,20 @@ mod tests {
             assert!(controller.is_valid());
         }
         assert_ne!(TensionController::taut(), TensionController::fallback());
+    }
+
+    #[test]
+    fn median5_is_the_median_of_every_pattern() {
+        // Every ordering pattern of five values drawn from 0..5 (3 125 cases).
+        let mut cases = 0;
+        for n in 0..3_125_i32 {
+            let v = [n % 5, n / 5 % 5, n / 25 % 5, n / 125 % 5, n / 625 % 5];
+            let mut sorted = v;
+            sorted.sort_unstable();
+            assert_eq!(median5(v[0], v[1], v[2], v[3], v[4]), sorted[2], "{v:?}");
+            cases += 1;
+        }
+        assert_eq!(cases, 3_125);
     }
 
     #[test]

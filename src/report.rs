@@ -1,0 +1,359 @@
+//! `taut report accuracy`: a Monte-Carlo of pulls on the twin, three controllers on the same
+//! scenarios, with the figures the issue defines.
+//!
+//! # Per scenario
+//!
+//! A scenario is a [`TwinConfig::sample`] (string kind and stiffness, slack, creep,
+//! friction ±50 %, efficiency, motor spread, sensor gain/offset/non-linearity/noise/spikes,
+//! Hall placement and glitches) plus a target drawn uniformly from 8–35 kgf, both from the
+//! scenario's seed. First the paper's 4-point calibration is simulated against the twin's
+//! reference gauge (σ = 0.02 kgf) ([`crate::sil::calibrate`]); its [`Calibration`] is then
+//! used by every controller on that scenario — so the calibration's own error counts in the
+//! hold error, as on a real machine. Each controller then pulls (speed 9, no pre-stretch)
+//! on a fresh twin of the same scenario for [`PULL_MS`]. Metrics ([`Metrics`]):
+//!
+//! - **settle time**: Start to the first moment after which the *measured* tension (the
+//!   calibrated reading through the controller's 5-sample median) stays within 0.1 kgf of
+//!   the target for 0.5 s;
+//! - **hold error**: the largest |true tension − target| from 1 s to 10 s after settling;
+//! - **overshoot**: the largest true tension above the target before the hold window;
+//! - **pull-time ratio**: settle time over `t_min`, the time the bang-bang oracle
+//!   ([`taut_sim::bang_bang_reach_time`], full duty on the same scenario) needs to first
+//!   reach the target;
+//! - **chattering**: total variation of the signed duty per second over the hold window;
+//! - **peak current**: the largest phase current of the run;
+//! - **failed**: never settled, or a drive fault latched.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use serde_json::{Value, json};
+use taut_core::sense::calibration::Calibration;
+use taut_core::tension::{ControllerConfig, PullKind, PullSettings};
+use taut_sim::{SimRng, TwinConfig, bang_bang_reach_time};
+
+use crate::sil::{Rig, Sample, calibrate, to_kgf};
+
+/// Ticks simulated per pull: settle (≤ 4 s) + 10 s of hold + margin.
+pub const PULL_MS: u32 = 15_000;
+/// Band and duration of the settling criterion.
+pub const SETTLE_BAND_KGF: f64 = 0.1;
+/// How long the measured tension must stay in the band, s.
+pub const SETTLE_HOLD_S: f64 = 0.5;
+/// Hold window after settling, s.
+pub const HOLD_WINDOW_S: (f64, f64) = (1.0, 10.0);
+
+/// The three controllers, by report name.
+pub const CONTROLLERS: [(&str, ControllerConfig); 3] = [
+    ("taut", ControllerConfig::TAUT),
+    ("paper_rsmc", ControllerConfig::PAPER_RSMC),
+    ("pd", ControllerConfig::PD),
+];
+
+/// One scenario's figures for one controller.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Metrics {
+    /// Settle time, s (`None` = never settled).
+    pub settle_s: Option<f64>,
+    /// Largest |true − target| in the hold window, kgf.
+    pub hold_error_kgf: f64,
+    /// Largest true tension above the target before the hold window, kgf.
+    pub overshoot_kgf: f64,
+    /// Settle time over the oracle's reach time.
+    pub pull_time_ratio: f64,
+    /// Total variation of duty per second in the hold window.
+    pub chattering: f64,
+    /// Largest phase current, A.
+    pub peak_current_a: f64,
+    /// Failed (never settled or faulted).
+    pub failed: bool,
+}
+
+/// A scenario: twin and target.
+#[derive(Clone, Debug)]
+pub struct Scenario {
+    /// The machine.
+    pub twin: TwinConfig,
+    /// The target tension, kgf (a multiple of 0.1).
+    pub target_kgf: f64,
+}
+
+impl Scenario {
+    /// Scenario `index` of the run seeded `seed`.
+    #[must_use]
+    pub fn new(seed: u64, index: u64) -> Self {
+        let scenario_seed = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(index);
+        let twin = TwinConfig::sample(scenario_seed);
+        let mut rng = SimRng::substream(scenario_seed, 0x7A26);
+        let target_kgf = (rng.range(8.0, 35.0) * 10.0).round() / 10.0;
+        Self { twin, target_kgf }
+    }
+}
+
+/// Runs one pull with `config` and `calibration`; returns the trace.
+#[must_use]
+pub fn pull_trace(
+    scenario: &Scenario,
+    config: &ControllerConfig,
+    calibration: Calibration,
+    ms: u32,
+) -> Vec<Sample> {
+    let mut rig = Rig::new(&scenario.twin, config, calibration);
+    let settings =
+        PullSettings::default().with_tension(to_kgf(scenario.target_kgf)).expect("target in range");
+    rig.start(&settings, PullKind::Main);
+    let mut trace = Vec::with_capacity(ms as usize);
+    rig.run(ms, &mut trace);
+    trace
+}
+
+/// The measured tension as the controller filters it (5-sample median), per tick.
+fn median_filtered(trace: &[Sample]) -> Vec<f64> {
+    let mut out = Vec::with_capacity(trace.len());
+    for i in 0..trace.len() {
+        let lo = i.saturating_sub(4);
+        let mut w: Vec<f64> = trace[lo..=i].iter().map(|s| s.measured).collect();
+        w.sort_by(f64::total_cmp);
+        out.push(w[w.len() / 2]);
+    }
+    out
+}
+
+/// The figures of one trace against `target` and the oracle's `t_min`.
+#[must_use]
+pub fn metrics(trace: &[Sample], target: f64, t_min: Option<f64>) -> Metrics {
+    let measured = median_filtered(trace);
+    let hold_ticks = (SETTLE_HOLD_S * 1000.0) as usize;
+    // The first index from which the measured tension stays in band for hold_ticks.
+    let mut settle_index = None;
+    let mut run_start = None;
+    for (i, y) in measured.iter().enumerate() {
+        if (y - target).abs() <= SETTLE_BAND_KGF {
+            let start = *run_start.get_or_insert(i);
+            if i + 1 - start >= hold_ticks {
+                settle_index = Some(start);
+                break;
+            }
+        } else {
+            run_start = None;
+        }
+    }
+    let fault = trace.iter().any(|s| s.fault);
+    let peak_current_a = trace.iter().map(|s| s.peak_current).fold(0.0, f64::max);
+    let Some(settle) = settle_index else {
+        return Metrics {
+            settle_s: None,
+            hold_error_kgf: f64::NAN,
+            overshoot_kgf: trace.iter().map(|s| s.tension - target).fold(0.0, f64::max),
+            pull_time_ratio: f64::NAN,
+            chattering: f64::NAN,
+            peak_current_a,
+            failed: true,
+        };
+    };
+    let settle_s = trace[settle].t;
+    let window =
+        |s: &&Sample| s.t >= settle_s + HOLD_WINDOW_S.0 && s.t <= settle_s + HOLD_WINDOW_S.1;
+    let hold: Vec<&Sample> = trace.iter().filter(window).collect();
+    let hold_complete = hold.last().is_some_and(|s| s.t >= settle_s + HOLD_WINDOW_S.1 - 0.01);
+    let hold_error_kgf = hold.iter().map(|s| (s.tension - target).abs()).fold(0.0, f64::max);
+    let overshoot_kgf = trace
+        .iter()
+        .filter(|s| s.t < settle_s + HOLD_WINDOW_S.0)
+        .map(|s| s.tension - target)
+        .fold(0.0, f64::max);
+    let variation: f64 = hold.windows(2).map(|w| (w[1].duty - w[0].duty).abs()).sum();
+    let chattering = variation / (HOLD_WINDOW_S.1 - HOLD_WINDOW_S.0);
+    Metrics {
+        settle_s: Some(settle_s),
+        hold_error_kgf,
+        overshoot_kgf,
+        pull_time_ratio: t_min.map_or(f64::NAN, |t| settle_s / t),
+        chattering,
+        peak_current_a,
+        failed: fault || !hold_complete,
+    }
+}
+
+/// One scenario's outcome for the three controllers.
+#[derive(Clone, Debug)]
+pub struct ScenarioResult {
+    /// The scenario index.
+    pub index: u64,
+    /// Target, kgf.
+    pub target_kgf: f64,
+    /// String kind name.
+    pub string: &'static str,
+    /// Oracle reach time, s.
+    pub t_min: Option<f64>,
+    /// The calibration's largest error over 8–35 kgf against the twin's true sensor, kgf
+    /// (informational; `NaN` when the calibration was rejected).
+    pub calibration_ok: bool,
+    /// Metrics per controller, in [`CONTROLLERS`] order.
+    pub metrics: [Metrics; 3],
+}
+
+/// Runs scenario `index`.
+#[must_use]
+pub fn run_scenario(seed: u64, index: u64) -> ScenarioResult {
+    let scenario = Scenario::new(seed, index);
+    let calibration_run = calibrate(&scenario.twin);
+    let calibration_ok = calibration_run.calibration.is_ok();
+    let calibration = calibration_run.calibration.unwrap_or(Calibration::IDENTITY);
+    let t_min = bang_bang_reach_time(&scenario.twin, scenario.target_kgf, 10_000);
+    let mut metrics = [Metrics::default(); 3];
+    for (slot, (_, config)) in metrics.iter_mut().zip(CONTROLLERS) {
+        let trace = pull_trace(&scenario, &config, calibration, PULL_MS);
+        *slot = self::metrics(&trace, scenario.target_kgf, t_min);
+    }
+    ScenarioResult {
+        index,
+        target_kgf: scenario.target_kgf,
+        string: scenario.twin.string.kind.name(),
+        t_min,
+        calibration_ok,
+        metrics,
+    }
+}
+
+/// Runs `count` scenarios on `threads` threads, calling `progress(done)` after each.
+pub fn run_all(
+    seed: u64,
+    count: u64,
+    threads: usize,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Vec<ScenarioResult> {
+    let next = AtomicUsize::new(0);
+    let done = AtomicUsize::new(0);
+    let mut results: Vec<ScenarioResult> = std::thread::scope(|scope| {
+        let workers: Vec<_> = (0..threads.max(1))
+            .map(|_| {
+                scope.spawn(|| {
+                    let mut mine = Vec::new();
+                    loop {
+                        let index = next.fetch_add(1, Ordering::Relaxed) as u64;
+                        if index >= count {
+                            break;
+                        }
+                        mine.push(run_scenario(seed, index));
+                        progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+                    }
+                    mine
+                })
+            })
+            .collect();
+        workers.into_iter().flat_map(|w| w.join().expect("worker")).collect()
+    });
+    results.sort_by_key(|r| r.index);
+    results
+}
+
+/// The `p`-th percentile (0–100, nearest rank) of the finite values, or `NaN`.
+#[must_use]
+pub fn percentile(values: &[f64], p: f64) -> f64 {
+    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let rank = ((p / 100.0) * v.len() as f64).ceil().max(1.0) as usize;
+    v[rank.min(v.len()) - 1]
+}
+
+/// Aggregated figures of one controller.
+#[derive(Clone, Copy, Debug)]
+pub struct Summary {
+    /// p50 hold error, kgf.
+    pub hold_error_p50_kgf: f64,
+    /// p99 hold error, kgf.
+    pub hold_error_p99_kgf: f64,
+    /// Max hold error, kgf.
+    pub hold_error_max_kgf: f64,
+    /// p99 overshoot, kgf.
+    pub overshoot_p99_kgf: f64,
+    /// Median settle time, s.
+    pub settle_time_p50_s: f64,
+    /// Median pull-time ratio.
+    pub pull_time_ratio_median: f64,
+    /// Median chattering.
+    pub chattering_p50: f64,
+    /// Max peak current, A.
+    pub peak_current_max_a: f64,
+    /// Failed scenarios.
+    pub failed: usize,
+}
+
+/// Aggregates controller `which` over `results`.
+#[must_use]
+pub fn summarize(results: &[ScenarioResult], which: usize) -> Summary {
+    let all: Vec<&Metrics> = results.iter().map(|r| &r.metrics[which]).collect();
+    let ok: Vec<&Metrics> = all.iter().copied().filter(|m| !m.failed).collect();
+    let of = |f: fn(&Metrics) -> f64| ok.iter().map(|m| f(m)).collect::<Vec<f64>>();
+    let hold = of(|m| m.hold_error_kgf);
+    Summary {
+        hold_error_p50_kgf: percentile(&hold, 50.0),
+        hold_error_p99_kgf: percentile(&hold, 99.0),
+        hold_error_max_kgf: percentile(&hold, 100.0),
+        overshoot_p99_kgf: percentile(
+            &all.iter().map(|m| m.overshoot_kgf).collect::<Vec<_>>(),
+            99.0,
+        ),
+        settle_time_p50_s: percentile(&of(|m| m.settle_s.unwrap_or(f64::NAN)), 50.0),
+        pull_time_ratio_median: percentile(&of(|m| m.pull_time_ratio), 50.0),
+        chattering_p50: percentile(&of(|m| m.chattering), 50.0),
+        peak_current_max_a: all.iter().map(|m| m.peak_current_a).fold(0.0, f64::max),
+        failed: all.iter().filter(|m| m.failed).count(),
+    }
+}
+
+/// A number for JSON: finite, or `null`.
+fn number(x: f64) -> Value {
+    if x.is_finite() { json!((x * 1e6).round() / 1e6) } else { Value::Null }
+}
+
+/// The report's JSON document.
+#[must_use]
+pub fn to_json(seed: u64, results: &[ScenarioResult]) -> Value {
+    let mut controllers = serde_json::Map::new();
+    for (which, (name, _)) in CONTROLLERS.iter().enumerate() {
+        let s = summarize(results, which);
+        controllers.insert(
+            (*name).to_owned(),
+            json!({
+                "hold_error_p50_kgf": number(s.hold_error_p50_kgf),
+                "hold_error_p99_kgf": number(s.hold_error_p99_kgf),
+                "hold_error_max_kgf": number(s.hold_error_max_kgf),
+                "overshoot_p99_kgf": number(s.overshoot_p99_kgf),
+                "settle_time_p50_s": number(s.settle_time_p50_s),
+                "pull_time_ratio_median": number(s.pull_time_ratio_median),
+                "chattering_p50": number(s.chattering_p50),
+                "peak_current_max_a": number(s.peak_current_max_a),
+                "failed": s.failed,
+            }),
+        );
+    }
+    json!({ "scenarios": results.len(), "seed": seed, "controllers": controllers })
+}
+
+/// The markdown table printed on stdout.
+#[must_use]
+pub fn markdown(results: &[ScenarioResult]) -> String {
+    let mut out = String::from(
+        "| controller | hold p50 kgf | hold p99 kgf | hold max kgf | overshoot p99 kgf | settle p50 s | pull-time ratio | chattering p50 /s | peak A | failed |\n|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for (which, (name, _)) in CONTROLLERS.iter().enumerate() {
+        let s = summarize(results, which);
+        out.push_str(&format!(
+            "| {name} | {:.4} | {:.4} | {:.4} | {:.4} | {:.3} | {:.3} | {:.3} | {:.2} | {} |\n",
+            s.hold_error_p50_kgf,
+            s.hold_error_p99_kgf,
+            s.hold_error_max_kgf,
+            s.overshoot_p99_kgf,
+            s.settle_time_p50_s,
+            s.pull_time_ratio_median,
+            s.chattering_p50,
+            s.peak_current_max_a,
+            s.failed
+        ));
+    }
+    out
+}

@@ -61,7 +61,8 @@ fn main() {
     let mut total = 0.0;
     let mut last = None;
     for cycle in 0..cycles {
-        let config = TwinConfig::nominal(StringKind::TennisSynthetic).with_seed(u64::from(cycle));
+        // Monte-Carlo scenarios (every noise source on, Hall reads voted) on a synthetic.
+        let config = TwinConfig::sample_kind(StringKind::TennisSynthetic, u64::from(cycle));
         let mut twin = Twin::new(&config);
         let mut controller =
             Cycle { target_kgf: 25.0, integral: 0.0, held_since: None, releasing: None };

@@ -45,7 +45,10 @@
 //!   `24 = Ke·ω₀ + R·I₀` (no-load) and `T = Kt·(5.5 − I₀)` (rated) with `Kt = Ke` (SI,
 //!   line-to-line, six-step) gives `Ke²·ω₀ − (24 − 5.5 R)·Ke − R·T = 0`, so
 //!   **`Ke = Kt = 0.0601 V·s/rad (N·m/A)`, `I₀ = 0.849 A`** (loss torque 0.051 N·m);
-//!   rated speed then comes out at 3 075 rpm, typical of such motors.
+//!   rated speed then comes out at 3 075 rpm, typical of such motors. The twin's own
+//!   no-load speed extrapolated to 100 % duty is 3 606 rpm, 2.5 % lower: the steady-state
+//!   equation omits the commutation overlap (current moving between phase inductances at
+//!   every sector change, ≈ 0.5 V at full speed), which the three-phase model produces.
 //! - **Losses**: the 0.051 N·m at no-load speed is split into 0.005 N·m bearing Coulomb
 //!   friction and a speed-proportional (iron loss) part `c = 1.19 × 10⁻⁴ N·m·s/rad`.
 //! - **Inductance**: 0.4 mH per phase (0.8 mH line-to-line), electrical time constant
@@ -74,8 +77,10 @@
 //!   motor turn; one Hall step = 0.053 mm).
 //! - **Reflected inertia dominates**: `J / r² = 1.6 × 10⁻⁵ / (2.02 × 10⁻⁴)² ≈ 392 kg`
 //!   of equivalent carriage mass, against a 2 kg carriage — the string is pulled by a
-//!   ≈ 394 kg body. At full speed (≈ 70 mm/s) it stores ≈ 1 J, enough to overshoot a
-//!   10 kgf/cm string by ≈ 6 mm (6 kgf) if the drive simply stops at the target.
+//!   ≈ 394 kg body. At full speed (≈ 67 mm/s) it stores ≈ 0.9 J; friction and the motor's
+//!   iron losses absorb most of it, but an open-loop pull that lets go exactly at 20 kgf
+//!   still overshoots by 0.3 kgf (soft badminton) to 2.5 kgf (polyester) — see
+//!   `examples/open_loop.rs`.
 //! - **Efficiency**: the screw is assumed trapezoidal, 16 mm (14.5 mm pitch diameter),
 //!   polymer nut, μ = 0.1: lead angle 29.1°, friction angle 5.9°,
 //!   `η = tan λ / tan(λ + φ) = 0.795` forward and `tan(λ − φ) / tan λ = 0.770`
@@ -88,7 +93,7 @@
 //! - **Other friction**: gearbox/screw drag 0.003 N·m at the motor, carriage slide 2 N;
 //!   static friction 1.2 × Coulomb (stick-slip is real on a lead screw).
 //! - **Travel**: home switch closes at ≤ 0 mm, end switch at ≥ 250 mm, rigid stops 20 mm
-//!   beyond each (a coasting carriage at full speed runs ≈ 10–20 mm). Power-up position
+//!   beyond each (a carriage coasting from full speed runs on ≈ 6 mm). Power-up position
 //!   −0.5 mm (resting on the home switch).
 //!
 //! ## String

@@ -92,6 +92,22 @@ impl SimRng {
         p > 0.0 && self.uniform() < p
     }
 
+    /// The number of failures before the first success of independent trials that each
+    /// succeed with probability `p` (geometric distribution): lets a rare per-trial event
+    /// be scheduled with one draw per event instead of one per trial. `u64::MAX` when
+    /// `p ≤ 0`.
+    pub fn geometric_gap(&mut self, p: f64) -> u64 {
+        if p <= 0.0 {
+            return u64::MAX;
+        }
+        if p >= 1.0 {
+            return 0;
+        }
+        // 1 − u ∈ (0, 1]: ln is finite and ≤ 0; ln(1 − p) < 0.
+        let gap = ((1.0 - self.uniform()).ln() / (-p).ln_1p()).floor();
+        if gap >= 1.8e19 { u64::MAX } else { gap as u64 }
+    }
+
     /// A standard normal deviate (Box–Muller; each pair of uniforms yields two deviates,
     /// the second kept for the next call).
     pub fn normal(&mut self) -> f64 {
@@ -153,6 +169,19 @@ mod tests {
         assert!((sum2 / n - 1.0 / 3.0).abs() < 0.005);
         assert!((nsum / n).abs() < 0.01);
         assert!((nsum2 / n - 1.0).abs() < 0.02);
+    }
+
+    #[test]
+    fn geometric_gap_has_the_right_mean() {
+        let mut rng = SimRng::new(9);
+        let p = 0.01;
+        let n = 20_000;
+        let total: f64 = (0..n).map(|_| rng.geometric_gap(p) as f64).sum();
+        let mean = total / f64::from(n);
+        // Mean of failures before a success: (1 − p) / p = 99.
+        assert!((mean / 99.0 - 1.0).abs() < 0.03, "{mean}");
+        assert_eq!(rng.geometric_gap(0.0), u64::MAX);
+        assert_eq!(rng.geometric_gap(1.0), 0);
     }
 
     #[test]

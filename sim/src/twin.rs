@@ -210,6 +210,10 @@ pub struct Twin {
     rng_load_cell: SimRng,
     rng_current: SimRng,
     rng_hall: SimRng,
+    /// PWM periods until the next Hall burst.
+    hall_burst_in: u64,
+    /// Read-line trials (7 reads × 3 lines per period) until the next flipped read.
+    hall_flip_in: u64,
     rng_gauge: SimRng,
     faults: ActiveFaults,
     keys: Keys,
@@ -285,6 +289,8 @@ impl Twin {
             rng_load_cell: SimRng::substream(c.seed, 1),
             rng_current: SimRng::substream(c.seed, 2),
             rng_hall: SimRng::substream(c.seed, 3),
+            hall_burst_in: u64::MAX,
+            hall_flip_in: u64::MAX,
             rng_gauge: SimRng::substream(c.seed, 4),
             faults: ActiveFaults::default(),
             keys: Keys::NONE,
@@ -312,6 +318,8 @@ impl Twin {
                 load_cell_volts: 0.0,
             },
         };
+        twin.hall_burst_in = twin.rng_hall.geometric_gap(c.hall.burst_probability);
+        twin.hall_flip_in = twin.rng_hall.geometric_gap(c.hall.read_flip_probability);
         twin.sample_sensors();
         twin
     }
@@ -483,25 +491,39 @@ impl Twin {
             }
         }
         let code = HallCode::from_raw(raw);
-        let p = self.config.hall;
-        if p.read_flip_probability <= 0.0 && p.burst_probability <= 0.0 {
+        // Rare events are scheduled by geometric gaps (exactly the same statistics as one
+        // Bernoulli draw per trial, at one draw per event): a burst corrupts one line for
+        // all seven reads of a period; a flip corrupts one line of one read.
+        let mut burst_mask = 0u8;
+        if self.hall_burst_in == 0 {
+            burst_mask = 0b100u8 >> self.rng_hall.below(3);
+            self.hall_burst_in = self.rng_hall.geometric_gap(self.config.hall.burst_probability);
+        } else {
+            self.hall_burst_in = self.hall_burst_in.saturating_sub(1);
+        }
+        const TRIALS: u64 = (hall::HALL_VOTES as u64) * 3;
+        if burst_mask == 0 && self.hall_flip_in >= TRIALS {
+            self.hall_flip_in = self.hall_flip_in.saturating_sub(TRIALS);
             return code;
         }
-        let burst_mask = if self.rng_hall.chance(p.burst_probability) {
-            0b100u8 >> self.rng_hall.below(3)
-        } else {
-            0
-        };
         let mut reads = [code; hall::HALL_VOTES];
         for read in &mut reads {
-            let mut flips = burst_mask;
-            for mask in [0b100u8, 0b010, 0b001] {
-                if self.rng_hall.chance(p.read_flip_probability) {
-                    flips ^= mask;
-                }
-            }
-            *read = HallCode::from_raw(read.raw() ^ flips);
+            *read = HallCode::from_raw(read.raw() ^ burst_mask);
         }
+        // Constant bound: at most TRIALS (21) flips in one period.
+        for _ in 0..TRIALS {
+            if self.hall_flip_in >= TRIALS {
+                break;
+            }
+            let trial = self.hall_flip_in;
+            let mask = 0b100u8 >> (trial % 3);
+            if let Some(read) = reads.get_mut(usize::try_from(trial / 3).unwrap_or(0)) {
+                *read = HallCode::from_raw(read.raw() ^ mask);
+            }
+            let gap = self.rng_hall.geometric_gap(self.config.hall.read_flip_probability);
+            self.hall_flip_in = trial.saturating_add(1).saturating_add(gap);
+        }
+        self.hall_flip_in = self.hall_flip_in.saturating_sub(TRIALS);
         hall::vote(&reads)
     }
 

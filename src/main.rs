@@ -45,6 +45,9 @@ enum Command {
         /// Monte-Carlo scenario seed instead of the nominal machine.
         #[arg(long)]
         seed: Option<u64>,
+        /// Re-run scenario N of `report accuracy --seed 1` (with its calibration) instead.
+        #[arg(long)]
+        scenario: Option<u64>,
     },
 }
 
@@ -100,7 +103,7 @@ fn main() {
                 }
             }
         }
-        Command::Pull { tension, string, controller, seed } => {
+        Command::Pull { tension, string, controller, seed, scenario } => {
             let config = match controller.as_str() {
                 "paper_rsmc" => ControllerConfig::PAPER_RSMC,
                 "pd" => ControllerConfig::PD,
@@ -110,7 +113,22 @@ fn main() {
                 || TwinConfig::nominal(string),
                 |s| TwinConfig::sample_kind(string, s),
             );
-            let mut rig = Rig::new(&twin, &config, Calibration::IDENTITY);
+            let (twin, tension, calibration) = match scenario {
+                Some(n) => {
+                    let s = taut::report::Scenario::new(1, n);
+                    let cal =
+                        taut::sil::calibrate(&s.twin).calibration.unwrap_or(Calibration::IDENTITY);
+                    let t_min = taut::report::oracle_reach_time(&s.twin, s.target_kgf, 10_000);
+                    println!(
+                        "scenario {n}: {} T={} t_min={t_min:?} cal={cal:?}",
+                        s.twin.string.kind.name(),
+                        s.target_kgf
+                    );
+                    (s.twin, s.target_kgf, cal)
+                }
+                None => (twin, tension, Calibration::IDENTITY),
+            };
+            let mut rig = Rig::new(&twin, &config, calibration);
             let settings = PullSettings::default()
                 .with_tension(taut::sil::to_kgf(tension))
                 .expect("tension 5–50 kgf");

@@ -18,8 +18,10 @@
 //! - **hold error**: the largest |true tension − target| from 1 s to 10 s after settling;
 //! - **overshoot**: the largest true tension above the target before the hold window;
 //! - **pull-time ratio**: settle time over `t_min`, the time the bang-bang oracle
-//!   ([`taut_sim::bang_bang_reach_time`], full duty on the same scenario) needs to first
-//!   reach the target;
+//!   ([`oracle_reach_time`]: full duty on the same scenario) needs to first reach the target.
+//!   Full duty from rest would draw the stall current (≈ 28 A) and trip the drive's 12 A
+//!   overcurrent latch, so the oracle's duty is capped at what drives
+//!   [`ORACLE_CURRENT_LIMIT`] at the measured speed — the fastest pull the drive permits;
 //! - **chattering**: total variation of the signed duty per second over the hold window;
 //! - **peak current**: the largest phase current of the run;
 //! - **failed**: never settled, or a drive fault latched.
@@ -27,14 +29,18 @@
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use serde_json::{Value, json};
+use taut_core::drive::{Direction, DriveCommand};
+use taut_core::io::Outputs;
 use taut_core::sense::calibration::Calibration;
+use taut_core::tension::motor::{DutyMap, ForceToDuty, MotorModel, SpeedEstimator};
 use taut_core::tension::{ControllerConfig, PullKind, PullSettings};
-use taut_sim::{SimRng, TwinConfig, bang_bang_reach_time};
+use taut_core::units::{Amps, Kgf, Seconds};
+use taut_sim::{SimRng, Twin, TwinConfig};
 
 use crate::sil::{Rig, Sample, calibrate, to_kgf};
 
 /// Ticks simulated per pull: settle (≤ 4 s) + 10 s of hold + margin.
-pub const PULL_MS: u32 = 15_000;
+pub const PULL_MS: u32 = 16_000;
 /// Band and duration of the settling criterion.
 pub const SETTLE_BAND_KGF: f64 = 0.1;
 /// How long the measured tension must stay in the band, s.
@@ -87,6 +93,43 @@ impl Scenario {
         let target_kgf = (rng.range(8.0, 35.0) * 10.0).round() / 10.0;
         Self { twin, target_kgf }
     }
+}
+
+/// The oracle's current cap: 11 A, just under the drive's 12 A latch.
+pub const ORACLE_CURRENT_LIMIT: Amps = Amps::from_int(11);
+
+/// The bang-bang oracle: full duty (current-capped, see the module docs) from Start until
+/// the true tension first reaches `target_kgf`; the time in s, or `None` within `limit_ms`.
+#[must_use]
+pub fn oracle_reach_time(config: &TwinConfig, target_kgf: f64, limit_ms: u32) -> Option<f64> {
+    let mut twin = Twin::new(config);
+    let map = ForceToDuty::new(
+        &MotorModel::PAPER,
+        DutyMap::BackEmf { current_limit: ORACLE_CURRENT_LIMIT },
+    )
+    .expect("oracle map");
+    let mut speed = SpeedEstimator::new(1_000, Seconds::from_milli(2)).expect("speed estimator");
+    for tick in 1..=limit_ms {
+        let inputs = twin.inputs();
+        let v = speed.update(inputs.drive.steps);
+        let (command, _) = map.command(Kgf::MAX, v);
+        let command = match command {
+            DriveCommand::Drive { duty, .. } => {
+                DriveCommand::Drive { direction: Direction::Pull, duty }
+            }
+            DriveCommand::Coast => DriveCommand::Coast,
+        };
+        twin.apply(&Outputs { drive: command, ..Outputs::default() });
+        twin.advance_tick();
+        let truth = twin.truth();
+        if truth.drive_fault.is_some() {
+            return None;
+        }
+        if truth.tension_kgf >= target_kgf {
+            return Some(f64::from(tick) / 1000.0);
+        }
+    }
+    None
 }
 
 /// Runs one pull with `config` and `calibration`; returns the trace.
@@ -199,7 +242,7 @@ pub fn run_scenario(seed: u64, index: u64) -> ScenarioResult {
     let calibration_run = calibrate(&scenario.twin);
     let calibration_ok = calibration_run.calibration.is_ok();
     let calibration = calibration_run.calibration.unwrap_or(Calibration::IDENTITY);
-    let t_min = bang_bang_reach_time(&scenario.twin, scenario.target_kgf, 10_000);
+    let t_min = oracle_reach_time(&scenario.twin, scenario.target_kgf, 10_000);
     let mut metrics = [Metrics::default(); 3];
     for (slot, (_, config)) in metrics.iter_mut().zip(CONTROLLERS) {
         let trace = pull_trace(&scenario, &config, calibration, PULL_MS);

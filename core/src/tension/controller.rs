@@ -95,19 +95,23 @@ pub struct ProfileConfig {
     pub rate_filter: Seconds,
     /// Low-pass time constant of the Hall speed estimate.
     pub speed_filter: Seconds,
+    /// The carriage's effective mass for the coast-stop prediction, kgf·s²/mm (rotor and
+    /// gearbox inertia reflected through the screw plus the carriage: 394 kg = 0.0402).
+    pub coast_mass: Q16,
 }
 
 impl ProfileConfig {
     /// taut's profile.
     pub const TAUT: Self = Self {
         shaped: true,
-        approach_time_constant: Seconds(Q16::lit("0.025")),
+        approach_time_constant: Seconds(Q16::lit("0.15")),
         approach_margin: Kgf(Q16::lit("0.3")),
         pre_stretch_dwell_ms: 300,
         at_tension_band: Kgf(Q16::lit("0.1")),
         release_speed: MmPerSecond::from_int(40),
         rate_filter: Seconds(Q16::lit("0.005")),
         speed_filter: Seconds(Q16::lit("0.004")),
+        coast_mass: Q16::lit("0.0402"),
     };
 
     /// A step set point, as in the paper's simulation.
@@ -171,7 +175,7 @@ impl ControllerConfig {
     pub const PAPER_RSMC: Self = Self {
         period_us: 1_000,
         law: LawConfig::Rsmc(RsmcGains::paper(TAUT_PLANT)),
-        duty_map: DutyMap::Proportional,
+        duty_map: DutyMap::Proportional { current_limit: Amps::from_int(8) },
         motor: MotorModel::PAPER,
         profile: ProfileConfig::STEP,
     };
@@ -181,7 +185,7 @@ impl ControllerConfig {
     pub const PD: Self = Self {
         period_us: 1_000,
         law: LawConfig::Pd(PdGains::PAPER),
-        duty_map: DutyMap::Proportional,
+        duty_map: DutyMap::Proportional { current_limit: Amps::from_int(8) },
         motor: MotorModel::PAPER,
         profile: ProfileConfig::STEP,
     };
@@ -280,6 +284,8 @@ pub struct ProfileState {
     pub at_tension: bool,
     /// Which way the previous output saturated.
     pub saturated: Saturation,
+    /// The approach is coasting toward the target (drive off, string and friction braking).
+    pub coasting: bool,
     /// The last five tension samples, kgf bits (oldest first), for the spike filter.
     pub window: [i32; 5],
 }
@@ -305,6 +311,12 @@ pub struct TensionController {
     tau: i32,
     dwell_ticks: u32,
     band: i32,
+    /// Coast-stop mass, Q15.16 kgf·s²/mm.
+    coast_mass: i32,
+    /// The coast ends below this tension rate (kgf/s bits) …
+    stop_rate: i32,
+    /// … or below this carriage speed (mm/s bits).
+    stop_speed: i32,
     release_speed: MmPerSecond,
     profile: ProfileState,
 }
@@ -395,6 +407,9 @@ impl TensionController {
                 .checked_div(period)
                 .unwrap_or(0),
             band: profile.at_tension_band.to_bits(),
+            coast_mass: profile.coast_mass.to_bits(),
+            stop_rate: Q16::const_from_int(1).to_bits(),
+            stop_speed: Q16::lit("0.5").to_bits(),
             release_speed: profile.release_speed,
             profile: ProfileState::default(),
         })
@@ -426,6 +441,9 @@ impl TensionController {
             tau: 1_638,
             dwell_ticks: 0,
             band: 6_554,
+            coast_mass: 0,
+            stop_rate: 0,
+            stop_speed: 0,
             release_speed: MmPerSecond::from_int(20),
             profile: ProfileState::default(),
         }
@@ -449,6 +467,7 @@ impl TensionController {
             rate: 0,
             at_tension: false,
             saturated: Saturation::None,
+            coasting: false,
             window: self.profile.window,
         };
         self.reset_law(Kgf::ZERO, Kgf::ZERO);
@@ -591,17 +610,19 @@ impl TensionController {
                 }
             }
             PullPhase::TakeUp => {
-                let remaining = self.profile.peak.to_bits().saturating_sub(y);
-                // What the present rate covers in τ_a, plus the margin.
-                let covered = narrow(mul_wide(self.profile.rate.max(0), self.tau))
-                    .saturating_add(self.margin);
-                if remaining <= covered {
-                    self.profile.reference =
-                        i64::from(y.clamp(0, self.profile.peak.to_bits())) << 16;
-                    self.profile.goal = self.profile.peak;
-                    self.reset_law(Kgf::ZERO, Kgf::ZERO);
+                // Coast-stop prediction: a carriage of (reflected) mass M̄ moving at v into a
+                // string of stiffness K = ẏ/v stops after a further rise of
+                // ẏ/ω = ẏ·√(M̄/K) = √(M̄·v·ẏ) (friction only shortens it). The drive cannot
+                // brake (high-side PWM with diode freewheeling only ever motors), so the pull
+                // coasts as soon as that rise reaches the remaining tension minus a margin.
+                let remaining =
+                    self.profile.peak.to_bits().saturating_sub(y).saturating_sub(self.margin);
+                let momentum = narrow(mul_wide(self.coast_mass, speed.0.to_bits().max(0)));
+                let rise_squared = mul_wide(momentum, self.profile.rate.max(0));
+                if remaining <= 0 || mul_wide(remaining, remaining) <= rise_squared {
+                    self.profile.coasting = true;
                     self.enter(PullPhase::Approach);
-                    self.closed_loop(m, speed, &mut force)
+                    DriveCommand::Drive { direction: Direction::Pull, duty: Duty::ZERO }
                 } else {
                     // Run at the speed limit, accelerating no harder than the current
                     // limit allows (full duty from rest would draw the stall current).
@@ -614,6 +635,20 @@ impl TensionController {
                     let (limited, _) = self.map.command(self.map.force_limit(), speed);
                     let duty = if limited.duty() < cruise { limited.duty() } else { cruise };
                     DriveCommand::Drive { direction: Direction::Pull, duty }
+                }
+            }
+            PullPhase::Approach if self.profile.coasting => {
+                // Coast until the tension stops rising or the carriage stops, then close the
+                // loop from where the coast ended.
+                if self.profile.rate <= self.stop_rate || speed.0.to_bits() <= self.stop_speed {
+                    self.profile.coasting = false;
+                    self.profile.reference =
+                        i64::from(y.clamp(0, self.profile.peak.to_bits())) << 16;
+                    self.profile.goal = self.profile.peak;
+                    self.reset_law(Kgf::ZERO, Kgf::ZERO);
+                    self.closed_loop(m, speed, &mut force)
+                } else {
+                    DriveCommand::Drive { direction: Direction::Pull, duty: Duty::ZERO }
                 }
             }
             PullPhase::Approach | PullPhase::PreStretch | PullPhase::Settle | PullPhase::Hold => {

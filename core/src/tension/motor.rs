@@ -97,8 +97,13 @@ pub enum MotorError {
 /// How a force becomes a duty (see the module docs).
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
 pub enum DutyMap {
-    /// `duty = F / F_stall`, negative force → release.
-    Proportional,
+    /// `duty = F / F_stall`, negative force → release; the magnitude is capped at the duty
+    /// that would drive `current_limit` at the measured speed (the drive's protection,
+    /// shared by every law: without it a step from rest asks for the stall current).
+    Proportional {
+        /// The largest current the mapping asks for, A.
+        current_limit: Amps,
+    },
     /// `duty = F·c_f + v·c_v`, force limited by `current_limit`, duty clamped to
     /// `[0, DUTY_MAX]` in the pull direction.
     BackEmf {
@@ -184,9 +189,12 @@ impl ForceToDuty {
         if duty_per_kgf <= 0 || duty_per_mm_s <= 0 {
             return Err(MotorError::Range);
         }
-        let (force_limit, compensate) = match map {
-            DutyMap::Proportional => (i32::MAX, false),
-            DutyMap::BackEmf { current_limit } => {
+        let (current_limit, compensate) = match map {
+            DutyMap::Proportional { current_limit } => (current_limit, false),
+            DutyMap::BackEmf { current_limit } => (current_limit, true),
+        };
+        let force_limit = {
+            {
                 if current_limit.0 <= Q16::ZERO {
                     return Err(MotorError::Parameter);
                 }
@@ -199,7 +207,7 @@ impl ForceToDuty {
                     .saturating_mul(eta)
                     .checked_div(lead.saturating_mul(G_1E5).saturating_mul(1_000_000))
                     .ok_or(MotorError::Range)?;
-                (i32::try_from(limit).map_err(|_| MotorError::Range)?, true)
+                i32::try_from(limit).map_err(|_| MotorError::Range)?
             }
         };
         Ok(Self { duty_per_kgf, duty_per_mm_s, force_limit, compensate })
@@ -225,7 +233,11 @@ impl ForceToDuty {
 
     /// A signed duty fraction (Q15.16 bits) for force `force` at speed `speed`.
     fn signed_duty(&self, force: i32, speed: i32) -> i64 {
-        let force = force.clamp(self.force_limit.saturating_neg(), self.force_limit);
+        let force = if self.compensate {
+            force.clamp(self.force_limit.saturating_neg(), self.force_limit)
+        } else {
+            force
+        };
         let from_force = mul_wide(force, self.duty_per_kgf);
         let from_speed = if self.compensate { mul_wide(speed, self.duty_per_mm_s) } else { 0 };
         // Q15.16 × Q7.24 = Q?.40 → Q15.16.
@@ -256,12 +268,22 @@ impl ForceToDuty {
             } else {
                 (Direction::Release, duty_bits.saturating_neg())
             };
+            // The current cap: the duty that drives the limit current at this speed.
+            let moving = match direction {
+                Direction::Pull => speed.0.to_bits(),
+                Direction::Release => speed.0.to_bits().saturating_neg(),
+            };
+            let cap = mul_wide(self.force_limit, self.duty_per_kgf)
+                .saturating_add(mul_wide(moving.max(0), self.duty_per_mm_s))
+                >> DUTY_COEF_FRAC;
+            let max = max.min(cap.max(0));
             let saturation = match (magnitude > max, direction) {
                 (false, _) => Saturation::None,
                 (true, Direction::Pull) => Saturation::High,
                 (true, Direction::Release) => Saturation::Low,
             };
-            let duty = Duty::from_fraction_clamped(Q16::from_bits(saturate_i32(magnitude)));
+            let duty =
+                Duty::from_fraction_clamped(Q16::from_bits(saturate_i32(magnitude.min(max))));
             (DriveCommand::Drive { direction, duty }, saturation)
         }
     }
@@ -365,7 +387,11 @@ mod tests {
 
     #[test]
     fn paper_motor_coefficients() {
-        let map = ForceToDuty::new(&MotorModel::PAPER, DutyMap::Proportional).unwrap();
+        let map = ForceToDuty::new(
+            &MotorModel::PAPER,
+            DutyMap::Proportional { current_limit: Amps::from_int(8) },
+        )
+        .unwrap();
         // duty per mm/s = 0.0601 · 2π·20/25.4 / 24 = 0.012 389 → 80.7 mm/s at 100 %.
         let per_mm_s = f_q24(map.duty_per_mm_s_q24());
         assert!((per_mm_s - 12_389).abs() < 10, "{per_mm_s}");

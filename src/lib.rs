@@ -21,5 +21,7 @@
 )]
 #![allow(clippy::expect_used, reason = "host tool: a broken built-in configuration is a bug")]
 
+pub mod paper;
+pub mod plot;
 pub mod report;
 pub mod sil;

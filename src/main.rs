@@ -26,6 +26,15 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// The paper's simulation (section 7.3) with taut-core's fixed-point laws.
+    Paper {
+        /// Write the headline figures as JSON here.
+        #[arg(long)]
+        json: Option<std::path::PathBuf>,
+        /// Write the figure 18–20 plot here.
+        #[arg(long)]
+        svg: Option<std::path::PathBuf>,
+    },
     /// Reports on the twin.
     Report {
         #[command(subcommand)]
@@ -48,6 +57,12 @@ enum Command {
         /// Re-run scenario N of `report accuracy --seed 1` (with its calibration) instead.
         #[arg(long)]
         scenario: Option<u64>,
+        /// Write a plot (tension, carriage, duty, current) here.
+        #[arg(long)]
+        svg: Option<std::path::PathBuf>,
+        /// Print every 20th tick.
+        #[arg(long)]
+        verbose: bool,
     },
 }
 
@@ -73,7 +88,7 @@ enum ReportKind {
 fn main() {
     let cli = Cli::parse();
     match cli.command {
-        Command::Report { which: ReportKind::Accuracy { scenarios, seed, json, svg: _ } } => {
+        Command::Report { which: ReportKind::Accuracy { scenarios, seed, json, svg } } => {
             use std::io::Write as _;
             let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
             let progress = |done: usize| {
@@ -94,6 +109,12 @@ fn main() {
                 std::fs::write(&path, serde_json::to_string_pretty(&doc).expect("json"))
                     .expect("write JSON");
             }
+            if let Some(dir) = svg {
+                std::fs::create_dir_all(&dir).expect("create SVG directory");
+                for (name, figure) in taut::report::figures(seed, &results) {
+                    std::fs::write(dir.join(name), figure.to_svg()).expect("write SVG");
+                }
+            }
             if std::env::var_os("TAUT_REPORT_DETAIL").is_some() {
                 for r in &results {
                     println!(
@@ -103,7 +124,27 @@ fn main() {
                 }
             }
         }
-        Command::Pull { tension, string, controller, seed, scenario } => {
+        Command::Paper { json, svg } => {
+            let (rsmc, pd, h) = taut::paper::run();
+            let show = |x: Option<f64>| x.map_or("never".to_owned(), |v| format!("{v:.4}"));
+            println!("| figure | taut re-run | paper |\n|---|---|---|");
+            println!("| RSMC time to 10 kgw (98 %) | {} s | ≈ 0.02 s |", show(h.rsmc_reach_s));
+            println!("| PD time to 10 kgw (98 %) | {} s | ≈ 0.05 s |", show(h.pd_reach_s));
+            println!("| PD steady-state error | {:.4} kgw | ≈ 0.018 kgw |", h.pd_steady_error_kgw);
+            if let Some(path) = json {
+                let doc = serde_json::json!({
+                    "rsmc_reach_s": h.rsmc_reach_s,
+                    "pd_reach_s": h.pd_reach_s,
+                    "pd_steady_error_kgw": h.pd_steady_error_kgw,
+                });
+                std::fs::write(&path, serde_json::to_string_pretty(&doc).expect("json"))
+                    .expect("write JSON");
+            }
+            if let Some(path) = svg {
+                std::fs::write(&path, taut::paper::figure(&rsmc, &pd).to_svg()).expect("write SVG");
+            }
+        }
+        Command::Pull { tension, string, controller, seed, scenario, svg, verbose } => {
             let config = match controller.as_str() {
                 "paper_rsmc" => ControllerConfig::PAPER_RSMC,
                 "pd" => ControllerConfig::PD,
@@ -126,7 +167,12 @@ fn main() {
                     );
                     (s.twin, s.target_kgf, cal)
                 }
-                None => (twin, tension, Calibration::IDENTITY),
+                None => {
+                    // A calibrated machine, as in the field: the 4-point calibration first.
+                    let cal =
+                        taut::sil::calibrate(&twin).calibration.unwrap_or(Calibration::IDENTITY);
+                    (twin, tension, cal)
+                }
             };
             let mut rig = Rig::new(&twin, &config, calibration);
             let settings = PullSettings::default()
@@ -134,8 +180,37 @@ fn main() {
                 .expect("tension 5–50 kgf");
             rig.start(&settings, PullKind::Main);
             let mut trace: Vec<Sample> = Vec::new();
-            rig.run(6_000, &mut trace);
-            for s in trace.iter().step_by(20).take(300) {
+            // Pull and hold 12 s, then release until home (at most 8 s more).
+            rig.run(12_000, &mut trace);
+            rig.controller.release();
+            for _ in 0..8_000 {
+                let (sample, out, _) = rig.tick();
+                trace.push(sample);
+                if out.phase == taut_core::tension::PullPhase::Idle {
+                    break;
+                }
+            }
+            let m = taut::report::metrics(&trace[..trace.len().min(12_000)], tension, None);
+            let hold_end = trace.iter().filter(|s| s.t <= 12.0).count();
+            println!(
+                "pull {} to {tension:.1} kgf ({controller}): settled {} s, overshoot {:.3} kgf, hold error {:.3} kgf, chattering {:.2}/s, peak current {:.2} A, final true tension {:.3} kgf, released in {:.2} s",
+                twin.string.kind.name(),
+                m.settle_s.map_or("never".to_owned(), |s| format!("{s:.3}")),
+                m.overshoot_kgf,
+                m.hold_error_kgf,
+                m.chattering,
+                m.peak_current_a,
+                trace.get(hold_end.saturating_sub(1)).map_or(f64::NAN, |s| s.tension),
+                trace.last().map_or(0.0, |s| s.t) - 12.0,
+            );
+            if let Some(path) = svg {
+                std::fs::write(
+                    &path,
+                    taut::report::pull_figure(&trace, tension, "taut pull").to_svg(),
+                )
+                .expect("write SVG");
+            }
+            for s in trace.iter().step_by(20).take(if verbose { usize::MAX } else { 0 }) {
                 println!(
                     "{:6.3} T={:7.3} m={:7.3} r={:7.3} d={:6.3} x={:7.2} i={:5.2} f={:8.2} {:?} {}",
                     s.t,

@@ -37,6 +37,7 @@ use taut_core::tension::{ControllerConfig, PullKind, PullSettings};
 use taut_core::units::{Amps, Kgf, Seconds};
 use taut_sim::{SimRng, Twin, TwinConfig};
 
+use crate::plot::{Figure, Panel, Series};
 use crate::sil::{Rig, Sample, calibrate, to_kgf};
 
 /// Ticks simulated per pull: settle (≤ 4 s) + 10 s of hold + margin.
@@ -182,18 +183,14 @@ pub fn metrics(trace: &[Sample], target: f64, t_min: Option<f64>) -> Metrics {
     }
     let fault = trace.iter().any(|s| s.fault);
     let peak_current_a = trace.iter().map(|s| s.peak_current).fold(0.0, f64::max);
-    let Some(settle) = settle_index else {
-        return Metrics {
-            settle_s: None,
-            hold_error_kgf: f64::NAN,
-            overshoot_kgf: trace.iter().map(|s| s.tension - target).fold(0.0, f64::max),
-            pull_time_ratio: f64::NAN,
-            chattering: f64::NAN,
-            peak_current_a,
-            failed: true,
-        };
+    // A run that never settles is censored: its "settle time" is the run's length and its
+    // hold window the run's last 9 s, so every figure stays a number; it counts as failed.
+    let settled = settle_index.is_some();
+    let run_end = trace.last().map_or(0.0, |s| s.t);
+    let settle_s = match settle_index {
+        Some(index) => trace[index].t,
+        None => run_end - HOLD_WINDOW_S.1,
     };
-    let settle_s = trace[settle].t;
     let window =
         |s: &&Sample| s.t >= settle_s + HOLD_WINDOW_S.0 && s.t <= settle_s + HOLD_WINDOW_S.1;
     let hold: Vec<&Sample> = trace.iter().filter(window).collect();
@@ -207,13 +204,13 @@ pub fn metrics(trace: &[Sample], target: f64, t_min: Option<f64>) -> Metrics {
     let variation: f64 = hold.windows(2).map(|w| (w[1].duty - w[0].duty).abs()).sum();
     let chattering = variation / (HOLD_WINDOW_S.1 - HOLD_WINDOW_S.0);
     Metrics {
-        settle_s: Some(settle_s),
+        settle_s: Some(if settled { settle_s } else { run_end }),
         hold_error_kgf,
         overshoot_kgf,
-        pull_time_ratio: t_min.map_or(f64::NAN, |t| settle_s / t),
+        pull_time_ratio: t_min.map_or(f64::NAN, |t| if settled { settle_s } else { run_end } / t),
         chattering,
         peak_current_a,
-        failed: fault || !hold_complete,
+        failed: fault || !settled || !hold_complete,
     }
 }
 
@@ -329,8 +326,8 @@ pub struct Summary {
 #[must_use]
 pub fn summarize(results: &[ScenarioResult], which: usize) -> Summary {
     let all: Vec<&Metrics> = results.iter().map(|r| &r.metrics[which]).collect();
-    let ok: Vec<&Metrics> = all.iter().copied().filter(|m| !m.failed).collect();
-    let of = |f: fn(&Metrics) -> f64| ok.iter().map(|m| f(m)).collect::<Vec<f64>>();
+    // Every scenario counts (a failed one with its censored figures, see `metrics`).
+    let of = |f: fn(&Metrics) -> f64| all.iter().map(|m| f(m)).collect::<Vec<f64>>();
     let hold = of(|m| m.hold_error_kgf);
     Summary {
         hold_error_p50_kgf: percentile(&hold, 50.0),
@@ -396,6 +393,88 @@ pub fn markdown(results: &[ScenarioResult]) -> String {
             s.chattering_p50,
             s.peak_current_max_a,
             s.failed
+        ));
+    }
+    out
+}
+
+/// The time series of one pull: tension (true, measured, reference), carriage, duty,
+/// current.
+#[must_use]
+pub fn pull_figure(trace: &[Sample], target: f64, title: &str) -> Figure {
+    let series = |f: fn(&Sample) -> f64| trace.iter().map(|s| (s.t, f(s))).collect::<Vec<_>>();
+    let end = trace.last().map_or(1.0, |s| s.t);
+    Figure::new(
+        title,
+        "time since Start (s)",
+        vec![
+            Panel::new(
+                "tension (kgf)",
+                vec![
+                    Series::new("true", series(|s| s.tension)),
+                    Series::new("measured", series(|s| s.measured)),
+                    Series::new("reference", series(|s| s.reference)),
+                    Series::new("target", vec![(0.0, target), (end, target)]),
+                ],
+            ),
+            Panel::new("carriage (mm)", vec![Series::new("position", series(|s| s.carriage_mm))]),
+            Panel::new("duty (− = release)", vec![Series::new("duty", series(|s| s.duty))]),
+            Panel::new("current (A)", vec![Series::new("winding", series(|s| s.current))]),
+        ],
+    )
+}
+
+/// The report's plots: per controller, the hold-window error (true − target) of a
+/// representative subset of scenarios overlaid; and the distribution of hold errors.
+#[must_use]
+pub fn figures(seed: u64, results: &[ScenarioResult]) -> Vec<(String, Figure)> {
+    let mut out = Vec::new();
+    // Sorted hold error per controller (an empirical quantile plot).
+    let mut quantiles = Vec::new();
+    for (which, (name, _)) in CONTROLLERS.iter().enumerate() {
+        let mut v: Vec<f64> = results.iter().map(|r| r.metrics[which].hold_error_kgf).collect();
+        v.sort_by(f64::total_cmp);
+        let n = v.len().max(1) as f64;
+        quantiles.push(Series::new(
+            name,
+            v.iter().enumerate().map(|(i, e)| ((i + 1) as f64 / n * 100.0, *e)).collect(),
+        ));
+    }
+    out.push((
+        "hold_error_quantiles.svg".to_owned(),
+        Figure::new(
+            "hold error |true − target| per scenario, sorted (percentile → kgf)",
+            "percentile of scenarios",
+            vec![Panel::new("hold error (kgf)", quantiles)],
+        ),
+    ));
+    // The first four scenarios, each controller's true tension minus target.
+    for result in results.iter().take(4) {
+        let scenario = Scenario::new(seed, result.index);
+        let calibration = calibrate(&scenario.twin).calibration.unwrap_or(Calibration::IDENTITY);
+        let mut tension = Vec::new();
+        let mut duty = Vec::new();
+        for (name, config) in CONTROLLERS {
+            let trace = pull_trace(&scenario, &config, calibration, PULL_MS);
+            tension.push(Series::new(
+                name,
+                trace.iter().map(|s| (s.t, s.tension - scenario.target_kgf)).collect(),
+            ));
+            duty.push(Series::new(name, trace.iter().map(|s| (s.t, s.duty)).collect()));
+        }
+        out.push((
+            format!("scenario_{}.svg", result.index),
+            Figure::new(
+                &format!(
+                    "scenario {}: {} at {:.1} kgf — three controllers",
+                    result.index, result.string, result.target_kgf
+                ),
+                "time since Start (s)",
+                vec![
+                    Panel::new("true tension − target (kgf)", tension),
+                    Panel::new("duty (− = release)", duty),
+                ],
+            ),
         ));
     }
     out

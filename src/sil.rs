@@ -191,6 +191,14 @@ pub const CALIBRATION_AVERAGE_TICKS: u32 = 500;
 /// The paper's calibration on a twin built from `config` (see the module docs).
 #[must_use]
 pub fn calibrate(config: &TwinConfig) -> CalibrationRun {
+    // The reference gauge and its fixture replace the string: a stiff, short load path
+    // (a polyester-like 12.5 kgf/cm, 10 mm slack), so 40 kgf is reached within the travel
+    // whatever string the scenario strings afterwards. The machine — motor, friction,
+    // sensor chain — is the scenario's own.
+    let mut config = *config;
+    config.string = taut_sim::params::StringParams::nominal(taut_sim::StringKind::TennisPolyester);
+    config.string.slack_mm = 10.0;
+    let config = &config;
     let mut rig = Rig::new(config, &ControllerConfig::TAUT, Calibration::IDENTITY);
     let zero = {
         // Unloaded: the raw reading right after taring.

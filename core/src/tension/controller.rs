@@ -144,7 +144,7 @@ pub const TAUT_PLANT: NominalPlant =
 /// taut's RSMC: the paper's structure with every improvement on.
 pub const TAUT_GAINS: RsmcGains = RsmcGains {
     lambda: Q16::const_from_int(25),
-    g: Q16::lit("0.05"),
+    g: Q16::lit("0.1"),
     k_phi_micro: 20_000,
     plant: TAUT_PLANT,
     improvements: Improvements {

@@ -190,7 +190,7 @@ fn main() {
                     break;
                 }
             }
-            let m = taut::report::metrics(&trace[..trace.len().min(12_000)], tension, None);
+            let m = taut::report::metrics(trace.get(..12_000).unwrap_or(&trace), tension, None);
             let hold_end = trace.iter().filter(|s| s.t <= 12.0).count();
             println!(
                 "pull {} to {tension:.1} kgf ({controller}): settled {} s, overshoot {:.3} kgf, hold error {:.3} kgf, chattering {:.2}/s, peak current {:.2} A, final true tension {:.3} kgf, released in {:.2} s",

@@ -131,7 +131,8 @@ pub struct CheckpointInput {
     pub view: u8,
     /// Tare code.
     pub tare: u16,
-    /// Peak tension seen, tenths of a kgf.
+    /// Peak tension seen, tenths of a kgf (above 1 000 reads as 100 kgf, which the
+    /// checkpoint's invariant rejects).
     pub peak_tenths: u16,
     /// Persistence counters: overload, break, reversed.
     pub counters: [u8; 3],
@@ -198,7 +199,7 @@ impl CheckpointInput {
             tare: AdcCode::new(self.tare),
             watch: TensionWatch::from_parts(
                 self.start_steps,
-                Kgf::from_tenths(i32::from(self.peak_tenths)),
+                Kgf::from_tenths(i32::from(self.peak_tenths.min(1_000))),
                 overload,
                 broken,
                 reversed,

@@ -507,7 +507,7 @@ impl Chart {
         context.out.leds = self.unit_leds();
         *elapsed = elapsed.saturating_add(1);
         context.next = match sample.key {
-            Some(KeyEvent::Press(Key::Function)) => Some(State::calibration_pull(0, 0)),
+            Some(KeyEvent::Press(Key::Function)) => Some(State::calibration_pull(0, 0, 0)),
             Some(KeyEvent::Press(_)) => Some(State::ready(View::Tension)),
             _ if *elapsed >= CALIBRATION_WINDOW => Some(State::ready(View::Tension)),
             _ => None,
@@ -524,7 +524,7 @@ impl Chart {
     // ───────────────────────────── calibration ─────────────────────────────
 
     /// Pull to calibration point `point` by the raw reading and hold it for
-    /// [`CALIBRATION_SETTLE`]; any key aborts.
+    /// [`CALIBRATION_SETTLE`]; any key aborts; [`PULL_TIMEOUT`] faults.
     #[state(superstate = "tensioned", entry_action = "enter_calibration_pull")]
     fn calibration_pull(
         &mut self,
@@ -532,8 +532,10 @@ impl Chart {
         event: &Tick,
         point: &mut u8,
         settled: &mut u32,
+        elapsed: &mut u32,
     ) -> Outcome<State> {
         let Tick(sample) = event;
+        *elapsed = elapsed.saturating_add(1);
         context.out.display = panel::text(&point_label(*point));
         let output = self.controller.step(&Self::measurement(sample, sample.raw));
         context.out.drive = output.command;
@@ -546,6 +548,8 @@ impl Chart {
             let entered =
                 u16::try_from(sample.raw_average.to_tenths_rounded().clamp(50, 550)).unwrap_or(100);
             Some(State::calibration_entry(*point, entered))
+        } else if *elapsed >= PULL_TIMEOUT {
+            Some(State::fault(FaultCode::PullTimeout, Recovery::Home, 0))
         } else {
             None
         };
@@ -829,12 +833,12 @@ impl Chart {
         if let Some(slot) = self.calibration_points.get_mut(usize::from(point)) {
             *slot = CalibrationPoint {
                 raw: sample.raw_average,
-                reference: Kgf::from_tenths(i32::from(entered)),
+                reference: Kgf::from_tenths(i32::from(entered.min(550))),
             };
         }
         let next_point = point.saturating_add(1);
         if usize::from(next_point) < CALIBRATION_POINTS {
-            return State::calibration_pull(next_point, 0);
+            return State::calibration_pull(next_point, 0, 0);
         }
         match Calibration::new(&calibration_points(&self.calibration_points)) {
             Ok(calibration) => {
@@ -966,7 +970,7 @@ pub(crate) fn state_at(checkpoint: &Checkpoint) -> State {
         ),
         MachineState::Homing => State::releasing(elapsed, AfterRelease::CalibrationWindow),
         MachineState::CalibrationWindow => State::calibration_window(elapsed),
-        MachineState::CalibrationPull { point } => State::calibration_pull(point, elapsed),
+        MachineState::CalibrationPull { point } => State::calibration_pull(point, 0, elapsed),
         MachineState::CalibrationEntry { point } => {
             State::calibration_entry(point, checkpoint.entered_tenths)
         }

@@ -57,9 +57,11 @@ pub const NO_STRING_TRAVEL_STEPS: i32 = 2_835;
 /// "Without tension": below 1 kgf.
 pub const NO_STRING_TENSION: Kgf = Kgf::from_int(1);
 
-/// A tension reading below this while pulling means the bridge is wired backwards (or came
-/// off during the pull): −0.5 kgf, well outside the unloaded noise.
-pub const REVERSED_TENSION: Kgf = Kgf(Q16::lit("-0.5"));
+/// A tension reading below this while pulling means the bridge is wired backwards: −0.3 kgf
+/// (27 mV, 22 codes below the tare), well outside the unloaded noise. A reversed bridge's
+/// output can only fall as far as the bottom rail (with the nominal 50 mV tare, −0.54 kgf),
+/// so with a tare below ≈ 37 mV it reaches the rail first and reads as `E-03`.
+pub const REVERSED_TENSION: Kgf = Kgf(Q16::lit("-0.3"));
 
 /// Ticks an overload must persist before it latches.
 pub const OVERLOAD_PERSIST: u8 = 3;

@@ -28,4 +28,6 @@
 pub mod drive;
 pub mod fixed_point;
 pub mod machine;
+pub mod tension;
+pub mod tension_reference;
 pub mod machine_model;

@@ -146,6 +146,8 @@ pub struct CheckpointInput {
     pub held_ms: u16,
     /// Key-pad long press sent.
     pub long_sent: bool,
+    /// Consecutive ticks at a load-cell rail.
+    pub rail_ticks: u8,
 }
 
 /// Number of state kinds [`CheckpointInput::state`] selects from.
@@ -212,6 +214,7 @@ impl CheckpointInput {
                 self.held_ms,
                 self.long_sent,
             ),
+            rail_ticks: self.rail_ticks,
         }
     }
 }

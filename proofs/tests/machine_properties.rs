@@ -59,6 +59,7 @@ fn checkpoints() -> Vec<CheckpointInput> {
                         key_bits: (0, 0),
                         held_ms: 0,
                         long_sent: false,
+                        rail_ticks: if release { 19 } else { 0 },
                     };
                     if input.checkpoint().is_valid() {
                         out.push(input);
@@ -155,7 +156,7 @@ fn any_checkpoint() -> impl Strategy<Value = CheckpointInput> {
         ),
         (40u16..600, any::<bool>(), any::<bool>(), 0u16..120, any::<u8>(), 0u16..420, 0u16..600),
         (prop::array::uniform3(0u8..25), any::<bool>(), prop::array::uniform5(0u8..25)),
-        (any::<u8>(), any::<u8>(), any::<u16>(), any::<bool>()),
+        (any::<u8>(), any::<u8>(), any::<u16>(), any::<bool>(), 0u8..25),
     )
         .prop_map(|(a, b, c, d)| CheckpointInput {
             state: a.0,
@@ -178,6 +179,7 @@ fn any_checkpoint() -> impl Strategy<Value = CheckpointInput> {
             key_bits: (d.0, d.1),
             held_ms: d.2,
             long_sent: d.3,
+            rail_ticks: d.4,
         })
 }
 

@@ -204,9 +204,12 @@ pub struct Chart {
     pub string_counts: i32,
     /// The calibration points taken so far.
     pub calibration_points: [CalibrationPoint; CALIBRATION_POINTS],
-    /// A watch to resume with instead of a fresh one at the next pull start
-    /// ([`crate::machine::Machine::resume`]).
-    pub resume_watch: Option<TensionWatch>,
+    /// Consecutive moving ticks with the load cell at a rail.
+    pub rail_ticks: u8,
+    /// Set while [`crate::machine::Machine::resume`] enters its checkpoint's state: the entry
+    /// actions then keep the checkpoint's watch and rail count instead of starting afresh.
+    /// Cleared by the first tick.
+    pub resuming: bool,
 }
 
 impl Chart {
@@ -236,7 +239,8 @@ impl Chart {
             time_to_tension: 0,
             string_counts: 0,
             calibration_points: [CalibrationPoint::default(); CALIBRATION_POINTS],
-            resume_watch: None,
+            rail_ticks: 0,
+            resuming: false,
         }
     }
 
@@ -285,10 +289,9 @@ impl Chart {
 
     /// Starts tracking a pull (or calibration point) of peak target `peak`.
     fn begin_pull(&mut self, context: &Context, peak: Kgf) {
-        self.watch = self
-            .resume_watch
-            .take()
-            .unwrap_or(TensionWatch::new(context.sample.inputs.drive.steps));
+        if !self.resuming {
+            self.watch = TensionWatch::new(context.sample.inputs.drive.steps);
+        }
         self.peak_target = peak;
         self.time_to_tension = 0;
         self.string_counts = 0;
@@ -358,6 +361,7 @@ impl Chart {
     #[superstate]
     fn operational(&mut self, context: &mut Context, event: &Tick) -> Outcome<State> {
         let Tick(sample) = event;
+        self.resuming = false;
         if let Some(code) = safety::global_fault(&sample.inputs) {
             return self.trip(context, code);
         }
@@ -368,17 +372,31 @@ impl Chart {
     }
 
     /// Rules for every state that may drive the motor.
-    #[superstate(superstate = "operational", exit_action = "exit_motion")]
+    #[superstate(
+        superstate = "operational",
+        entry_action = "enter_motion",
+        exit_action = "exit_motion"
+    )]
     fn motion(&mut self, context: &mut Context, event: &Tick) -> Outcome<State> {
         let Tick(sample) = event;
         context.out.drive = safety::limit_guard(context.out.drive, sample.inputs.limits);
         if safety::stall(context.out.drive, &sample.inputs) {
             return self.trip(context, FaultCode::Stall);
         }
-        if let Some(code) = safety::load_cell_rail(sample.inputs.load_cell) {
+        let rail = safety::load_cell_rail(sample.inputs.load_cell);
+        self.rail_ticks = if rail.is_some() { self.rail_ticks.saturating_add(1) } else { 0 };
+        if let Some(code) = rail.filter(|_| self.rail_ticks >= safety::RAIL_PERSIST) {
             return self.trip(context, code);
         }
         Super
+    }
+
+    /// Entering motion: no rail reading seen yet.
+    #[action]
+    fn enter_motion(&mut self) {
+        if !self.resuming {
+            self.rail_ticks = 0;
+        }
     }
 
     /// Leaving motion: the bridge coasts.
@@ -726,7 +744,7 @@ impl Chart {
     ) -> Outcome<State> {
         let Tick(sample) = event;
         match then {
-            AfterRelease::CalibrationWindow => context.out.display = panel::text(b"HOME"),
+            AfterRelease::CalibrationWindow => context.out.display = panel::text(b"HOnE"),
             AfterRelease::Ready => self.show_tension(context, sample.tension),
         }
         context.out.leds = self.unit_leds();
@@ -766,6 +784,7 @@ impl Chart {
         clearing: &mut u16,
     ) -> Outcome<State> {
         let Tick(sample) = event;
+        self.resuming = false;
         context.out.drive = DriveCommand::Coast;
         context.out.display = panel::fault(code.number());
         context.out.leds = Leds { fault: true, ..self.unit_leds() };
@@ -892,7 +911,10 @@ impl Chart {
                 None
             }
             (KeyEvent::Long(Key::Function), _) => {
+                // The press that began the hold turned the page; a long press means knot
+                // mode instead, shown on the tension page.
                 self.knot_mode = !self.knot_mode;
+                *view = View::Tension;
                 None
             }
             (KeyEvent::Press(Key::Preset), View::Preset(_)) => None,

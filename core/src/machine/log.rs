@@ -18,9 +18,11 @@ use heapless::Deque;
 
 use crate::units::Kgf;
 
-/// Counts of the string encoder per millimetre of string: a 100-line (400 counts per turn
-/// in quadrature) encoder on a measuring wheel of 20 mm circumference.
-pub const STRING_COUNTS_PER_MM: i32 = 20;
+/// Counts of the string encoder per millimetre of string: a 100-line encoder (400 counts
+/// per turn in quadrature) on a measuring wheel of 50 mm circumference. At the fastest
+/// carriage speed (≈ 81 mm/s) that is ≈ 0.65 counts per tick, far below the 32 768 a tick
+/// could take before the 16-bit difference became ambiguous.
+pub const STRING_COUNTS_PER_MM: i32 = 8;
 
 /// Default capacity of the pull log.
 pub const PULL_LOG_CAPACITY: usize = 32;
@@ -116,8 +118,8 @@ mod tests {
     fn counts_round_to_millimetres() {
         assert_eq!(string_mm(0), 0);
         assert_eq!(string_mm(-50), 0);
-        assert_eq!(string_mm(9), 0);
-        assert_eq!(string_mm(10), 1);
-        assert_eq!(string_mm(20 * 250), 250);
+        assert_eq!(string_mm(3), 0);
+        assert_eq!(string_mm(4), 1);
+        assert_eq!(string_mm(8 * 250), 250);
     }
 }

@@ -148,6 +148,8 @@ pub struct Checkpoint {
     pub knot_mode: bool,
     /// The key pad's debounce state.
     pub keypad: KeyPad,
+    /// Moving states: consecutive ticks the load cell has read at a rail.
+    pub rail_ticks: u8,
 }
 
 impl Checkpoint {
@@ -169,6 +171,7 @@ impl Checkpoint {
             watch: safety::TensionWatch::new(0),
             knot_mode: false,
             keypad: KeyPad::new(),
+            rail_ticks: 0,
         }
     }
 
@@ -194,6 +197,7 @@ impl Checkpoint {
             && self.clearing <= CLEAR_ATTEMPT
             && crate::sense::load_cell::LoadCellScale::NOMINAL.tared_at(self.tare).is_ok()
             && self.watch.is_valid()
+            && self.rail_ticks < safety::RAIL_PERSIST
             && self.keypad.is_valid()
     }
 }
@@ -268,7 +272,9 @@ impl<const LOG: usize> Machine<LOG> {
             },
             ..Sample::default()
         };
-        chart.resume_watch = Some(checkpoint.watch);
+        chart.watch = checkpoint.watch;
+        chart.rail_ticks = checkpoint.rail_ticks;
+        chart.resuming = true;
         Self::build(chart, state, sample, checkpoint.keypad)
     }
 

@@ -10,8 +10,8 @@
 //!   state, with no persistence: one sample is enough to stop.
 //! - **While moving** ([`limit_guard`], [`stall`], [`load_cell_rail`]): the drive command
 //!   never points toward an active limit switch (it is replaced by coast); high duty with no
-//!   Hall step for [`STALL_QUIET`] is a stall; a load-cell reading at a converter rail is a
-//!   broken sensor.
+//!   Hall step for [`STALL_QUIET`] is a stall; a load-cell reading at a converter rail for
+//!   [`RAIL_PERSIST`] ticks is a broken sensor.
 //! - **While the string is under tension** ([`TensionWatch`]): the end-of-travel limit
 //!   (tension never reached), overload, string break, no string and reversed load-cell
 //!   wiring. These compare noisy tension samples, so each must persist for a few ticks
@@ -62,6 +62,11 @@ pub const NO_STRING_TENSION: Kgf = Kgf::from_int(1);
 /// output can only fall as far as the bottom rail (with the nominal 50 mV tare, −0.54 kgf),
 /// so with a tare below ≈ 37 mV it reaches the rail first and reads as `E-03`.
 pub const REVERSED_TENSION: Kgf = Kgf(Q16::lit("-0.3"));
+
+/// Consecutive ticks a load-cell rail reading must persist while moving before it latches:
+/// 20. Switching spikes (paper fig. 22) can throw single samples to a rail while the bridge
+/// commutates; twenty in a row of one sign do not happen.
+pub const RAIL_PERSIST: u8 = 20;
 
 /// Ticks an overload must persist before it latches.
 pub const OVERLOAD_PERSIST: u8 = 3;

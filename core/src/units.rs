@@ -56,16 +56,16 @@ macro_rules! quantity {
                 Self(Q16::const_from_int(value as i32))
             }
 
-            #[doc = concat!("Thousandths of ", $unit, ", rounded to the nearest 2⁻¹⁶.")]
+            #[doc = concat!("Thousandths of ", $unit, ", rounded to the nearest 2⁻¹⁶ and saturating at the format's range.")]
             #[must_use]
             pub fn from_milli(milli: i32) -> Self {
-                Self(Q16::from_num(milli).saturating_div_int(1000))
+                Self(Q16::from_bits(milli_to_bits(milli)))
             }
 
-            #[doc = concat!("The value in thousandths of ", $unit, ", rounded toward zero.")]
+            #[doc = concat!("The value in thousandths of ", $unit, ", rounded to the nearest (exact for every value of the format).")]
             #[must_use]
             pub fn to_milli(self) -> i32 {
-                self.0.saturating_mul_int(1000).to_num::<i32>()
+                bits_to_milli(self.0.to_bits())
             }
 
             /// The raw Q15.16 bits (value × 65 536).
@@ -188,6 +188,22 @@ impl Kgf {
     }
 }
 
+/// Thousandths → Q15.16 bits: `milli × 65 536 / 1000`, rounded half away from zero, computed
+/// in 64 bits and saturated to the format's range.
+fn milli_to_bits(milli: i32) -> i32 {
+    let scaled = i64::from(milli).saturating_mul(65_536);
+    let rounded =
+        if scaled >= 0 { scaled.saturating_add(500) } else { scaled.saturating_sub(500) } / 1000;
+    i32::try_from(rounded).unwrap_or(if rounded < 0 { i32::MIN } else { i32::MAX })
+}
+
+/// Q15.16 bits → thousandths, rounded to the nearest (ties up). |bits| ≤ 2³¹ gives
+/// |result| ≤ 32 768 000, which always fits an `i32`.
+fn bits_to_milli(bits: i32) -> i32 {
+    let milli = i64::from(bits).saturating_mul(1000).saturating_add(32_768).div_euclid(65_536);
+    i32::try_from(milli).unwrap_or(if milli < 0 { i32::MIN } else { i32::MAX })
+}
+
 /// `value × scale`, rounded to the nearest integer, half away from zero, saturating.
 fn round_scaled(value: Q16, scale: i32) -> i32 {
     value.saturating_mul_int(scale).round().to_num::<i32>()
@@ -283,6 +299,21 @@ mod tests {
         for lbf_tenths in 100..=1100 {
             let back = Kgf::from_lbf_tenths(lbf_tenths).to_lbf_tenths_rounded();
             assert_eq!(back, lbf_tenths);
+        }
+    }
+
+    #[test]
+    fn milli_conversions_cover_the_whole_range() {
+        assert_eq!(Kgf::from_milli(50_000).to_milli(), 50_000, "50 kgf must not panic or clip");
+        assert_eq!(Kgf::from_milli(-50_000).to_milli(), -50_000);
+        assert_eq!(Kgf::from_milli(i32::MAX), Kgf::MAX);
+        assert_eq!(Kgf::from_milli(i32::MIN), Kgf::MIN);
+        assert_eq!(Kgf::MAX.to_milli(), 32_768_000);
+        assert_eq!(Kgf::MIN.to_milli(), -32_768_000);
+        for milli in (-40_000_000..=40_000_000).step_by(9_973) {
+            let back = Kgf::from_milli(milli).to_milli();
+            let expected = milli.clamp(-32_768_000, 32_768_000);
+            assert!((back - expected).abs() <= 1, "{milli} → {back}");
         }
     }
 

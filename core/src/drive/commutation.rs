@@ -47,6 +47,27 @@
 //!
 //! PWM is applied to the high-side switch; the low-side switch of the sector stays on for the
 //! whole sector (paper, section 6.3 and figure 17).
+//!
+//! # The switched leg is complementary
+//!
+//! In the leg marked [`LegState::High`] the high-side switch conducts for the duty part of
+//! each PWM period and that leg's **low-side switch conducts for the rest** — its complement,
+//! with the hardware dead time between the two edges (the dsPIC's "complementary mode" the
+//! paper uses, where "the low-side pin is always the inverse of the high-side pin"; on the
+//! STM32G4, TIM1's CHx/CHxN pair with its dead-time generator). So the winding pair sees the
+//! average voltage `duty × V_bus` whatever the direction of its current: the drive works in
+//! two quadrants, and a duty below the back-EMF ratio **brakes** the motor (regenerating into
+//! the bus) instead of letting it freewheel through a body diode. That is what lets the
+//! tension loop decelerate the carriage's large reflected inertia before the string's target,
+//! and it keeps the current continuous at light load, where a diode-freewheeling bridge falls
+//! into discontinuous conduction and its torque stops following the duty. It also recharges
+//! the high side's bootstrap capacitor every period.
+//!
+//! The two switches of the switched leg never conduct together: the timer's complementary
+//! output inserts [`super::DEAD_TIME`] at every edge, in hardware, within the period. The
+//! core's guarantees are one level up, between periods: a leg's *state* never changes between
+//! [`LegState::High`] and [`LegState::Low`] without the sequencer's own dead time of both-off
+//! ([`super::dead_time`]).
 
 use super::Direction;
 use super::hall::Sector;
@@ -57,7 +78,8 @@ pub enum LegState {
     /// Both switches off; the phase floats.
     #[default]
     Off,
-    /// High-side switch driven by the PWM; low-side switch off.
+    /// The switched leg: high side on for the duty part of each PWM period, the leg's low
+    /// side on for the rest (its complement, with the hardware dead time at every edge).
     High,
     /// Low-side switch on for the whole sector; high-side switch off.
     Low,
@@ -90,7 +112,10 @@ impl Phase {
     pub const ALL: [Self; 3] = [Self::A, Self::B, Self::C];
 }
 
-/// The six gate signals of the bridge, `true` = switch commanded on.
+/// The six gate commands of the bridge, as the firmware programs them once per pattern:
+/// `true` on a high side = "switched by the PWM" (its low side then being the hardware
+/// complement, never on at the same instant), `true` on a low side = "on for the whole
+/// sector". A leg with both set would be a static shoot-through command.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
 pub struct Gates {
     /// Phase A high side.

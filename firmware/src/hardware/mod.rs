@@ -1,0 +1,137 @@
+//! The binding: NUCLEO-G431RB + X-NUCLEO-IHM08M1 peripherals ↔ taut-core.
+//!
+//! # Theory of operation
+//!
+//! Three execution contexts, by NVIC priority (the G431 has four priority bits; lower number
+//! = more urgent):
+//!
+//! | context | trigger | rate | does |
+//! |---|---|---|---|
+//! | fast loop, priority 0 | TIM1 update (`TIM1_UP_TIM16`) and Hall edge capture (`TIM2`) | 20 kHz + every Hall edge | sample → [`taut_core::drive::Drive::step`] → TIM1 registers ([`fast_loop`]) |
+//! | control tick, priority 1 | TIM6 update (`TIM6_DAC`) | 1 kHz | sample → [`taut_core::io::Inputs`] → machine → [`taut_core::io::Outputs`] → peripherals ([`control`]) |
+//! | thread mode | embassy executor | when signalled | settings store writes, TM1637 refresh ([`store`], [`display`]) |
+//!
+//! The hardware protections need no software at all: the overcurrent comparator's break
+//! input clears TIM1's main output enable in nanoseconds, and the dead-time generator keeps
+//! every leg's switches apart.
+//!
+//! # Why embassy (and not RTIC 2)
+//!
+//! The two real-time loops are plain hardware interrupts at fixed priorities — they share
+//! exactly one object (the [`taut_core::drive::Drive`], behind a critical section held for a
+//! few hundred cycles), which is all RTIC's resource analysis would have managed. What is
+//! left is slow, blocking work that must never delay those loops: a flash write (a page erase
+//! stalls the CPU for ~22 ms) and a bit-banged display. sequential-storage is async-first, so
+//! an async executor in thread mode runs it directly, woken by embassy-sync signals from the
+//! tick, with no block-on loop and no second framework; embassy-stm32 is the maintained HAL
+//! for the G4 (clocks, flash driver, ADC calibration, typed pin functions) either way.
+//!
+//! Nothing here decides anything about the machine: each branch below is about hardware
+//! (interrupt flags, pin levels, start-up order).
+#![allow(
+    unsafe_code,
+    reason = "the binding unmasks interrupts and sets their priorities (cortex-m's NVIC calls \
+              are unsafe); each use states why it is sound"
+)]
+
+mod bridge;
+mod control;
+mod display;
+mod fast_loop;
+mod store;
+mod watchdog;
+
+use defmt_rtt as _;
+use embassy_executor::Spawner;
+use embassy_stm32::Config;
+use embassy_stm32::rcc::{Pll, PllMul, PllPreDiv, PllRDiv, PllSource, Sysclk, mux::Adcsel};
+use taut_core::drive::PWM_TIMER_HZ;
+
+/// The system clock: HSI16 / 4 × 85 / 2 = 170 MHz. TIM1 and the DWT cycle counter both run
+/// at it, so it must equal the core's [`PWM_TIMER_HZ`].
+pub const SYSCLK_HZ: u32 = 170_000_000;
+
+const _: () = assert!(SYSCLK_HZ == PWM_TIMER_HZ, "TIM1 must count the core's PWM ticks");
+
+fn clocks() -> Config {
+    let mut config = Config::default();
+    config.rcc.pll = Some(Pll {
+        source: PllSource::HSI,
+        prediv: PllPreDiv::DIV4,
+        mul: PllMul::MUL85,
+        divp: None,
+        divq: None,
+        divr: Some(PllRDiv::DIV2),
+    });
+    config.rcc.sys = Sysclk::PLL1_R;
+    config.rcc.boost = true;
+    // The ADCs run from the system clock, divided by 4 in the ADC (42.5 MHz).
+    config.rcc.mux.adc12sel = Adcsel::SYS;
+    config
+}
+
+#[embassy_executor::main]
+async fn main(spawner: Spawner) {
+    let p = embassy_stm32::init(clocks());
+    taut_firmware::info!("taut-firmware: clocks up, binding peripherals");
+
+    // Bridge first, with every gate off and the main output disabled, so no later step can
+    // find the power stage in an undefined state.
+    bridge::init(p.TIM1, p.PA8, p.PA9, p.PA10, p.PA7, p.PB0, p.PB1, p.PA6);
+
+    // The record comes back from flash before the machine is built.
+    let (settings, record) = store::open(p.FLASH).await;
+
+    let analog = control::Analog::new(p.ADC1, p.ADC2, p.PA0, p.PB15);
+    fast_loop::init(p.TIM2, p.PA15, p.PB3, p.PB10);
+    control::init(control::Resources {
+        analog,
+        encoder: (p.TIM4, p.PB6, p.PB7),
+        limits: (p.PC10, p.PC11),
+        keys: (p.PC6, p.PC7, p.PC8, p.PC12, p.PD2),
+        beeper: p.PB11,
+        tick_timer: p.TIM6,
+        record,
+    });
+
+    // Each task's pool holds one task and each is spawned once, so spawning cannot fail.
+    match store::writer(settings) {
+        Ok(task) => spawner.spawn(task),
+        Err(_) => taut_firmware::error!("settings writer not started"),
+    }
+    match display::refresher(p.PB5, p.PB9) {
+        Ok(task) => spawner.spawn(task),
+        Err(_) => taut_firmware::error!("panel refresher not started"),
+    }
+
+    // The watchdog resets the MCU if the control tick stops petting it; a reset returns the
+    // bridge pins to inputs, which the gate drivers' input pulls hold off.
+    watchdog::start(p.IWDG);
+
+    // Start the loops: fast loop first (it owns the bridge), then the control tick.
+    fast_loop::start();
+    control::start();
+    taut_firmware::info!("taut-firmware: running");
+}
+
+/// On a panic: bridge off first, then report, then stop. The panic's message and location
+/// are deliberately not read: touching them links core's formatting machinery (≈ 11 KB of
+/// flash); a debugger shows where the core stopped.
+#[panic_handler]
+fn panic(_info: &core::panic::PanicInfo<'_>) -> ! {
+    cortex_m::interrupt::disable();
+    bridge::emergency_off();
+    defmt::error!("panic; bridge off");
+    loop {
+        cortex_m::asm::wfe();
+    }
+}
+
+/// On a hard fault (bus error, bad instruction): bridge off, then stop.
+#[cortex_m_rt::exception]
+unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    bridge::emergency_off();
+    loop {
+        cortex_m::asm::wfe();
+    }
+}

@@ -1,0 +1,71 @@
+//! The settings store on the board: the core's record on flash pages 60–63.
+//!
+//! The machine raises `Outputs::store` when its record changes; the control tick hands the
+//! encoded record to [`writer`], a thread-mode task, through a signal (only the newest record
+//! is kept — an older one still waiting is superseded). A page erase stalls instruction
+//! fetch from flash for ~22 ms (RM0440 section 3.3.7; the G431 has a single bank), during
+//! which neither real-time loop can run; so while the store works the bridge's main output is
+//! held off ([`flash_busy`]) and the motor freewheels. The machine asks for a store when it is
+//! idle, so in practice no torque is lost.
+
+use core::sync::atomic::{AtomicBool, Ordering};
+use embassy_embedded_hal::adapter::BlockingAsync;
+use embassy_stm32::Peri;
+use embassy_stm32::flash::{Blocking, Flash};
+use embassy_stm32::peripherals::FLASH;
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::signal::Signal;
+use taut_core::store::{RECORD_LEN, Record};
+use taut_firmware::flash_layout::SETTINGS_RANGE;
+use taut_firmware::settings::SettingsStore;
+
+use super::bridge;
+
+/// The store over embassy-stm32's blocking flash driver.
+pub type Store = SettingsStore<BlockingAsync<Flash<'static, Blocking>>>;
+
+/// The newest record waiting to be written.
+pub static REQUEST: Signal<CriticalSectionRawMutex, [u8; RECORD_LEN]> = Signal::new();
+
+static FLASH_BUSY: AtomicBool = AtomicBool::new(false);
+
+/// Whether a flash operation is in progress (the bridge must stay off).
+pub fn flash_busy() -> bool {
+    FLASH_BUSY.load(Ordering::Acquire)
+}
+
+/// Opens the store and reads the record the machine starts from. A blank store (first
+/// boot), an unreadable one or a record the core rejects all start the machine from
+/// [`Record::default`]; the next store request writes a valid record.
+pub async fn open(flash: Peri<'static, FLASH>) -> (Option<Store>, Record) {
+    let flash = BlockingAsync::new(Flash::new_blocking(flash));
+    let Ok(mut store) = SettingsStore::new(flash, SETTINGS_RANGE) else {
+        taut_firmware::error!("settings: flash range rejected");
+        return (None, Record::default());
+    };
+    let record = match store.load().await {
+        Ok(Some(bytes)) => Record::decode(bytes).unwrap_or_default(),
+        Ok(None) => Record::default(),
+        Err(_) => {
+            taut_firmware::warn!("settings: store unreadable, starting from defaults");
+            Record::default()
+        }
+    };
+    (Some(store), record)
+}
+
+/// Writes each requested record. Without a usable store (see [`open`]) requests are dropped.
+#[embassy_executor::task]
+pub async fn writer(store: Option<Store>) {
+    let Some(mut store) = store else { return };
+    loop {
+        let record = REQUEST.wait().await;
+        FLASH_BUSY.store(true, Ordering::Release);
+        bridge::set_main_output(false);
+        let result = store.save(&record).await;
+        FLASH_BUSY.store(false, Ordering::Release);
+        if result.is_err() {
+            taut_firmware::error!("settings: save failed");
+        }
+    }
+}

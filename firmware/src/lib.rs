@@ -1,0 +1,47 @@
+//! taut-firmware: the hardware half of taut — every register, pin and flash page, and no
+//! decisions.
+//!
+//! # Theory of operation
+//!
+//! taut's one rule is that `taut-core` holds all logic and no hardware, and this crate holds
+//! all hardware and no logic. The image (`src/main.rs` and its `hardware` module, built only
+//! for `thumbv7em-none-eabihf`) samples the peripherals into the core's boundary types, calls
+//! the core, and writes what the core returns back to the peripherals. Every branch in this
+//! crate is about hardware: a register encoding, a flash page, a pin level.
+//!
+//! This library is the part of the firmware that does not touch a peripheral, so it builds and
+//! is tested on the host like the rest of the workspace (Stabilizer's layout):
+//!
+//! - [`pins`]: the board, its pin map and wiring table (the README's table is generated
+//!   from it and checked against it).
+//! - [`bridge`]: the TIM1 register images that put a [`taut_core::drive::SwitchPattern`] and
+//!   a [`taut_core::drive::Duty`] on the bridge, and the hardware dead-time encoding of
+//!   [`taut_core::drive::DEAD_TIME`].
+//! - [`flash_layout`] and [`settings`]: where the persisted record lives in internal flash and
+//!   the power-safe store (sequential-storage) that keeps it there.
+//! - [`panel`]: the TM1637 7-segment driver that shifts the core's
+//!   [`taut_core::io::Segments`] out on two wires.
+//! - [`log`]: the one place that knows about defmt.
+#![no_std]
+#![cfg_attr(
+    test,
+    allow(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing,
+        clippy::arithmetic_side_effects,
+        reason = "unit tests: a failed unwrap, index or overflow panics the test, which is the \
+                  report we want"
+    )
+)]
+
+#[cfg(test)]
+extern crate std;
+
+pub mod bridge;
+pub mod flash_layout;
+pub mod log;
+pub mod panel;
+pub mod pins;
+pub mod settings;

@@ -14,11 +14,17 @@
 //!
 //! | leg | OCxM | CCxE | CCxNE | high-side gate (OCx) | low-side gate (OCxN) |
 //! |---|---|---|---|---|---|
-//! | high | PWM mode 1 | 1 | 0 | the PWM: on while `CNT < CCRx` | inactive (off) |
-//! | low | force inactive | 1 | 1 | OCxREF = 0: off | complement of OCxREF: on, after the dead time |
+//! | high (switched) | PWM mode 1 | 1 | 1 | on while `CNT < CCRx` | the complement: on for the rest of the period |
+//! | low | force inactive | 1 | 1 | OCxREF = 0: off | complement of OCxREF: on |
 //! | off | force inactive | 1 | 0 | off | inactive (off) |
 //!
-//! No row turns both gates of a leg on; [`BridgeImage::for_output`] is tested against a model
+//! The switched leg is complementary, as the core's `commutation` module specifies (the
+//! paper's dsPIC "complementary mode"): its low side conducts whenever its high side does not,
+//! so the drive works in two quadrants and the bootstrap capacitor recharges every period.
+//! The dead-time generator delays every rising edge of OCx and OCxN by the dead time, so the
+//! two switches of a leg are never on at the same instant.
+//!
+//! No row turns both gates of a leg on at once; [`BridgeImage::for_output`] is tested against a model
 //! of that table for every pattern and duty (`bridge_image_drives_exactly_the_requested_gates`).
 //! The output mode and enable bits are preloaded (`CR2.CCPC = 1`) and applied together by a
 //! commutation event (`EGR.COMG`), so the three legs change in the same timer clock; the
@@ -144,7 +150,7 @@ pub struct BridgeImage {
 /// The channel configuration of one leg: output mode, and whether OCx and OCxN are enabled.
 const fn leg_config(state: LegState) -> (u32, bool, bool) {
     match state {
-        LegState::High => (OCM_PWM1, true, false),
+        LegState::High => (OCM_PWM1, true, true),
         LegState::Low => (OCM_FORCE_INACTIVE, true, true),
         LegState::Off => (OCM_FORCE_INACTIVE, true, false),
     }
@@ -308,11 +314,13 @@ mod tests {
                     for (index, phase) in Phase::ALL.into_iter().enumerate() {
                         let (high, low) = outputs(&image, index, counter);
                         assert!(!(high && low), "shoot-through {pattern:?} {duty:?} {counter}");
-                        let expected = match pattern.leg(phase) {
-                            LegState::High => (counter < compare, false),
-                            LegState::Low => (false, true),
-                            LegState::Off => (false, false),
-                        };
+                        // The core's gate contract: a set high side is switched by the PWM with
+                        // its low side as the complement; a set low side is on all sector.
+                        let (switched, low_on) = pattern.gates().leg(phase);
+                        let expected = (
+                            switched && counter < compare,
+                            low_on || (switched && counter >= compare),
+                        );
                         assert_eq!((high, low), expected, "{pattern:?} {phase:?} {counter}");
                         cases += 1;
                     }

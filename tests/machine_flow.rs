@@ -196,3 +196,18 @@ fn machine_flow_panel_settings_units_and_presets() {
     assert_eq!(again.outputs.display, rig.outputs.display);
     assert!(!again.machine.knot_mode(), "knot mode is per session, not stored");
 }
+
+#[test]
+fn machine_flow_hold_duty_at_full_tension() {
+    let mut rig = Rig::nominal(StringKind::TennisPolyester);
+    rig.expect_state(MachineState::Ready, 30_000);
+    rig.hold(Key::Up, 8_000);
+    rig.press(Key::Start);
+    rig.expect_state(MachineState::Holding, 30_000);
+    let mut max_duty = 0u16;
+    for _ in 0..3_000 {
+        rig.tick();
+        max_duty = max_duty.max(rig.outputs.drive.duty().raw());
+    }
+    println!("hold at {:.2} kgf: max duty {max_duty} / 65536", rig.twin.truth().tension_kgf);
+}

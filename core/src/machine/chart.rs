@@ -48,8 +48,11 @@ use crate::tension::{
 };
 use crate::units::{Amps, Kgf};
 
-/// Ticks the self-test averages the unloaded load cell over (and watches the limits).
-pub const SELF_TEST_TICKS: u16 = 64;
+/// Ticks the self-test takes: [`SELF_TEST_SETTLE`] ticks for the amplifier to settle,
+/// then 64 readings of the unloaded load cell averaged (the limits are watched throughout).
+pub const SELF_TEST_TICKS: u16 = 80;
+/// Ticks at the start of the self-test whose load-cell readings are not averaged.
+pub const SELF_TEST_SETTLE: u16 = 16;
 /// The motor test's duty: 15 %.
 pub const MOTOR_TEST_DUTY: Duty = Duty::from_raw_clamped(9_830);
 /// Hall steps the motor test must see in the commanded direction: 48 = two motor turns,
@@ -110,13 +113,23 @@ pub struct Context {
     pub beep: Option<Beep>,
     /// A pull completed this tick: log it.
     pub completed: Option<PullRecord>,
+    /// The leaf expects the carriage to move now (taking up slack, releasing): the stall
+    /// rule applies.
+    pub expect_motion: bool,
 }
 
 impl Context {
     /// A fresh context for `sample`.
     #[must_use]
     pub fn new(sample: Sample) -> Self {
-        Self { sample, out: Outputs::default(), next: None, beep: None, completed: None }
+        Self {
+            sample,
+            out: Outputs::default(),
+            next: None,
+            beep: None,
+            completed: None,
+            expect_motion: false,
+        }
     }
 }
 
@@ -206,6 +219,8 @@ pub struct Chart {
     pub calibration_points: [CalibrationPoint; CALIBRATION_POINTS],
     /// Consecutive moving ticks with the load cell at a rail.
     pub rail_ticks: u8,
+    /// Consecutive ticks the carriage was expected to move under at least the stall duty.
+    pub driven_ms: u32,
     /// Set while [`crate::machine::Machine::resume`] enters its checkpoint's state: the entry
     /// actions then keep the checkpoint's watch and rail count instead of starting afresh.
     /// Cleared by the first tick.
@@ -240,6 +255,7 @@ impl Chart {
             string_counts: 0,
             calibration_points: [CalibrationPoint::default(); CALIBRATION_POINTS],
             rail_ticks: 0,
+            driven_ms: 0,
             resuming: false,
         }
     }
@@ -343,6 +359,12 @@ const fn point_label(point: u8) -> [u8; 4] {
     [b'C', b'A', b'L', b'1'.saturating_add(point)]
 }
 
+/// Whether a pull is still taking up slack: below half its peak target, where the carriage
+/// must be moving.
+fn taking_up(tension: Kgf, peak_target: Kgf) -> bool {
+    tension < Kgf::from_bits(peak_target.to_bits().checked_div(2).unwrap_or(0))
+}
+
 /// Whether a key event is a press of any key.
 const fn pressed(key: Option<KeyEvent>) -> bool {
     matches!(key, Some(KeyEvent::Press(_)))
@@ -380,7 +402,9 @@ impl Chart {
     fn motion(&mut self, context: &mut Context, event: &Tick) -> Outcome<State> {
         let Tick(sample) = event;
         context.out.drive = safety::limit_guard(context.out.drive, sample.inputs.limits);
-        if safety::stall(context.out.drive, &sample.inputs) {
+        let driving = context.expect_motion && context.out.drive.duty() >= safety::STALL_DUTY;
+        self.driven_ms = if driving { self.driven_ms.saturating_add(1) } else { 0 };
+        if driving && safety::stall(context.out.drive, &sample.inputs, self.driven_ms) {
             return self.trip(context, FaultCode::Stall);
         }
         let rail = safety::load_cell_rail(sample.inputs.load_cell);
@@ -394,6 +418,7 @@ impl Chart {
     /// Entering motion: no rail reading seen yet.
     #[action]
     fn enter_motion(&mut self) {
+        self.driven_ms = 0;
         if !self.resuming {
             self.rail_ticks = 0;
         }
@@ -437,13 +462,15 @@ impl Chart {
     ) -> Outcome<State> {
         let Tick(sample) = event;
         context.out.display = panel::text(b"tESt");
-        *code_sum = code_sum.saturating_add(u32::from(sample.inputs.load_cell.get()));
+        if *elapsed >= SELF_TEST_SETTLE {
+            *code_sum = code_sum.saturating_add(u32::from(sample.inputs.load_cell.get()));
+        }
         *elapsed = elapsed.saturating_add(1);
         if *elapsed >= SELF_TEST_TICKS {
             // 64 samples of ≤ 4095: the sum fits, and ÷ 64 is the mean code.
+            let averaged = u32::from(SELF_TEST_TICKS.saturating_sub(SELF_TEST_SETTLE));
             let mean = crate::units::AdcCode::new(
-                u16::try_from(code_sum.checked_div(u32::from(SELF_TEST_TICKS)).unwrap_or(0))
-                    .unwrap_or(u16::MAX),
+                u16::try_from(code_sum.checked_div(averaged).unwrap_or(0)).unwrap_or(u16::MAX),
             );
             context.next = Some(if let Some(code) = safety::load_cell_rail(mean) {
                 State::fault(code, Recovery::SelfTest, 0)
@@ -557,6 +584,7 @@ impl Chart {
         context.out.display = panel::text(&point_label(*point));
         let output = self.controller.step(&Self::measurement(sample, sample.raw));
         context.out.drive = output.command;
+        context.expect_motion = taking_up(sample.raw, self.peak_target);
         context.out.leds = Leds { pulling: true, holding: output.at_tension, ..self.unit_leds() };
         *settled = if output.at_tension { settled.saturating_add(1) } else { 0 };
         context.next = if pressed(sample.key) {
@@ -672,6 +700,7 @@ impl Chart {
         let Tick(sample) = event;
         let output = self.controller.step(&Self::measurement(sample, sample.tension));
         context.out.drive = output.command;
+        context.expect_motion = taking_up(sample.tension, self.peak_target);
         context.out.leds = Leds { pulling: true, ..self.unit_leds() };
         self.show_tension(context, sample.tension);
         *elapsed = elapsed.saturating_add(1);
@@ -759,6 +788,7 @@ impl Chart {
         } else {
             context.out.drive =
                 self.controller.step(&Self::measurement(sample, sample.tension)).command;
+            context.expect_motion = true;
             None
         };
         Super

@@ -9,8 +9,8 @@
 //!   motor current at or above the overcurrent limit. Checked in every state but the fault
 //!   state, with no persistence: one sample is enough to stop.
 //! - **While moving** ([`limit_guard`], [`stall`], [`load_cell_rail`]): the drive command
-//!   never points toward an active limit switch (it is replaced by coast); high duty with no
-//!   Hall step for [`STALL_QUIET`] is a stall; a load-cell reading at a converter rail for
+//!   never points toward an active limit switch (it is replaced by coast); where the
+//!   carriage should be moving, duty with no Hall step for [`STALL_QUIET`] is a stall; a load-cell reading at a converter rail for
 //!   [`RAIL_PERSIST`] ticks is a broken sensor.
 //! - **While the string is under tension** ([`TensionWatch`]): the end-of-travel limit
 //!   (tension never reached), overload, string break, no string and reversed load-cell
@@ -34,11 +34,17 @@ pub const LOAD_CELL_BOTTOM_RAIL: AdcCode = AdcCode::new(8);
 /// far beyond the sensor's range (≈ 53.7 kgf with the nominal chain).
 pub const LOAD_CELL_TOP_RAIL: AdcCode = AdcCode::new(4_087);
 
-/// Duty at or above which a motor that does not turn is stalled: 50 %.
-pub const STALL_DUTY: Duty = Duty::from_raw_clamped(32_768);
+/// Duty at or above which a motor that should be moving but does not turn is stalled: 10 %
+/// (the slowest take-up and release duties are above it; holding at tension needs up to
+/// ≈ 28 % with the motor at rest, which is why the rule only applies where motion is
+/// expected).
+pub const STALL_DUTY: Duty = Duty::from_raw_clamped(6_554);
 
-/// How long a driven motor may go without a Hall step before it counts as stalled: 500 ms.
-pub const STALL_QUIET: PwmTicks = PwmTicks::from_micros(500_000);
+/// How long a driven motor may go without a Hall step before it counts as stalled, ms.
+pub const STALL_QUIET_MS: u32 = 500;
+
+/// [`STALL_QUIET_MS`] in PWM-timer ticks, as the drive reports its quiet time.
+pub const STALL_QUIET: PwmTicks = PwmTicks::from_micros(STALL_QUIET_MS * 1_000);
 
 /// The tension above the pull's peak target that counts as overload.
 pub const OVERLOAD_MARGIN: Kgf = Kgf::from_int(5);
@@ -105,11 +111,16 @@ pub fn limit_guard(command: DriveCommand, limits: LimitSwitches) -> DriveCommand
     }
 }
 
-/// Whether the motor is stalled: commanded at [`STALL_DUTY`] or more and no Hall step for
-/// [`STALL_QUIET`].
+/// Whether the motor is stalled: it has been commanded at [`STALL_DUTY`] or more for the
+/// last `driven_ms` ticks, and no Hall step came for [`STALL_QUIET`] — both at least 500 ms,
+/// so a motor that was resting before the command is given its time to start. Only
+/// meaningful where the carriage is expected to move (taking up slack, releasing): at
+/// tension the motor legitimately stands still under load.
 #[must_use]
-pub fn stall(command: DriveCommand, inputs: &Inputs) -> bool {
-    command.duty() >= STALL_DUTY && inputs.drive.quiet_for >= STALL_QUIET
+pub fn stall(command: DriveCommand, inputs: &Inputs, driven_ms: u32) -> bool {
+    command.duty() >= STALL_DUTY
+        && driven_ms >= STALL_QUIET_MS
+        && inputs.drive.quiet_for >= STALL_QUIET
 }
 
 /// The load-cell fault of a reading at a converter rail, if any.
@@ -217,7 +228,9 @@ impl TensionWatch {
             BREAK_PERSIST,
         );
         let reversed = persist(&mut self.reversed, sample.raw < REVERSED_TENSION, REVERSED_PERSIST);
-        if sample.limits.end {
+        // Both switches at once is a wiring fault, reported by the rule that holds
+        // everywhere (`LimitsBoth`), not as an end of travel.
+        if sample.limits.end && !sample.limits.home {
             Some(FaultCode::EndOfTravel)
         } else if overloaded {
             Some(FaultCode::Overload)

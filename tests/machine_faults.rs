@@ -1,0 +1,544 @@
+//! Scenario tests on the twin: every fault code, raised by the failure it names, latched
+//! with the bridge off and the code on the display, and cleared by the operator (Start)
+//! once the cause is gone — plus the notices (`E-20`…`E-22`).
+#![allow(
+    clippy::float_arithmetic,
+    clippy::cast_possible_truncation,
+    clippy::arithmetic_side_effects,
+    clippy::indexing_slicing,
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    reason = "host test: the twin's truth is f64, bookkeeping is on small counts, and a panic \
+              is how a test fails"
+)]
+
+mod machine_support;
+
+use machine_support::Rig;
+use taut_core::drive::{DriveCommand, HallCode, Phase};
+use taut_core::io::{Inputs, Key, Keys, LimitSwitches};
+use taut_core::machine::{FaultCode, Machine, MachineState, panel};
+use taut_core::sense::load_cell::LoadCellScale;
+use taut_core::store::{CalibrationPoint, Record, StoreError};
+use taut_core::units::Kgf;
+use taut_sim::{Fault, LimitSwitch, LoadCellFault, StringKind, TwinConfig};
+
+/// Runs until a fault latches; asserts it is `code`, that the bridge was off in the
+/// latching tick and that the panel shows it.
+fn expect_fault(rig: &mut Rig, code: FaultCode, max_ms: u64) {
+    let latched = rig.run_until(max_ms, |rig| rig.machine.fault().is_some());
+    assert!(latched, "no fault within {max_ms} ms (expected {code:?}); history {:?}", rig.states);
+    assert_eq!(rig.machine.fault(), Some(code), "history {:?}", rig.states);
+    assert_eq!(rig.outputs.drive, DriveCommand::Coast, "bridge not off in the latching tick");
+    rig.tick();
+    assert_eq!(rig.outputs.display, panel::fault(code.number()));
+    assert!(rig.outputs.leds.fault);
+    // Latched: time alone does not clear it.
+    rig.run(2_000);
+    assert_eq!(rig.machine.fault(), Some(code));
+    assert_eq!(rig.outputs.drive, DriveCommand::Coast);
+}
+
+/// Clears the fault with Start once the cause is gone and checks where the machine goes.
+fn clear_to(rig: &mut Rig, next: MachineState) {
+    rig.twin.clear_injected();
+    rig.press(Key::Start);
+    rig.expect_state(next, 45_000);
+}
+
+fn ready(kind: StringKind) -> Rig {
+    let mut rig = Rig::nominal(kind);
+    rig.expect_state(MachineState::Ready, 30_000);
+    rig
+}
+
+fn pull_to_hold(rig: &mut Rig) {
+    rig.press(Key::Start);
+    rig.expect_state(MachineState::Holding, 20_000);
+}
+
+#[test]
+fn machine_fault_e01_both_limits_any_state() {
+    let mut rig = ready(StringKind::TennisSynthetic);
+    rig.twin.inject(Fault::LimitSwitchStuck { switch: LimitSwitch::End, closed: true });
+    expect_fault(&mut rig, FaultCode::LimitsBoth, 10);
+    // Start is refused while the wiring fault is present.
+    rig.press(Key::Start);
+    assert_eq!(rig.machine.fault(), Some(FaultCode::LimitsBoth));
+    clear_to(&mut rig, MachineState::Ready);
+}
+
+#[test]
+fn machine_fault_e01_both_limits_while_pulling() {
+    let mut rig = ready(StringKind::TennisPolyester);
+    pull_to_hold(&mut rig);
+    rig.twin.inject(Fault::LimitSwitchStuck { switch: LimitSwitch::Home, closed: true });
+    rig.twin.inject(Fault::LimitSwitchStuck { switch: LimitSwitch::End, closed: true });
+    expect_fault(&mut rig, FaultCode::LimitsBoth, 10);
+    rig.twin.clear_injected();
+    clear_to(&mut rig, MachineState::Ready);
+    assert!(rig.visited(MachineState::Releasing), "cleared by releasing the string first");
+}
+
+#[test]
+fn machine_fault_e02_home_switch_stuck_closed() {
+    let mut rig = Rig::nominal(StringKind::TennisSynthetic);
+    rig.twin.inject(Fault::LimitSwitchStuck { switch: LimitSwitch::Home, closed: true });
+    expect_fault(&mut rig, FaultCode::LimitStuck, 5_000);
+    // A boot fault reruns the self-test when cleared.
+    clear_to(&mut rig, MachineState::Ready);
+    assert!(rig.states.iter().filter(|(_, s)| *s == MachineState::SelfTest).count() >= 2);
+}
+
+#[test]
+fn machine_fault_e03_e04_load_cell_open_and_short_at_boot() {
+    for (fault, code) in [
+        (LoadCellFault::Open, FaultCode::LoadCellOpen),
+        (LoadCellFault::Short, FaultCode::LoadCellShort),
+    ] {
+        let mut rig = Rig::nominal(StringKind::TennisSynthetic);
+        rig.twin.inject(Fault::LoadCell(fault));
+        expect_fault(&mut rig, code, 1_000);
+        assert!(!rig.visited(MachineState::MotorTest), "the motor is not run on a broken sensor");
+        // Refused while the sensor still reads at its rail.
+        rig.press(Key::Start);
+        assert_eq!(rig.machine.fault(), Some(code));
+        clear_to(&mut rig, MachineState::Ready);
+    }
+}
+
+#[test]
+fn machine_fault_e03_load_cell_open_while_pulling() {
+    let mut rig = ready(StringKind::TennisSynthetic);
+    pull_to_hold(&mut rig);
+    rig.twin.inject(Fault::LoadCell(LoadCellFault::Open));
+    let latched = rig.run_until(500, |rig| rig.machine.fault().is_some());
+    assert!(latched);
+    // Open in the middle of a pull: the reading collapses — a string break or an open
+    // sensor, both stop the pull.
+    assert!(
+        matches!(rig.machine.fault(), Some(FaultCode::LoadCellOpen | FaultCode::StringBreak)),
+        "{:?}",
+        rig.machine.fault()
+    );
+}
+
+#[test]
+fn machine_fault_e05_load_cell_zero_out_of_band() {
+    let mut config = TwinConfig::nominal(StringKind::TennisSynthetic);
+    config.load_cell.zero_volts = 0.8;
+    let mut rig = Rig::new(&config, Record::default());
+    expect_fault(&mut rig, FaultCode::LoadCellZero, 1_000);
+}
+
+#[test]
+fn machine_fault_e06_load_cell_reversed() {
+    let mut rig = ready(StringKind::TennisSynthetic);
+    rig.twin.inject(Fault::LoadCell(LoadCellFault::Reversed));
+    rig.press(Key::Start);
+    expect_fault(&mut rig, FaultCode::LoadCellReversed, 20_000);
+    assert!(rig.twin.truth().tension_kgf < 5.0, "stopped before the string was loaded");
+    clear_to(&mut rig, MachineState::Ready);
+}
+
+#[test]
+fn machine_fault_e07_motor_does_not_turn() {
+    let mut rig = Rig::nominal(StringKind::TennisSynthetic);
+    rig.twin.inject(Fault::CarriageJam);
+    expect_fault(&mut rig, FaultCode::MotorNoRotation, 3_000);
+    assert!(rig.visited(MachineState::MotorTest));
+}
+
+#[test]
+fn machine_fault_e08_motor_turns_the_wrong_way() {
+    let mut config = TwinConfig::nominal(StringKind::TennisSynthetic);
+    // Hall sensors mounted half an electrical turn off: the six-step table then drives the
+    // rotor backwards.
+    config.hall.offset_deg = 180.0;
+    let mut rig = Rig::new(&config, Record::default());
+    expect_fault(&mut rig, FaultCode::MotorWrongDirection, 3_000);
+}
+
+#[test]
+fn machine_fault_e09_stall_or_e10_overcurrent_on_a_jam_at_speed() {
+    let mut rig = ready(StringKind::TennisSynthetic);
+    rig.press(Key::Start);
+    rig.run(150);
+    rig.twin.inject(Fault::CarriageJam);
+    let latched = rig.run_until(5_000, |rig| rig.machine.fault().is_some());
+    assert!(latched, "history {:?}", rig.states);
+    let code = rig.machine.fault().unwrap();
+    assert!(
+        matches!(
+            code,
+            FaultCode::Stall
+                | FaultCode::Overcurrent
+                | FaultCode::OvercurrentTrip
+                | FaultCode::PullTimeout
+        ),
+        "{code:?}"
+    );
+    println!("jam at speed → {code:?}");
+}
+
+#[test]
+fn machine_fault_e09_stall_scripted() {
+    // Scripted inputs: a pull commanding high duty while the Hall count stands still.
+    // Speed 9: the take-up drives at high duty.
+    let settings =
+        taut_core::store::Settings::new(taut_core::store::SetPoint::DEFAULT, 9, 0, 0).unwrap();
+    let mut machine = Machine::new(Record { settings, ..Record::default() });
+    let mut now = 0u32;
+    let mut inputs = boot_inputs();
+    run_to_ready(&mut machine, &mut inputs, &mut now);
+    press(&mut machine, &mut inputs, &mut now, Key::Start);
+    assert_eq!(machine.state(), MachineState::Pulling);
+    inputs.drive.quiet_for = taut_core::drive::PwmTicks::from_micros(600_000);
+    let mut latched = None;
+    for _ in 0..2_000 {
+        inputs.now_ms = now;
+        now += 1;
+        let out = machine.tick(&inputs);
+        if machine.fault().is_some() {
+            assert_eq!(out.drive, DriveCommand::Coast);
+            latched = machine.fault();
+            break;
+        }
+    }
+    assert_eq!(latched, Some(FaultCode::Stall));
+}
+
+#[test]
+fn machine_fault_e10_e11_overcurrent() {
+    let mut rig = ready(StringKind::TennisPolyester);
+    pull_to_hold(&mut rig);
+    // The current sense shows 14 A: the machine latches at once, the drive too.
+    let mut machine = rig.machine.clone();
+    let mut inputs = rig.twin.inputs();
+    inputs.motor_current =
+        taut_core::sense::current::threshold_code(taut_core::units::Amps::from_int(14)).unwrap();
+    let out = machine.tick(&inputs);
+    assert_eq!(out.drive, DriveCommand::Coast);
+    assert_eq!(machine.fault(), Some(FaultCode::Overcurrent));
+    // The drive's own latch (here: a jam at full current) shows as E-10 or E-11.
+    let mut rig = ready(StringKind::TennisPolyester);
+    rig.twin.inject(Fault::CurrentSenseOpen);
+    pull_to_hold(&mut rig);
+    println!("with the current sense open the pull still holds: {:?}", rig.machine.state());
+}
+
+#[test]
+fn machine_fault_e12_hall_invalid() {
+    let mut rig = ready(StringKind::TennisSynthetic);
+    rig.press(Key::Start);
+    rig.run(100);
+    rig.twin.inject(Fault::HallGlitch { code: HallCode::from_raw(0b111), periods: 200 });
+    expect_fault(&mut rig, FaultCode::HallInvalid, 500);
+    clear_to(&mut rig, MachineState::Ready);
+}
+
+#[test]
+fn machine_fault_e13_hall_sequence() {
+    let mut rig = ready(StringKind::TennisSynthetic);
+    rig.press(Key::Start);
+    rig.run(100);
+    rig.twin.inject(Fault::HallLineStuck { phase: Phase::A, level: true });
+    let latched = rig.run_until(2_000, |rig| rig.machine.fault().is_some());
+    assert!(latched);
+    let code = rig.machine.fault().unwrap();
+    assert!(matches!(code, FaultCode::HallSequence | FaultCode::HallInvalid), "{code:?}");
+    println!("stuck Hall line → {code:?}");
+}
+
+#[test]
+fn machine_fault_e14_end_of_travel() {
+    // A very soft string at a high tension runs out of travel before reaching it.
+    let mut rig = ready(StringKind::BadmintonSoft);
+    rig.hold(Key::Up, 8_000);
+    assert!(rig.machine.record().settings.set_point().tenths() >= 450);
+    rig.press(Key::Start);
+    expect_fault(&mut rig, FaultCode::EndOfTravel, 40_000);
+    clear_to(&mut rig, MachineState::Ready);
+    assert!(rig.twin.truth().limits.home);
+}
+
+#[test]
+fn machine_fault_e15_string_break_in_hold() {
+    let mut rig = ready(StringKind::TennisSynthetic);
+    pull_to_hold(&mut rig);
+    rig.twin.break_string();
+    expect_fault(&mut rig, FaultCode::StringBreak, 200);
+    clear_to(&mut rig, MachineState::Ready);
+}
+
+#[test]
+fn machine_fault_e16_no_string() {
+    let mut rig = ready(StringKind::NoString);
+    rig.press(Key::Start);
+    expect_fault(&mut rig, FaultCode::NoString, 20_000);
+    let travel = rig.twin.truth().carriage_mm;
+    assert!(travel > 140.0 && travel < 200.0, "stopped at {travel} mm");
+    clear_to(&mut rig, MachineState::Ready);
+}
+
+#[test]
+fn machine_fault_e17_overload_scripted() {
+    let mut machine = Machine::new(Record::default());
+    let mut now = 0u32;
+    let mut inputs = boot_inputs();
+    run_to_ready(&mut machine, &mut inputs, &mut now);
+    press(&mut machine, &mut inputs, &mut now, Key::Start);
+    assert_eq!(machine.state(), MachineState::Pulling);
+    // A reading far above 25 + 5 kgf: the string jammed in the gripper, a sensor gain
+    // fault, a runaway. One tick of it is a spike; three latch.
+    inputs.load_cell = LoadCellScale::NOMINAL.to_code(Kgf::from_int(35));
+    inputs.drive.steps = 500;
+    let mut latched_after = 0;
+    for tick in 1..=10 {
+        inputs.now_ms = now;
+        now += 1;
+        let out = machine.tick(&inputs);
+        if machine.fault().is_some() {
+            assert_eq!(out.drive, DriveCommand::Coast);
+            latched_after = tick;
+            break;
+        }
+    }
+    assert_eq!(machine.fault(), Some(FaultCode::Overload));
+    assert_eq!(latched_after, 3);
+}
+
+#[test]
+fn machine_fault_e09_e18_jam_at_low_speed() {
+    let mut rig = ready(StringKind::TennisSynthetic);
+    // Speed 1, then jam the carriage: the take-up duty is low (no stall), nothing moves.
+    rig.press(Key::Function);
+    for _ in 0..8 {
+        rig.press(Key::Down);
+    }
+    rig.press(Key::Function);
+    rig.press(Key::Function);
+    rig.press(Key::Function);
+    rig.press(Key::Function);
+    rig.twin.inject(Fault::CarriageJam);
+    rig.press(Key::Start);
+    let latched = rig.run_until(45_000, |rig| rig.machine.fault().is_some());
+    assert!(latched);
+    let code = rig.machine.fault().unwrap();
+    assert!(matches!(code, FaultCode::PullTimeout | FaultCode::Stall), "{code:?}");
+    println!("jam at speed 1 → {code:?} after {:?}", rig.states.last());
+}
+
+#[test]
+fn machine_fault_e18_pull_timeout_scripted() {
+    // The carriage moves, the tension rises to 3 kgf and stays there (a string slipping in
+    // the clamp): no rule but the timeout applies.
+    let mut machine = Machine::new(Record::default());
+    let mut now = 0u32;
+    let mut inputs = boot_inputs();
+    run_to_ready(&mut machine, &mut inputs, &mut now);
+    press(&mut machine, &mut inputs, &mut now, Key::Start);
+    assert_eq!(machine.state(), MachineState::Pulling);
+    inputs.load_cell = LoadCellScale::NOMINAL.to_code(Kgf::from_int(3));
+    let mut ticks = 0u32;
+    while machine.fault().is_none() && ticks < 45_000 {
+        inputs.now_ms = now;
+        now += 1;
+        ticks += 1;
+        if ticks % 8 == 0 {
+            inputs.drive.steps += 1;
+            inputs.drive.quiet_for = taut_core::drive::PwmTicks(0);
+        }
+        let out = machine.tick(&inputs);
+        if machine.fault().is_some() {
+            assert_eq!(out.drive, DriveCommand::Coast);
+        }
+    }
+    assert_eq!(machine.fault(), Some(FaultCode::PullTimeout));
+}
+
+#[test]
+fn machine_fault_e19_release_timeout() {
+    let mut rig = ready(StringKind::TennisSynthetic);
+    pull_to_hold(&mut rig);
+    rig.press(Key::Start);
+    assert_eq!(rig.machine.state(), MachineState::Releasing);
+    rig.twin.inject(Fault::CarriageJam);
+    let latched = rig.run_until(45_000, |rig| rig.machine.fault().is_some());
+    assert!(latched);
+    let code = rig.machine.fault().unwrap();
+    // On the twin a jammed carriage draws enough current to trip first.
+    assert!(
+        matches!(code, FaultCode::ReleaseTimeout | FaultCode::Stall | FaultCode::Overcurrent),
+        "{code:?}"
+    );
+    println!("jam while releasing → {code:?}");
+}
+
+#[test]
+fn machine_fault_e19_release_timeout_scripted() {
+    // Releasing with the home switch never closing (broken switch) and no current rise.
+    let mut machine = Machine::new(Record::default());
+    let mut now = 0u32;
+    let mut inputs = boot_inputs();
+    run_to_ready(&mut machine, &mut inputs, &mut now);
+    press(&mut machine, &mut inputs, &mut now, Key::Start);
+    press(&mut machine, &mut inputs, &mut now, Key::Start);
+    assert_eq!(machine.state(), MachineState::Releasing);
+    let mut ticks = 0u32;
+    while machine.fault().is_none() && ticks < 45_000 {
+        inputs.now_ms = now;
+        now += 1;
+        ticks += 1;
+        // The carriage moves (Hall steps keep coming) but home never closes.
+        inputs.drive.steps -= 1;
+        machine.tick(&inputs);
+    }
+    assert_eq!(machine.fault(), Some(FaultCode::ReleaseTimeout));
+    // The release began during the key press; the timeout counts from there.
+    assert!(
+        ticks <= taut_core::machine::RELEASE_TIMEOUT
+            && ticks + 100 > taut_core::machine::RELEASE_TIMEOUT
+    );
+}
+
+#[test]
+fn machine_fault_drive_latches_map_to_their_codes() {
+    use taut_core::drive::DriveFault;
+    for (fault, code) in [
+        (DriveFault::Overcurrent, FaultCode::Overcurrent),
+        (DriveFault::OvercurrentTrip, FaultCode::OvercurrentTrip),
+        (DriveFault::HallInvalid, FaultCode::HallInvalid),
+        (DriveFault::SectorSkipped, FaultCode::HallSequence),
+    ] {
+        let mut machine = Machine::new(Record::default());
+        let mut now = 0u32;
+        let mut inputs = boot_inputs();
+        run_to_ready(&mut machine, &mut inputs, &mut now);
+        press(&mut machine, &mut inputs, &mut now, Key::Start);
+        assert_eq!(machine.state(), MachineState::Pulling);
+        inputs.drive.fault = Some(fault);
+        let out = machine.tick(&inputs);
+        assert_eq!(out.drive, DriveCommand::Coast);
+        assert_eq!(machine.fault(), Some(code));
+        // Start asks the drive to clear (with coast); the fault stays until the drive
+        // reports it cleared.
+        inputs.keys = Keys::NONE.with(Key::Start);
+        let mut asked = false;
+        for _ in 0..40 {
+            let out = machine.tick(&inputs);
+            asked |= out.clear_drive_fault;
+            assert!(!out.clear_drive_fault || out.drive == DriveCommand::Coast);
+        }
+        assert!(asked);
+        assert_eq!(machine.fault(), Some(code));
+        inputs.keys = Keys::NONE;
+        inputs.drive.fault = None;
+        machine.tick(&inputs);
+        assert_eq!(machine.state(), MachineState::Releasing, "{fault:?}");
+    }
+}
+
+#[test]
+fn machine_notice_e20_corrupt_record_uses_defaults() {
+    let mut bytes = Record::default().encode();
+    bytes[40] ^= 0x10;
+    let stored = Record::decode(&bytes);
+    assert_eq!(stored, Err(StoreError::CrcMismatch));
+    let config = TwinConfig::nominal(StringKind::TennisSynthetic);
+    let mut rig = Rig::with_machine(&config, Machine::from_stored(stored));
+    rig.expect_state(MachineState::Ready, 30_000);
+    assert_eq!(rig.outputs.display, panel::fault(20));
+    assert_eq!(rig.machine.fault(), None, "a notice, not a fault");
+    assert_eq!(*rig.machine.record(), Record::default());
+    rig.press(Key::Down);
+    assert_eq!(rig.outputs.display, panel::tenths(250), "the key acknowledged the notice only");
+}
+
+#[test]
+fn machine_notice_e22_stored_calibration_invalid() {
+    let record = Record {
+        calibration: Some(
+            [CalibrationPoint { raw: Kgf::from_int(10), reference: Kgf::from_int(10) }; 4],
+        ),
+        ..Record::default()
+    };
+    let mut rig = Rig::new(&TwinConfig::nominal(StringKind::TennisSynthetic), record);
+    rig.expect_state(MachineState::Ready, 30_000);
+    assert_eq!(rig.outputs.display, panel::fault(22));
+}
+
+#[test]
+fn machine_notice_e21_calibration_rejected() {
+    let mut rig = Rig::nominal(StringKind::TennisSynthetic);
+    rig.expect_state(MachineState::CalibrationWindow, 5_000);
+    rig.press(Key::Function);
+    for point in 0..4u8 {
+        rig.expect_state(MachineState::CalibrationEntry { point }, 30_000);
+        // A careless operator confirms 20.0 every time: not monotonic.
+        rig.key_in(200);
+        rig.press(Key::Start);
+    }
+    rig.expect_state(MachineState::Ready, 30_000);
+    assert_eq!(rig.outputs.display, panel::fault(21));
+    assert_eq!(rig.machine.record().calibration, None, "the old calibration is kept");
+}
+
+#[test]
+fn machine_calibration_abort_by_key() {
+    let mut rig = Rig::nominal(StringKind::TennisSynthetic);
+    rig.expect_state(MachineState::CalibrationWindow, 5_000);
+    rig.press(Key::Function);
+    rig.expect_state(MachineState::CalibrationEntry { point: 0 }, 30_000);
+    rig.press(Key::Function);
+    rig.expect_state(MachineState::Ready, 30_000);
+    assert_eq!(rig.machine.record().calibration, None);
+    assert!(rig.visited(MachineState::Releasing));
+}
+
+// ───────── scripted inputs (no twin), for faults the physics cannot easily produce ─────────
+
+fn boot_inputs() -> Inputs {
+    Inputs {
+        load_cell: LoadCellScale::NOMINAL.to_code(Kgf::ZERO),
+        limits: LimitSwitches { home: true, end: false },
+        ..Inputs::default()
+    }
+}
+
+/// Boot with an ideal, obedient machine: Hall steps follow the command, home switch opens
+/// when the carriage leaves it.
+fn run_to_ready(machine: &mut Machine, inputs: &mut Inputs, now: &mut u32) {
+    for _ in 0..20_000 {
+        inputs.now_ms = *now;
+        *now += 1;
+        let out = machine.tick(inputs);
+        match out.drive.direction() {
+            Some(taut_core::drive::Direction::Pull) => inputs.drive.steps += 1,
+            Some(taut_core::drive::Direction::Release) => inputs.drive.steps -= 1,
+            None => {}
+        }
+        inputs.limits.home = inputs.drive.steps <= 0;
+        if machine.state() == MachineState::Ready {
+            return;
+        }
+    }
+    panic!("not ready: {:?}", machine.state());
+}
+
+fn press(machine: &mut Machine, inputs: &mut Inputs, now: &mut u32, key: Key) {
+    inputs.keys = Keys::NONE.with(key);
+    for _ in 0..30 {
+        inputs.now_ms = *now;
+        *now += 1;
+        machine.tick(inputs);
+    }
+    inputs.keys = Keys::NONE;
+    inputs.limits.home = false;
+    for _ in 0..30 {
+        inputs.now_ms = *now;
+        *now += 1;
+        machine.tick(inputs);
+    }
+}

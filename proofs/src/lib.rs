@@ -31,3 +31,4 @@ pub mod machine;
 pub mod tension;
 pub mod tension_reference;
 pub mod machine_model;
+pub mod machine_store;

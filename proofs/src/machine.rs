@@ -354,6 +354,28 @@ pub fn clear_only_with_zero_command(record: &TickRecord) {
     }
 }
 
+/// REQ-SAFE-08: a latched fault is left only by the operator's clear: in the tick the
+/// machine leaves the fault state it is asking the drive to clear (with coast), and the
+/// inputs show no cause that holds everywhere — both limits, a latched drive fault,
+/// overcurrent.
+pub fn fault_latches(record: &TickRecord) {
+    let left_fault = matches!(record.before, MachineState::Fault(_))
+        && !matches!(record.after, MachineState::Fault(_));
+    if left_fault {
+        assert!(record.outputs.clear_drive_fault, "REQ-SAFE-08: fault left without a clear");
+        assert_eq!(
+            record.outputs.drive,
+            DriveCommand::Coast,
+            "REQ-SAFE-08: cleared with a command"
+        );
+        let inputs = &record.inputs;
+        assert!(
+            !inputs.limits.both() && inputs.drive.fault.is_none() && !overcurrent(inputs),
+            "REQ-SAFE-08: fault cleared while its cause is present: {inputs:?}"
+        );
+    }
+}
+
 /// Every per-tick property.
 pub fn check_tick(record: &TickRecord) {
     never_toward_active_limit(record);
@@ -363,6 +385,7 @@ pub fn check_tick(record: &TickRecord) {
     duty_bounded(record);
     fault_and_idle_coast(record);
     clear_only_with_zero_command(record);
+    fault_latches(record);
 }
 
 /// A machine at `input`'s checkpoint with the default record, if the checkpoint is valid.
@@ -426,5 +449,11 @@ mod verification {
     #[kani::unwind(10)]
     fn verify_machine_clear_only_with_zero_command() {
         clear_only_with_zero_command(&one_tick());
+    }
+
+    #[kani::proof]
+    #[kani::unwind(10)]
+    fn verify_machine_fault_latches() {
+        fault_latches(&one_tick());
     }
 }

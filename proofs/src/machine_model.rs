@@ -225,6 +225,26 @@ pub struct World {
     pub last: Outputs,
 }
 
+/// Model-check property `tension_faults_stop_the_pull` (REQ-SAFE-09): a string-tension
+/// state that sees an overload, a negative (reversed) reading or a load-cell rail for 30 ms
+/// has latched a fault by then — the rules' persistence (≤ 20 ticks) is shorter.
+pub fn tension_faults_stop_the_pull(before: MachineState, band: Band, after: MachineState) {
+    let tensioned = matches!(
+        before,
+        MachineState::Pulling
+            | MachineState::Holding
+            | MachineState::CalibrationPull { .. }
+            | MachineState::CalibrationEntry { .. }
+    );
+    let faulty = matches!(band, Band::Overload | Band::Negative | Band::RailLow | Band::RailHigh);
+    if tensioned && faulty {
+        assert!(
+            matches!(after, MachineState::Fault(_)),
+            "REQ-SAFE-09: {band:?} for 30 ms in {before:?} left the machine in {after:?}"
+        );
+    }
+}
+
 /// Whether `state` has a timeout longer than 6 s (the pull and release timeouts).
 fn has_long_timer(state: MachineState) -> bool {
     matches!(
@@ -361,8 +381,10 @@ impl World {
                 run(self, Keys::NONE, 5);
             }
             Action::Tension(band) => {
+                let before = self.machine.state();
                 self.env.band = band;
                 run(self, Keys::NONE, 30);
+                tension_faults_stop_the_pull(before, band, self.machine.state());
             }
             Action::ToggleWiring => {
                 self.env.wiring_fault = !self.env.wiring_fault;

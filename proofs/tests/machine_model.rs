@@ -1,7 +1,13 @@
 //! The whole-machine model check (`REQ-SM-*` liveness and every `REQ-SAFE-*` property on
-//! every simulated tick): the real machine composed with the abstract environment of
+//! every simulated tick, the `tension_faults_stop_the_pull` property after every tension
+//! change): the real machine composed with the abstract environment of
 //! `taut_proofs::machine_model`, explored breadth-first from power-up. Prints the number of
 //! abstract states and transitions explored and the ticks simulated.
+
+#![allow(
+    clippy::float_arithmetic,
+    reason = "reports the run's duration in seconds; nothing is decided on it"
+)]
 
 use taut_core::machine::MachineState;
 use taut_proofs::machine_model::{Env, explore};
@@ -11,9 +17,11 @@ const STATE_LIMIT: usize = 200_000;
 
 #[test]
 fn machine_model_check() {
+    let started = std::time::Instant::now();
     let report = explore(&[Env::HEALTHY], STATE_LIMIT);
+    let seconds = started.elapsed().as_secs_f64();
     println!(
-        "machine_model_check: {} abstract states, {} transitions, {} ticks checked, {} machine states",
+        "machine_model_check: {} abstract states, {} transitions, {} ticks checked, {} machine states, {seconds:.1} s",
         report.states,
         report.transitions,
         report.ticks,

@@ -13,8 +13,8 @@ use taut_core::io::Key;
 use taut_core::machine::Machine;
 use taut_proofs::machine::{
     CheckpointInput, STATE_KINDS, TickInput, apply, both_limits_fault_and_coast, check_tick,
-    clear_only_with_zero_command, duty_bounded, fault_and_idle_coast, never_toward_active_limit,
-    overcurrent_coasts, releasing_stops_at_home, resume,
+    clear_only_with_zero_command, duty_bounded, fault_and_idle_coast, fault_latches,
+    never_toward_active_limit, overcurrent_coasts, releasing_stops_at_home, resume,
 };
 
 /// Load-cell codes: bottom rail, the unloaded tare, ≈ 3, 25 and 52 kgf, top rail.
@@ -241,6 +241,7 @@ proptest! {
                 duty_bounded(&record);
                 fault_and_idle_coast(&record);
                 clear_only_with_zero_command(&record);
+                fault_latches(&record);
             }
         }
     }

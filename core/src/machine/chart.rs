@@ -1050,3 +1050,52 @@ pub(crate) fn public_state(state: &State) -> MachineState {
         State::Fault { code, .. } => MachineState::Fault(*code),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::store::SetPoint;
+
+    #[test]
+    fn every_valid_setting_converts_to_pull_settings() {
+        let mut cases = 0u32;
+        for unit in [Unit::Kilograms, Unit::Pounds] {
+            for tenths in 0..=1_200u16 {
+                let Ok(point) = SetPoint::new(unit, tenths) else { continue };
+                for speed in 1..=9u8 {
+                    for pre in (0..=30u8).step_by(5) {
+                        for knot in (0..=20u8).step_by(5) {
+                            let settings = Settings::new(point, speed, pre, knot).unwrap();
+                            let pull = to_pull_settings(&settings);
+                            assert_eq!(pull.tension(), point.to_kgf());
+                            assert_eq!(pull.speed().get(), speed);
+                            assert_eq!(pull.pre_stretch().percent(), pre);
+                            assert_eq!(pull.knot().percent(), knot);
+                            cases += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(cases > 200_000, "{cases}");
+    }
+
+    #[test]
+    fn calibration_settings_pull_to_the_four_points() {
+        for (point, target) in CALIBRATION_TARGETS.iter().enumerate() {
+            let settings = calibration_settings(u8::try_from(point).unwrap());
+            assert_eq!(settings.tension(), *target);
+            assert_eq!(settings.peak_target(PullKind::Main), *target);
+        }
+    }
+
+    #[test]
+    fn views_cycle_back_to_tension() {
+        let mut view = View::Tension;
+        for _ in 0..5 {
+            view = view.next();
+        }
+        assert_eq!(view, View::Tension);
+        assert_eq!(View::Preset(4).next(), View::Tension);
+    }
+}

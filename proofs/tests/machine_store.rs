@@ -1,0 +1,105 @@
+//! The stored record's properties (`REQ-STORE-*`) under `cargo test`: exhaustive over every
+//! single-bit flip of real records and every settings value, proptest over random and
+//! mutated bytes. Each test prints how many cases it covered.
+#![allow(
+    clippy::arithmetic_side_effects,
+    clippy::expect_used,
+    clippy::indexing_slicing,
+    reason = "test bookkeeping on small counts; a panic fails the test, as it should"
+)]
+
+use proptest::prelude::*;
+use taut_core::store::{RECORD_LEN, Record, StoreError};
+use taut_proofs::machine_store::{RecordInput, SettingsInput, decode_is_total, round_trips};
+
+fn sample_records() -> Vec<Record> {
+    let mut out = vec![Record::default()];
+    for (pounds, tenths, speed, pre, knot, calibrated) in
+        [(false, 250, 5, 0, 0, true), (true, 550, 9, 30, 20, false), (false, 500, 1, 10, 15, true)]
+    {
+        let settings = SettingsInput { pounds, tenths, speed, pre, knot };
+        let input = RecordInput {
+            settings,
+            preset: settings,
+            calibrated,
+            calibration_bits: (655_360, 660_000),
+            pulls: 12_345,
+            string_mm: 6_789_012,
+        };
+        out.push(input.record().expect("valid sample"));
+    }
+    out
+}
+
+#[test]
+fn machine_store_bit_flips_exhaustive() {
+    let mut cases = 0u32;
+    for record in sample_records() {
+        round_trips(&record);
+        let bytes = record.encode();
+        for index in 0..RECORD_LEN {
+            for bit in 0..8 {
+                let mut corrupt = bytes;
+                corrupt[index] ^= 1 << bit;
+                decode_is_total(&corrupt);
+                assert!(Record::decode(&corrupt).is_err(), "flip {index}:{bit} accepted");
+                cases += 1;
+            }
+        }
+    }
+    println!("machine_store_bit_flips_exhaustive: {cases} corrupted records, all rejected");
+}
+
+#[test]
+fn machine_store_settings_exhaustive() {
+    let mut accepted = 0u32;
+    let mut cases = 0u32;
+    for pounds in [false, true] {
+        for tenths in 0..=1_200u16 {
+            for speed in 0..=10u8 {
+                for pre in [0u8, 5, 29, 30, 31] {
+                    for knot in [0u8, 20, 21] {
+                        let settings = SettingsInput { pounds, tenths, speed, pre, knot };
+                        let input =
+                            RecordInput { settings, preset: settings, ..RecordInput::default() };
+                        cases += 1;
+                        if let Some(record) = input.record() {
+                            round_trips(&record);
+                            accepted += 1;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    println!(
+        "machine_store_settings_exhaustive: {cases} settings, {accepted} valid, all round-trip"
+    );
+    assert!(accepted > 10_000);
+}
+
+#[test]
+fn machine_store_short_and_erased() {
+    assert_eq!(Record::decode(&[]), Err(StoreError::TooShort));
+    assert_eq!(Record::decode(&[0xFF; RECORD_LEN]), Err(StoreError::NoRecord));
+    assert_eq!(Record::decode(&[0x00; RECORD_LEN]), Err(StoreError::NoRecord));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 20_000, ..ProptestConfig::default() })]
+
+    #[test]
+    fn machine_store_random_bytes(bytes in prop::array::uniform32(any::<u8>()), tail in prop::collection::vec(any::<u8>(), 96)) {
+        let mut all = [0u8; RECORD_LEN];
+        all[..32].copy_from_slice(&bytes);
+        all[32..].copy_from_slice(&tail);
+        decode_is_total(&all);
+    }
+
+    #[test]
+    fn machine_store_mutated_records(which in 0usize..4, index in 0usize..RECORD_LEN, value in any::<u8>()) {
+        let mut bytes = sample_records()[which].encode();
+        bytes[index] = value;
+        decode_is_total(&bytes);
+    }
+}

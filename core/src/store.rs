@@ -71,7 +71,6 @@ const _: () = assert!(OFFSET_RESERVED <= OFFSET_CRC && RECORD_LEN <= 256, "layou
 
 /// The unit the operator sets and reads tension in.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
-#[cfg_attr(kani, derive(kani::Arbitrary))]
 pub enum Unit {
     /// Kilograms-force, set in 0.1 kg steps.
     #[default]

@@ -135,7 +135,6 @@ impl Context {
 
 /// Where a fault's clearing leads.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
-#[cfg_attr(kani, derive(kani::Arbitrary))]
 pub enum Recovery {
     /// Raised during the boot sequence: run the self-test again (the paper: fix, power-cycle).
     SelfTest,
@@ -145,7 +144,6 @@ pub enum Recovery {
 
 /// Where a release leads once home.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
-#[cfg_attr(kani, derive(kani::Arbitrary))]
 pub enum AfterRelease {
     /// Boot homing: on to the calibration window.
     CalibrationWindow,
@@ -155,7 +153,6 @@ pub enum AfterRelease {
 
 /// The page the Ready panel shows.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
-#[cfg_attr(kani, derive(kani::Arbitrary))]
 pub enum View {
     /// The tension set point (`25.0`).
     #[default]

@@ -17,7 +17,6 @@ use crate::store::StoreError;
 
 /// A fault or notice, shown as `E-nn`.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
-#[cfg_attr(kani, derive(kani::Arbitrary))]
 pub enum FaultCode {
     /// E-01: both limit switches active at once (mechanically impossible: wiring fault).
     LimitsBoth,

@@ -64,7 +64,6 @@ const AVERAGE_SHIFT: u32 = 6;
 
 /// The state the machine is in, as a small value for displays, logs and tests.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
-#[cfg_attr(kani, derive(kani::Arbitrary))]
 pub enum MachineState {
     /// Power-on self-test of the limit switches and the load cell.
     SelfTest,

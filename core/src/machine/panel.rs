@@ -40,7 +40,6 @@ pub const LONG_PRESS_MS: u16 = 1_500;
 
 /// One thing the operator did with the keys.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
-#[cfg_attr(kani, derive(kani::Arbitrary))]
 pub enum KeyEvent {
     /// The key went down.
     Press(Key),
@@ -329,7 +328,6 @@ pub const fn fault(number: u8) -> Display {
 
 /// A beeper sound.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
-#[cfg_attr(kani, derive(kani::Arbitrary))]
 pub enum Beep {
     /// 15 ms: a key was accepted.
     Click,

@@ -28,7 +28,7 @@
 pub mod drive;
 pub mod fixed_point;
 pub mod machine;
-pub mod tension;
-pub mod tension_reference;
 pub mod machine_model;
 pub mod machine_store;
+pub mod tension;
+pub mod tension_reference;

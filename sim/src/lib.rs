@@ -24,7 +24,7 @@
 //! ```
 //!
 //! Modules: [`params`] (every number and its Monte-Carlo range), [`motor`] (back-EMF,
-//! Hall, three-phase currents with body diodes), [`string`] (slack, creep, break),
+//! Hall, three-phase currents with the complementary bridge and body diodes), [`string`] (slack, creep, break),
 //! [`sensors`] (load cell, current, encoder), [`twin`] (the machine), [`trace`] (run a
 //! controller, record, CSV; the bang-bang oracle), [`rng`] (the seeded generator).
 //!
@@ -62,14 +62,29 @@
 //! - **Rotor inertia**: 1.5 × 10⁻⁵ kg·m² (57 mm BLDCs of this rating list 1–2 × 10⁻⁵);
 //!   gearbox and screw add 0.1 × 10⁻⁵ at the motor shaft.
 //!
-//! ## Bridge
+//! ## Bridge and bus
 //!
-//! 24 V bus (paper), treated as stiff. High-side PWM with the low side of the sector on,
-//! as `taut_core::drive::LegState` defines (low side off during the high leg's off-time:
-//! the current freewheels through the low body diode, 0.8 V). Hardware overcurrent
-//! comparator on the bus shunt at **15 A**, above the drive's 12 A software limit and
-//! below the 28 A stall current; it switches the bridge off at once within the PWM period
-//! and raises the drive's `overcurrent_trip` flag on the next period.
+//! 24 V supply (paper). Six-step drive with the sector's low side on and the switched leg
+//! **complementary** (high side for the duty, its own low side for the rest of the period),
+//! as `taut_core::drive::commutation` specifies and the firmware programs TIM1's CHx/CHxN
+//! pairs, with the timer's **1 µs dead time** (`taut_core::drive::DEAD_TIME`) at every
+//! rising gate edge, during which the leg's body diodes (0.8 V) carry the current. So the
+//! winding sees `duty·V_bus` (less ≈ ±0.5 V of dead-time distortion, signed with the
+//! current) in either current direction: a duty below the back-EMF ratio **brakes** and
+//! regenerates. Hardware overcurrent comparator on the bus shunt at **15 A**, above the
+//! drive's 12 A software limit and below the 28 A stall current; it switches the bridge off
+//! at once within the PWM period and raises the drive's `overcurrent_trip` flag on the next
+//! period. The low-side bus shunt only sees the high switch's on-time current, and reads
+//! negative (regenerated) current as zero — braking current is invisible to it.
+//!
+//! The **DC bus** is not stiff: the supply — an ideal source at 24 V behind 50 mΩ (output
+//! impedance and cable) and a blocking diode, since a bench SMPS cannot sink current —
+//! feeds a **1000 µF** bulk capacitor (assumption: one 1000 µF / 50 V low-ESR
+//! electrolytic, the usual bulk capacitor of a 24 V, 100 W-class motor board; the low end
+//! of 1000–2200 µF, the conservative choice for pump-up), and the electronics draw 0.1 A.
+//! Regenerated energy has nowhere to go but the capacitor: a brake from full speed at half
+//! the back-EMF ratio lifts the bus from 24 V to ≈ 31 V (`sim/tests/physics.rs`). The
+//! Monte-Carlo varies the capacitance ±20 % and the supply resistance ±50 %.
 //!
 //! ## Drivetrain (paper: 1:20 gearbox, 2.54 cm lead)
 //!
@@ -133,8 +148,8 @@
 //!
 //! # Numerical method
 //!
-//! Winding currents are integrated exactly (exponential solution) within each part of
-//! each PWM period, with diode blocking and comparator events located analytically
+//! Winding currents are integrated exactly (exponential solution) within each of the four
+//! parts of each PWM period, with diode blocking and comparator events located analytically
 //! ([`motor`]); the mechanics advance by semi-implicit Euler at 50 µs (the fastest
 //! mechanical mode, the bench motor's 3.5 ms electromechanical time constant, is 70
 //! steps); static friction by the Karnopp scheme; the string's Maxwell arms exactly for a

@@ -23,11 +23,34 @@
 //! on: ground) or is off, when the phase can only conduct through a body diode: current
 //! flowing *into* the motor is drawn from ground through the low diode (terminal at
 //! `−V_d`), current flowing *out* returns to the bus through the high diode (terminal at
-//! `V_bus + V_d`), and a phase with no current floats. PWM is applied to the high side:
-//! within one PWM period the high leg is on for `duty · T` and off for the rest, when its
-//! current freewheels through the low diode; the low leg stays on. The twin integrates the
-//! two parts of every period separately (no PWM-edge detail is needed: the electrical
-//! time constant `L/R` ≈ 1 ms is twenty PWM periods), so the average is exact.
+//! `V_bus + V_d`), and a phase with no current floats.
+//!
+//! **The switched leg is complementary** (`taut_core::drive::commutation`, "The switched
+//! leg is complementary"; the firmware's TIM1 CHx/CHxN pairs): within one PWM period of
+//! length `T` the leg marked `High` goes through four parts, as the timer's dead-time
+//! generator produces them (every rising gate edge delayed by the dead time `t_d`):
+//!
+//! | part | length | switched leg |
+//! |---|---|---|
+//! | dead time | `t_d` | both off: body diodes |
+//! | on | `D·T − t_d` | high side: the bus |
+//! | dead time | `t_d` | both off: body diodes |
+//! | off | `(1 − D)·T − t_d` | **low side: ground** |
+//!
+//! (a pulse shorter than the dead time never turns the high side on; `D = 0` keeps the low
+//! side on all period, with no edge at all). The sector's `Low` leg stays on throughout. So
+//! the winding pair sees `D·V_bus` on average for either direction of its current, less the
+//! dead-time distortion `≈ ±(t_d/T)·V_bus` whose sign follows the current: the drive works
+//! in two quadrants, and a duty below the back-EMF ratio drives the current backwards —
+//! the motor brakes and returns energy to the bus through the high side (and the high body
+//! diode in the dead times). The twin integrates the parts of every period separately (no
+//! finer PWM-edge detail is needed: the electrical time constant `L/R` ≈ 1 ms is twenty PWM
+//! periods), so the average is exact.
+//!
+//! **The bus.** [`PeriodResult::bus_charge`] is the charge the bridge took from the DC bus
+//! in the period (negative while regenerating): the high switch's current in its on-part
+//! plus any current returned through a high body diode. The twin's DC-bus model
+//! (`crate::twin`) turns it into the bus voltage for the next period.
 //!
 //! Within a part every conducting branch obeys `L di/dt = u − R i` with `u` constant
 //! (the neutral point found from Kirchhoff's current law), solved exactly:
@@ -105,6 +128,17 @@ pub fn hall_code(theta_e_deg: f64) -> HallCode {
     HallCode::from_lines(high(30.0), high(150.0), high(270.0))
 }
 
+/// The parts of a PWM period, as the switched leg sees them.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Part {
+    /// The high side conducts.
+    On,
+    /// Both switches off (the dead time at either edge).
+    Dead,
+    /// The low side conducts (the complement).
+    Off,
+}
+
 /// What one leg does during one part of a PWM period.
 #[derive(Clone, Copy, PartialEq, Debug)]
 enum Terminal {
@@ -121,12 +155,14 @@ pub struct Circuit {
     pub resistance: f64,
     /// Phase inductance, H.
     pub inductance: f64,
-    /// Bus voltage, V.
+    /// Bus voltage, V (the twin sets it every period from its DC-bus model).
     pub bus_volts: f64,
     /// Body-diode drop, V.
     pub diode_drop: f64,
     /// Comparator level on the bus current, A.
     pub comparator_amps: f64,
+    /// Hardware dead time at every rising gate edge of the switched leg, s.
+    pub dead_time: f64,
 }
 
 /// What happened during one PWM period.
@@ -143,20 +179,28 @@ pub struct PeriodResult {
     pub peak_current: f64,
     /// The comparator fired: the hardware break switched the bridge off.
     pub comparator_tripped: bool,
+    /// Charge drawn from the DC bus over the period, C (A·s): the high switches' current
+    /// plus the current returned through high body diodes; negative when regenerating.
+    pub bus_charge: f64,
 }
 
 /// Accumulates integrals while a PWM period is solved.
 #[derive(Default)]
 struct Accumulator {
     current_integral: [f64; 3],
+    /// ∫ current through the conducting high-side switches (what the shunt sees).
+    shunt_integral: f64,
+    /// ∫ current drawn from the bus (switches and high body diodes).
     bus_integral: f64,
     peak: f64,
 }
 
 impl Circuit {
-    /// Solves one PWM period of length `period_s`: the `pattern` with its high side on for
-    /// `duty` of the period, then off; `emf` the phase back-EMFs (V), held over the period.
-    /// `currents` are advanced in place.
+    /// Solves one PWM period of length `period_s`: the `pattern` with its switched (`High`)
+    /// leg complementary at `duty` — dead time, high side, dead time, low side (see the
+    /// module docs) — with `emf` the phase back-EMFs (V), held over the period. `currents`
+    /// are advanced in place. A comparator trip in the on-part switches every leg off for
+    /// the rest of the period (the timer's break input).
     pub fn pwm_period(
         &self,
         currents: &mut [f64; 3],
@@ -167,43 +211,69 @@ impl Circuit {
     ) -> PeriodResult {
         let duty = duty.clamp(0.0, 1.0);
         let has_high = pattern.count(LegState::High) > 0;
-        let on_time = if has_high { duty * period_s } else { 0.0 };
+        let dead = self.dead_time.clamp(0.0, 0.5 * period_s);
+        let pulse = duty * period_s;
+        // The parts of the period (see the module docs); lengths sum to `period_s`.
+        let (lead_dead, on_time, trail_dead) = if !has_high || duty <= 0.0 {
+            (0.0, 0.0, 0.0)
+        } else if pulse <= dead {
+            (0.0, 0.0, pulse + dead)
+        } else {
+            (dead, pulse - dead, dead)
+        };
+        let off_time = (period_s - lead_dead - on_time - trail_dead).max(0.0);
         let mut acc = Accumulator::default();
         let mut result = PeriodResult::default();
 
-        let on_legs = self.terminals(pattern, true);
+        let dead_legs = self.terminals(pattern, Part::Dead);
+        if lead_dead > 0.0 {
+            self.solve(currents, dead_legs, emf, lead_dead, false, &mut acc);
+        }
         let mut applied_on = on_time;
         if on_time > 0.0 {
+            let on_legs = self.terminals(pattern, Part::On);
+            let before = acc.shunt_integral;
             let (elapsed, tripped) = self.solve(currents, on_legs, emf, on_time, true, &mut acc);
             applied_on = elapsed;
             result.comparator_tripped = tripped;
             if applied_on > 0.0 {
-                result.on_bus_current = acc.bus_integral / applied_on;
+                result.on_bus_current = (acc.shunt_integral - before) / applied_on;
             }
         }
-        let rest = period_s - applied_on;
-        if rest > 0.0 {
-            let off_legs = if result.comparator_tripped {
-                [Terminal::Diode; 3]
-            } else {
-                self.terminals(pattern, false)
-            };
-            self.solve(currents, off_legs, emf, rest, false, &mut acc);
+        if result.comparator_tripped {
+            // The break: every gate off for the rest of the period.
+            let rest = period_s - lead_dead - applied_on;
+            if rest > 0.0 {
+                self.solve(currents, [Terminal::Diode; 3], emf, rest, false, &mut acc);
+            }
+        } else {
+            if trail_dead > 0.0 {
+                self.solve(currents, dead_legs, emf, trail_dead, false, &mut acc);
+            }
+            if off_time > 0.0 {
+                let off_legs = self.terminals(pattern, Part::Off);
+                self.solve(currents, off_legs, emf, off_time, false, &mut acc);
+            }
         }
         for (mean, integral) in result.mean_current.iter_mut().zip(acc.current_integral) {
             *mean = integral / period_s;
         }
         result.on_time = applied_on;
         result.peak_current = acc.peak;
+        result.bus_charge = acc.bus_integral;
         result
     }
 
-    /// The legs' terminals for the on part (`on = true`) or the off part of the period.
-    fn terminals(&self, pattern: SwitchPattern, on: bool) -> [Terminal; 3] {
-        Phase::ALL.map(|phase| match pattern.leg(phase) {
-            LegState::High if on => Terminal::Source { volts: self.bus_volts, bus: true },
-            LegState::Low => Terminal::Source { volts: 0.0, bus: false },
-            LegState::High | LegState::Off => Terminal::Diode,
+    /// The legs' terminals during one part of the period: the switched leg is the bus in
+    /// the on-part, ground (its low side, the complement) in the off-part and a body diode
+    /// pair in the dead times; the sector's low leg is ground throughout.
+    fn terminals(&self, pattern: SwitchPattern, part: Part) -> [Terminal; 3] {
+        Phase::ALL.map(|phase| match (pattern.leg(phase), part) {
+            (LegState::High, Part::On) => Terminal::Source { volts: self.bus_volts, bus: true },
+            (LegState::High, Part::Off) | (LegState::Low, _) => {
+                Terminal::Source { volts: 0.0, bus: false }
+            }
+            (LegState::High, Part::Dead) | (LegState::Off, _) => Terminal::Diode,
         })
     }
 
@@ -284,7 +354,15 @@ impl Circuit {
                 if let Some(total) = acc.current_integral.get_mut(k) {
                     *total += integral;
                 }
-                if matches!(leg, Terminal::Source { bus: true, .. }) {
+                let high_switch = matches!(leg, Terminal::Source { bus: true, .. });
+                if high_switch {
+                    acc.shunt_integral += integral;
+                }
+                // Current returned through a high body diode (a diode leg on the upper rail)
+                // flows into the bus.
+                let high_diode = leg == Terminal::Diode
+                    && volts.get(k).copied().flatten().is_some_and(|v| v > self.bus_volts);
+                if high_switch || high_diode {
                     acc.bus_integral += integral;
                 }
                 *i = a + (i0 - a) * decay;
@@ -467,6 +545,7 @@ mod tests {
             bus_volts: 24.0,
             diode_drop: 0.8,
             comparator_amps: 15.0,
+            dead_time: 1e-6,
         }
     }
 
@@ -475,13 +554,58 @@ mod tests {
         let c = circuit();
         let pattern = six_step(Sector::S0, Direction::Pull); // A+ B−
         let mut i = [0.0; 3];
+        let mut last = PeriodResult::default();
         for _ in 0..2000 {
-            c.pwm_period(&mut i, pattern, 0.25, [0.0; 3], 50e-6);
+            last = c.pwm_period(&mut i, pattern, 0.25, [0.0; 3], 50e-6);
         }
-        // Average line voltage 0.25·24 − 0.75·0.8 over 2R.
-        let expected = (0.25 * 24.0 - 0.75 * 0.8) / (2.0 * 0.423);
+        // Complementary leg, positive current: the bus for D·T − t_d, a low body diode for
+        // the two dead times, ground for the rest — (0.25 − 0.02)·24 − 0.04·0.8 over 2R,
+        // as the period's mean (the end-of-period value sits half the ripple lower).
+        let expected = ((0.25 - 0.02) * 24.0 - 0.04 * 0.8) / (2.0 * 0.423);
+        let mean = last.mean_current[0];
+        assert!((mean - expected).abs() < 0.01, "{mean} vs {expected}");
         assert!((i[0] - expected).abs() < 0.2, "{i:?} vs {expected}");
         assert!((i[0] + i[1]).abs() < 1e-9 && i[2] == 0.0);
+    }
+
+    #[test]
+    fn a_duty_below_the_back_emf_ratio_brakes_and_returns_charge_to_the_bus() {
+        let c = circuit();
+        let pattern = six_step(Sector::S0, Direction::Pull); // A+ B−
+        // A spinning motor: line back-EMF 12 V (A +6 V, B −6 V), duty 0.25 → 6 V applied.
+        let emf = [6.0, -6.0, 0.0];
+        let mut i = [0.0; 3];
+        let mut last = PeriodResult::default();
+        for _ in 0..2000 {
+            last = c.pwm_period(&mut i, pattern, 0.25, emf, 50e-6);
+        }
+        // The current runs backwards (braking torque) at ≈ (0.25·24 + 0.02·24 − 12)/2R: in
+        // the dead times the high body diode carries it, adding t_d/T of the bus.
+        let expected = ((0.25 + 0.02) * 24.0 + 0.04 * 0.8 - 12.0) / (2.0 * 0.423);
+        assert!(i[0] < 0.0, "{i:?}");
+        let mean = last.mean_current[0];
+        assert!((mean - expected).abs() < 0.01, "{mean} vs {expected}");
+        // Energy flows into the bus: the charge taken is negative, ≈ (D·T + t_d)·i per period.
+        assert!(last.bus_charge < 0.0, "{last:?}");
+        let expected_charge = (0.25 * 50e-6 + 1e-6) * expected;
+        assert!((last.bus_charge / expected_charge - 1.0).abs() < 0.02, "{last:?}");
+        // A low-side shunt sees none of it as positive current.
+        assert!(last.on_bus_current < 0.0);
+    }
+
+    #[test]
+    fn zero_duty_shorts_the_pair_through_the_low_sides() {
+        let c = circuit();
+        let pattern = six_step(Sector::S0, Direction::Pull);
+        let mut i = [0.0; 3];
+        let mut last = PeriodResult::default();
+        for _ in 0..2000 {
+            last = c.pwm_period(&mut i, pattern, 0.0, [3.0, -3.0, 0.0], 50e-6);
+        }
+        // No edge at all: both windings tied to ground, the back-EMF drives −6 V / 2R.
+        assert!((i[0] + 6.0 / (2.0 * 0.423)).abs() < 1e-3, "{i:?}");
+        assert_eq!(last.on_time, 0.0);
+        assert!(last.bus_charge.abs() < 1e-12, "{last:?}");
     }
 
     #[test]

@@ -275,14 +275,27 @@ pub struct MotorParams {
 }
 
 /// The three-phase bridge and its supply.
+///
+/// The bus is not stiff: the supply (a bench SMPS, which cannot sink current) feeds the bus
+/// capacitance through a blocking diode, so the energy a braking motor regenerates charges
+/// the capacitor and the bus voltage rises (see `crate::twin`, "The DC bus").
 #[derive(Clone, Copy, PartialEq, Debug)]
 pub struct BridgeParams {
-    /// DC bus voltage, V (paper: 24 V).
+    /// Supply voltage at the bus with no current flowing, V (paper: 24 V).
     pub bus_volts: f64,
     /// MOSFET body-diode forward drop, V.
     pub diode_drop_v: f64,
     /// Level of the hardware overcurrent comparator on the bus shunt, A.
     pub comparator_amps: f64,
+    /// Hardware dead time at every rising gate edge of the switched leg, s.
+    pub dead_time_s: f64,
+    /// Resistance between the supply and the bus (supply output, cable, blocking diode), Ω.
+    pub supply_ohm: f64,
+    /// Bulk capacitance on the bus, F.
+    pub bus_capacitance_f: f64,
+    /// Constant current the rest of the machine draws from the bus (MCU, gate drivers,
+    /// load-cell excitation, display), A.
+    pub aux_load_amps: f64,
 }
 
 /// The gearbox, lead screw and carriage.
@@ -503,10 +516,22 @@ impl MotorParams {
 }
 
 impl BridgeParams {
-    /// 24 V bus, 0.8 V body diodes, 15 A comparator.
+    /// 24 V supply, 0.8 V body diodes, 15 A comparator, taut-core's 1 µs dead time, 50 mΩ
+    /// supply path, 1000 µF bulk capacitance, 0.1 A auxiliary load (sources in the crate
+    /// docs).
     #[must_use]
+    #[allow(clippy::cast_lossless, reason = "`f64::from` is not callable in a const fn")]
     pub const fn nominal() -> Self {
-        Self { bus_volts: 24.0, diode_drop_v: 0.8, comparator_amps: 15.0 }
+        use taut_core::drive::{DEAD_TIME, PWM_TIMER_HZ};
+        Self {
+            bus_volts: 24.0,
+            diode_drop_v: 0.8,
+            comparator_amps: 15.0,
+            dead_time_s: DEAD_TIME.0 as f64 / PWM_TIMER_HZ as f64,
+            supply_ohm: 0.05,
+            bus_capacitance_f: 1000e-6,
+            aux_load_amps: 0.1,
+        }
     }
 }
 
@@ -695,6 +720,11 @@ impl TwinConfig {
         c.hall.burst_probability = rng.range(0.0, 1e-5);
 
         c.encoder.scale_error = rng.range(-0.02, 0.02);
+
+        // Drawn last, so the parameters above keep the values they had before the bus was
+        // modelled: electrolytic tolerance ±20 %, supply wiring ±50 %.
+        c.bridge.bus_capacitance_f *= rng.range(0.8, 1.2);
+        c.bridge.supply_ohm *= rng.range(0.5, 1.5);
         c
     }
 
@@ -718,6 +748,11 @@ impl TwinConfig {
         positive(f64::from(m.pole_pairs), "pole pairs")?;
         positive(self.bridge.bus_volts, "bus voltage")?;
         positive(self.bridge.comparator_amps, "comparator level")?;
+        positive(self.bridge.supply_ohm, "supply resistance")?;
+        positive(self.bridge.bus_capacitance_f, "bus capacitance")?;
+        if !(self.bridge.dead_time_s >= 0.0 && self.bridge.aux_load_amps >= 0.0) {
+            return Err(ConfigError::NonPositive("dead time and auxiliary load"));
+        }
         let k = &self.mechanics;
         positive(k.gear_ratio, "gear ratio")?;
         positive(k.lead_mm, "lead")?;

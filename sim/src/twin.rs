@@ -20,6 +20,8 @@
 //!    screw efficiencies), static friction, viscous loss, cogging and hard end stops,
 //! 5. stretches the string ([`crate::string`]) and filters the load-cell amplifier.
 //!
+//! 6. charges or discharges the DC bus with what the bridge drew in the period.
+//!
 //! At the end of the tick the sensors are sampled into an [`Inputs`] snapshot: what the
 //! firmware would read at the start of the next tick. The controller under test reads
 //! [`Twin::inputs`], decides, and hands its [`Outputs`] to [`Twin::apply`]; the panel
@@ -39,6 +41,27 @@
 //! where `a` and `b` reproduce the forward and back-driven efficiencies (see
 //! `MechanicsParams::friction_coefficients`). At rest the same friction times the
 //! stiction ratio must be exceeded before the carriage moves.
+//!
+//! # The DC bus
+//!
+//! The bridge's switched leg is complementary (see [`crate::motor`]), so a duty below the
+//! back-EMF ratio brakes the motor and returns energy to the bus. A bench supply cannot
+//! sink that current, so the bus is modelled as it is built: the supply, an ideal source at
+//! `bus_volts` behind `supply_ohm`, feeds the bulk capacitance `C` through a blocking diode
+//! (an ideal-diode OR-ing stage), and the rest of the machine draws a constant auxiliary
+//! current. Per PWM period, with `i` the bridge's mean current from the bus
+//! ([`crate::motor::PeriodResult::bus_charge`] over the period) plus the auxiliary load:
+//!
+//! ```text
+//! C·dv/dt = max(0, (V_s − v)/R_s) − i
+//! ```
+//!
+//! solved exactly for constant `i` (exponential toward `V_s − R_s·i` while the diode
+//! conducts, a straight line while it blocks, the switch between them located
+//! analytically). The bridge sees the bus voltage of the start of each period; the truth
+//! reports it ([`Truth::bus_volts`]) and its highest value in the tick
+//! ([`Truth::bus_peak_volts`]). Regenerated energy has nowhere to go but the capacitor and
+//! the auxiliary load, so braking pumps the bus up.
 
 use taut_core::drive::duty::DUTY_ONE;
 use taut_core::drive::{
@@ -159,6 +182,10 @@ pub struct Truth {
     pub string_travel_mm: f64,
     /// Load-cell amplifier output before noise and spikes, V.
     pub load_cell_volts: f64,
+    /// DC bus voltage at the end of the tick, V.
+    pub bus_volts: f64,
+    /// Highest DC bus voltage during the tick, V.
+    pub bus_peak_volts: f64,
 }
 
 /// Per-tick sums.
@@ -169,6 +196,7 @@ struct TickSums {
     measured_current: f64,
     peak: f64,
     comparator: bool,
+    bus_peak: f64,
 }
 
 /// The digital twin of the stringing machine. See the module docs.
@@ -198,6 +226,7 @@ pub struct Twin {
     theta: f64,
     omega: f64,
     stuck: bool,
+    bus_volts: f64,
     string_travel_m: f64,
     current_code: AdcCode,
     comparator_flag: bool,
@@ -257,6 +286,7 @@ impl Twin {
                 bus_volts: c.bridge.bus_volts,
                 diode_drop: c.bridge.diode_drop_v,
                 comparator_amps: c.bridge.comparator_amps,
+                dead_time: c.bridge.dead_time_s,
             },
             current_sense: CurrentSense::new(&c.current_sense),
             load_cell: LoadCell::new(&c.load_cell),
@@ -277,6 +307,8 @@ impl Twin {
             theta: start_m / metres_per_rad,
             omega: 0.0,
             stuck: true,
+            // Powered up long ago: the capacitor sits where the auxiliary load holds it.
+            bus_volts: c.bridge.bus_volts - c.bridge.supply_ohm * c.bridge.aux_load_amps,
             string_travel_m: 0.0,
             current_code: AdcCode::MIN,
             comparator_flag: false,
@@ -316,6 +348,8 @@ impl Twin {
                 stuck: true,
                 string_travel_mm: 0.0,
                 load_cell_volts: 0.0,
+                bus_volts: c.bridge.bus_volts,
+                bus_peak_volts: c.bridge.bus_volts,
             },
         };
         twin.hall_burst_in = twin.rng_hall.geometric_gap(c.hall.burst_probability);
@@ -546,7 +580,9 @@ impl Twin {
         // Electrical.
         let shape = emf_shape(theta_e, self.config.motor.emf_ramp_deg);
         let emf = shape.map(|f| self.ke_phase * self.omega * f);
+        self.circuit.bus_volts = self.bus_volts;
         let result = self.circuit.pwm_period(&mut self.currents, out.pattern, duty, emf, dt);
+        self.bus_volts = self.next_bus_volts(result.bus_charge / dt, dt);
         let torque: f64 =
             self.ke_phase * shape.iter().zip(result.mean_current).map(|(f, i)| f * i).sum::<f64>();
 
@@ -586,6 +622,41 @@ impl Twin {
         s.measured_current += measured;
         s.peak = s.peak.max(result.peak_current);
         s.comparator |= result.comparator_tripped;
+        s.bus_peak = s.bus_peak.max(self.bus_volts);
+    }
+
+    /// The bus voltage after `dt` with the bridge drawing `bridge_amps` on average (see
+    /// "The DC bus" in the module docs): exact for a constant load.
+    fn next_bus_volts(&self, bridge_amps: f64, dt: f64) -> f64 {
+        let b = &self.config.bridge;
+        let (supply, r, c) = (b.bus_volts, b.supply_ohm, b.bus_capacitance_f);
+        let load = bridge_amps + b.aux_load_amps;
+        let tau = r * c;
+        // While the diode conducts: exponential toward the loaded supply voltage.
+        let settled = supply - r * load;
+        let mut v = self.bus_volts;
+        let mut left = dt;
+        if v > supply {
+            // Diode blocking: the capacitor alone carries the load.
+            if load <= 0.0 {
+                return v - load * left / c;
+            }
+            let to_supply = (v - supply) * c / load;
+            if to_supply >= left {
+                return v - load * left / c;
+            }
+            v = supply;
+            left -= to_supply;
+        }
+        // Diode conducting (v ≤ supply).
+        if load < 0.0 {
+            // Charging past the supply: the diode blocks once v reaches it.
+            let to_supply = tau * ((settled - v) / (settled - supply)).ln();
+            if to_supply < left {
+                return supply - load * (left - to_supply) / c;
+            }
+        }
+        settled + (v - settled) * (-left / tau).exp()
     }
 
     /// Moves the rigid drivetrain by one step under `torque_em`.
@@ -682,6 +753,8 @@ impl Twin {
             stuck: self.stuck,
             string_travel_mm: self.string_travel_m * 1e3,
             load_cell_volts: self.load_cell.output_volts(),
+            bus_volts: self.bus_volts,
+            bus_peak_volts: if ticks_started { s.bus_peak } else { self.bus_volts },
         };
     }
 }

@@ -51,6 +51,15 @@ fn quiet(kind: StringKind) -> TwinConfig {
     config
 }
 
+/// The mean line voltage the complementary bridge applies to the driven pair at `duty` on a
+/// bus of `bus` volts while the current flows forward: the high side for `D·T − t_d`, the
+/// low body diode for the two dead times, the low side for the rest.
+fn line_volts(config: &TwinConfig, duty: f64, bus: f64) -> f64 {
+    let b = config.bridge;
+    let dead = b.dead_time_s * f64::from(taut_core::drive::PWM_FREQUENCY_HZ);
+    (duty - dead) * bus - 2.0 * dead * b.diode_drop_v
+}
+
 fn mean(values: impl Iterator<Item = f64>) -> f64 {
     let (sum, n) = values.fold((0.0, 0.0), |(s, n), v| (s + v, n + 1.0));
     sum / n
@@ -82,13 +91,16 @@ fn no_load_speed_extrapolates_to_the_papers_3700_rpm() {
     assert_eq!(twin.truth().drive_fault, None);
     let rpm = mean(trace.rows[1_200..].iter().map(|r| r.truth.motor_rpm));
 
-    // Steady state: Ke·ω + 2R·I₀(ω) = duty·V − (1 − duty)·V_d, with I₀(ω) = (T_c + c·ω)/Ke.
+    // Steady state: Ke·ω + 2R·I₀(ω) = the complementary bridge's line voltage (duty·V less
+    // the dead-time loss), with I₀(ω) = (T_c + c·ω)/Ke; V is the bus as the twin loads it.
     let r = 2.0 * m.phase_resistance_ohm;
     let ke = m.ke_volts_per_rad_s;
     let omega_at = |volts: f64| {
         (volts - r * m.coulomb_torque_nm / ke) / (ke + r * m.viscous_nm_per_rad_s / ke)
     };
-    let line_volts = duty * b.bus_volts - (1.0 - duty) * b.diode_drop_v;
+    let bus = mean(trace.rows[1_200..].iter().map(|r| r.truth.bus_volts));
+    assert!(bus < b.bus_volts && bus > b.bus_volts - 0.1, "bus {bus}");
+    let line_volts = line_volts(&config, duty, bus);
     let expected_rpm = omega_at(line_volts) * 60.0 / std::f64::consts::TAU;
     let at_full_bus = rpm * omega_at(b.bus_volts) / omega_at(line_volts);
     println!(
@@ -117,8 +129,7 @@ fn stall_current_is_the_averaged_voltage_over_the_winding_resistance() {
     let last = trace.last().expect("ran").truth;
     let applied = f64::from(drive_at(Direction::Pull, duty).duty().raw()) / 65_536.0;
     let r = 2.0 * config.motor.phase_resistance_ohm;
-    let expected =
-        (applied * config.bridge.bus_volts - (1.0 - applied) * config.bridge.diode_drop_v) / r;
+    let expected = line_volts(&config, applied, last.bus_volts) / r;
     println!("stall at duty {applied:.3}: {:.3} A (model {expected:.3} A)", last.current_a);
     assert!((last.current_a / expected - 1.0).abs() < 0.03, "{} vs {expected}", last.current_a);
     // The current sense reports it through taut-core's gain.
@@ -525,4 +536,88 @@ fn tension_is_force_balanced_when_the_carriage_is_stuck() {
     );
     assert!(held < 30.0);
     assert!(held > 0.7 * threshold(-cog) && held < 1.05 * threshold(cog), "{held}");
+}
+
+/// The carriage (no string) run up to `duty` and left there until steady.
+fn carriage_at_speed(duty: f64) -> Twin {
+    let mut twin = Twin::new(&quiet(StringKind::NoString));
+    run(&mut twin, 600, ramped(Direction::Pull, duty, 200));
+    twin
+}
+
+#[test]
+fn a_low_duty_on_a_spinning_motor_brakes_it() {
+    // Complementary switched leg: a pull-direction duty below the back-EMF ratio drives the
+    // winding current backwards — braking torque — where a diode-freewheeling bridge
+    // would only coast.
+    let mut braked = carriage_at_speed(0.6);
+    let v0 = braked.truth().carriage_mm_per_s;
+    assert!(v0 > 35.0, "{v0} mm/s");
+    let mut coasted = braked.clone();
+    let brake = run(&mut braked, 10, |_| Outputs {
+        drive: drive_at(Direction::Pull, 0.3),
+        ..Outputs::default()
+    });
+    let coast_trace = run(&mut coasted, 10, coast());
+    let torque = brake.rows.iter().map(|r| r.truth.torque_nm).fold(0.0, f64::min);
+    let amps = brake.rows.iter().map(|r| r.truth.peak_current_a).fold(0.0, f64::max);
+    let v_brake = braked.truth().carriage_mm_per_s;
+    let v_coast = coasted.truth().carriage_mm_per_s;
+    println!(
+        "from {v0:.1} mm/s: duty 0.3 for 10 ms → {v_brake:.1} mm/s (torque down to \
+         {torque:.3} N·m, {amps:.1} A), coasting → {v_coast:.1} mm/s"
+    );
+    // Back-EMF ratio ≈ 0.58 against a duty of 0.3: the current reverses (L/R ≈ 1 ms) and
+    // brakes the ≈ 394 kg of reflected inertia toward the speed that duty holds.
+    assert!(torque < -0.15, "braking torque {torque}");
+    assert!(brake.rows.iter().all(|r| r.truth.drive_fault.is_none()));
+    // Within 10 ms it has lost a third of its speed; friction alone has barely slowed the
+    // coasting carriage.
+    assert!(v_brake < 0.7 * v0 && v_brake > 0.45 * v0, "{v_brake}");
+    assert!(v_coast > 0.85 * v0, "{v_coast}");
+    assert!(coast_trace.rows.iter().skip(1).all(|r| r.truth.torque_nm.abs() < 1e-9));
+}
+
+#[test]
+fn a_hard_brake_pumps_the_bus_up_and_the_supply_diode_blocks() {
+    let config = quiet(StringKind::NoString);
+    let mut twin = carriage_at_speed(0.9);
+    let c = config.bridge.bus_capacitance_f;
+    let supply = config.bridge.bus_volts;
+    let before = twin.truth();
+    // Motoring: the bus sags a little below the supply (the diode conducts).
+    assert!(before.bus_volts < supply && before.bus_volts > supply - 0.3, "{before:?}");
+    // Brake at half the back-EMF ratio: ≈ 10 A of winding current flows back into the bus.
+    let ratio = before.carriage_mm_per_s / 76.0;
+    let trace = run(&mut twin, 40, |_| Outputs {
+        drive: drive_at(Direction::Pull, 0.5 * ratio),
+        ..Outputs::default()
+    });
+    let peak = trace.rows.iter().map(|r| r.truth.bus_peak_volts).fold(0.0, f64::max);
+    let m = config.mechanics;
+    let r = m.metres_per_radian();
+    let inertia =
+        config.motor.rotor_inertia_kg_m2 + m.gear_inertia_kg_m2 + m.carriage_mass_kg * r * r;
+    let omega = before.motor_rpm * std::f64::consts::TAU / 60.0;
+    let kinetic = 0.5 * inertia * omega * omega;
+    let stored = 0.5 * c * (peak * peak - before.bus_volts * before.bus_volts);
+    let after = twin.truth();
+    println!(
+        "brake from {:.1} to {:.1} mm/s ({kinetic:.3} J): bus {:.2} → peak {peak:.2} V \
+         ({stored:.3} J into {:.0} µF), {:.2} V 40 ms later",
+        before.carriage_mm_per_s,
+        after.carriage_mm_per_s,
+        before.bus_volts,
+        c * 1e6,
+        after.bus_volts
+    );
+    assert!(peak > supply + 3.0, "the bus must rise: {peak}");
+    // Energy: the capacitor gets less than the kinetic energy (friction and copper losses).
+    assert!(stored > 0.1 * kinetic && stored < kinetic, "{stored} of {kinetic}");
+    // The supply cannot take it back: the bus stays up, held by the capacitor, and only the
+    // auxiliary load (0.1 A → 0.1 V/ms) brings it slowly down to the supply again.
+    assert!(after.bus_volts > supply + 1.0 && after.bus_volts <= peak, "{after:?}");
+    run(&mut twin, 1_000, coast());
+    let settled = twin.truth().bus_volts;
+    assert!((settled - supply).abs() < 0.01, "{settled}");
 }

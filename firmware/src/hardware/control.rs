@@ -22,7 +22,7 @@ use embassy_stm32::timer::low_level::Timer;
 use embassy_stm32::timer::qei::{Config as QeiConfig, Qei};
 use taut_core::io::{Inputs, Keys};
 use taut_core::machine::Machine;
-use taut_core::store::Record;
+use taut_core::store::{Record, StoreError};
 use taut_core::units::AdcCode;
 
 use super::{display, fast_loop, store};
@@ -110,8 +110,8 @@ pub struct Resources {
     pub beeper: Peri<'static, PB11>,
     /// The tick's timer.
     pub tick_timer: Peri<'static, TIM6>,
-    /// The record loaded from flash.
-    pub record: Record,
+    /// The record loaded from flash, or why none could be.
+    pub record: Result<Record, StoreError>,
 }
 
 struct Tick {
@@ -183,7 +183,7 @@ pub fn init(resources: Resources) {
         Input::new(keys.4, Pull::Up),
     ];
     let beeper = Output::new(beeper, Level::Low, Speed::Low);
-    let tick = Tick { machine: Machine::new(record), analog, encoder, keys, beeper, now_ms: 0 };
+    let tick = Tick { machine: Machine::from_stored(record), analog, encoder, keys, beeper, now_ms: 0 };
     // One static copy of the state (a `singleton!` is zero-initialised RAM, not `.data`).
     let tick: Option<&'static mut Tick> = cortex_m::singleton!(: Tick = tick);
     critical_section::with(|cs| *TICK.borrow_ref_mut(cs) = tick);

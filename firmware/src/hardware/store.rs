@@ -15,7 +15,7 @@ use embassy_stm32::flash::{Blocking, Flash};
 use embassy_stm32::peripherals::FLASH;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::signal::Signal;
-use taut_core::store::{RECORD_LEN, Record};
+use taut_core::store::{RECORD_LEN, Record, StoreError};
 use taut_firmware::flash_layout::SETTINGS_RANGE;
 use taut_firmware::settings::SettingsStore;
 
@@ -34,21 +34,23 @@ pub fn flash_busy() -> bool {
     FLASH_BUSY.load(Ordering::Acquire)
 }
 
-/// Opens the store and reads the record the machine starts from. A blank store (first
-/// boot), an unreadable one or a record the core rejects all start the machine from
-/// [`Record::default`]; the next store request writes a valid record.
-pub async fn open(flash: Peri<'static, FLASH>) -> (Option<Store>, Record) {
+/// Opens the store and reads the record the machine starts from. A blank store (first boot)
+/// yields the default record; an unreadable store or a record the core rejects yields the
+/// core's error, which [`Machine::from_stored`](taut_core::machine::Machine::from_stored) turns
+/// into defaults plus a visible notice — the firmware only reports what the flash returned.
+pub async fn open(flash: Peri<'static, FLASH>) -> (Option<Store>, Result<Record, StoreError>) {
     let flash = BlockingAsync::new(Flash::new_blocking(flash));
     let Ok(mut store) = SettingsStore::new(flash, SETTINGS_RANGE) else {
         taut_firmware::error!("settings: flash range rejected");
-        return (None, Record::default());
+        // No usable store: the machine runs on defaults and shows the store notice.
+        return (None, Err(StoreError::CrcMismatch));
     };
     let record = match store.load().await {
-        Ok(Some(bytes)) => Record::decode(bytes).unwrap_or_default(),
-        Ok(None) => Record::default(),
+        Ok(Some(bytes)) => Record::decode(bytes),
+        Ok(None) => Ok(Record::default()),
         Err(_) => {
-            taut_firmware::warn!("settings: store unreadable, starting from defaults");
-            Record::default()
+            taut_firmware::warn!("settings: store unreadable");
+            Err(StoreError::CrcMismatch)
         }
     };
     (Some(store), record)

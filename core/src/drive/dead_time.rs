@@ -27,9 +27,9 @@ use super::PwmTicks;
 use super::commutation::{LegState, Phase, SwitchPattern};
 
 /// Minimum both-off time of a leg before either of its switches turns on: 170 ticks of the
-/// 170 MHz PWM timer = 1.0 µs. The IRF2807 turns off in ≈100 ns and the FAN7888 gate driver
-/// (and the X-NUCLEO-IHM08M1's L6398 drivers, the firmware's power board) add a few hundred ns of propagation mismatch;
-/// 1 µs keeps a 2× margin and costs 2 % of a 20 kHz period. The firmware programs the same
+/// 170 MHz PWM timer = 1.0 µs. The IRF2807 turns off in ≈100 ns, and the paper's FAN7888 gate
+/// driver (or the L6398 drivers of the firmware's X-NUCLEO-IHM08M1 power board) add a few
+/// hundred ns of propagation mismatch; 1 µs keeps a 2× margin and costs 2 % of a 20 kHz period. The firmware programs the same
 /// value into the advanced-control timer's hardware dead-time generator.
 pub const DEAD_TIME: PwmTicks = PwmTicks(170);
 

@@ -21,6 +21,8 @@
 )]
 #![allow(clippy::expect_used, reason = "host tool: a broken built-in configuration is a bug")]
 
+pub mod cycle;
+pub mod panel;
 pub mod paper;
 pub mod plot;
 pub mod report;

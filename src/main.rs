@@ -19,13 +19,19 @@ use taut_sim::{StringKind, TwinConfig};
 
 #[derive(Parser)]
 #[command(name = "taut", about = "taut: the stringing machine's host tool (digital twin, reports)")]
+#[command(args_conflicts_with_subcommands = true)]
 struct Cli {
+    /// No subcommand: the main job (a whole machine cycle on the twin, see `taut --help`).
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
+    #[command(flatten)]
+    job: taut::cycle::JobArgs,
 }
 
 #[derive(Subcommand)]
 enum Command {
+    /// The terminal front panel: the machine on the twin in real time (or from --script).
+    Panel(taut::panel::PanelArgs),
     /// The paper's simulation (section 7.3) with taut-core's fixed-point laws.
     Paper {
         /// Write the headline figures as JSON here.
@@ -87,7 +93,9 @@ enum ReportKind {
 
 fn main() {
     let cli = Cli::parse();
-    match cli.command {
+    let Some(command) = cli.command else { std::process::exit(taut::cycle::main_job(&cli.job)) };
+    match command {
+        Command::Panel(args) => std::process::exit(taut::panel::main(&args)),
         Command::Report { which: ReportKind::Accuracy { scenarios, seed, json, svg } } => {
             use std::io::Write as _;
             let threads = std::thread::available_parallelism().map_or(1, |n| n.get());

@@ -1,0 +1,184 @@
+//! The main job's options, command line and plot layout: cheap checks, plus one end-to-end
+//! run of the `taut` binary as the README's first command runs it.
+#![allow(
+    clippy::expect_used,
+    clippy::unwrap_used,
+    clippy::indexing_slicing,
+    clippy::arithmetic_side_effects,
+    clippy::float_arithmetic,
+    clippy::print_stdout,
+    reason = "a test: a panic is how it reports"
+)]
+
+use std::process::Command;
+
+use clap::Parser;
+use taut::cycle::{CycleOptions, JobArgs, OptionError, Transition, parse_tension, with_timeline};
+use taut::plot::{Figure, Panel, Series};
+use taut_core::machine::MachineState;
+use taut_core::store::Unit;
+
+#[derive(Parser)]
+struct Cli {
+    #[command(flatten)]
+    job: JobArgs,
+}
+
+fn args(line: &[&str]) -> Result<CycleOptions, String> {
+    let cli = Cli::try_parse_from(std::iter::once("taut").chain(line.iter().copied()))
+        .map_err(|e| e.to_string())?;
+    cli.job.options().map_err(|e| e.to_string())
+}
+
+#[test]
+fn tensions_parse_in_kilograms_and_pounds() {
+    let ok = |text: &str, unit, tenths| {
+        let set_point = parse_tension(text).unwrap_or_else(|e| panic!("{text}: {e}"));
+        assert_eq!((set_point.unit(), set_point.tenths()), (unit, tenths), "{text}");
+    };
+    ok("25", Unit::Kilograms, 250);
+    ok("25.5", Unit::Kilograms, 255);
+    ok(" 25kg", Unit::Kilograms, 250);
+    ok("30 kgf", Unit::Kilograms, 300);
+    ok("55lb", Unit::Pounds, 550);
+    ok("55.5 LBS", Unit::Pounds, 555);
+    ok("5", Unit::Kilograms, 50);
+    ok("50", Unit::Kilograms, 500);
+    ok("11.5lb", Unit::Pounds, 115);
+    ok("110lb", Unit::Pounds, 1100);
+    let bad = |text: &str, error| assert_eq!(parse_tension(text), Err(error), "{text}");
+    bad("fifty", OptionError::TensionSyntax);
+    bad("25 stone", OptionError::TensionSyntax);
+    bad("4.9", OptionError::TensionOutOfRange);
+    bad("50.1", OptionError::TensionOutOfRange);
+    bad("25.05", OptionError::TensionOutOfRange);
+    bad("55.2lb", OptionError::TensionOutOfRange);
+    bad("111lb", OptionError::TensionOutOfRange);
+    bad("-3", OptionError::TensionOutOfRange);
+    bad("nan", OptionError::TensionOutOfRange);
+}
+
+#[test]
+fn command_line_options_become_the_operators_settings() {
+    let defaults = args(&[]).unwrap();
+    assert_eq!(defaults, CycleOptions::default());
+    let settings = defaults.settings().unwrap();
+    assert_eq!((settings.set_point().tenths(), settings.speed()), (250, 5));
+
+    let o = args(&[
+        "--tension",
+        "55lb",
+        "--string",
+        "tennis-poly",
+        "--speed",
+        "9",
+        "--pre-stretch",
+        "10",
+        "--knot",
+        "--seed",
+        "7",
+        "--hold",
+        "2.5",
+        "--uncalibrated",
+    ])
+    .unwrap();
+    assert_eq!(o.set_point.unit(), Unit::Pounds);
+    assert_eq!(o.string, taut_sim::StringKind::TennisPolyester);
+    assert_eq!((o.speed, o.pre_stretch_percent, o.knot_percent), (9, 10, Some(15)));
+    assert_eq!((o.seed, o.hold_ms, o.calibrate), (Some(7), 2_500, false));
+    assert_eq!(o.pull_kind(), taut_core::tension::PullKind::Knot);
+    assert_eq!(o.twin_config().seed, taut_sim::TwinConfig::sample_kind(o.string, 7).seed);
+    assert_eq!(args(&["--knot", "20"]).unwrap().knot_percent, Some(20));
+
+    for (line, message) in [
+        (&["--speed", "0"][..], "0"),
+        (&["--speed", "10"][..], "10"),
+        (&["--tension", "60"][..], "tension"),
+        (&["--pre-stretch", "12"][..], "pre-stretch"),
+        (&["--pre-stretch", "35"][..], "pre-stretch"),
+        (&["--knot", "25"][..], "knot"),
+        (&["--string", "rope"][..], "rope"),
+    ] {
+        let error = args(line).unwrap_err();
+        assert!(error.contains(message), "{line:?}: {error}");
+    }
+}
+
+/// The x pixel of the first point of the first path in `svg`.
+fn first_path_x(svg: &str) -> f64 {
+    let start = svg.find("<path d=\"M").expect("a path") + "<path d=\"M".len();
+    svg[start..].split(',').next().unwrap().parse().unwrap()
+}
+
+#[test]
+fn the_state_timeline_shares_the_plots_time_axis() {
+    let figure = Figure::new(
+        "axis",
+        "time (s)",
+        vec![Panel::new("y", vec![Series::new("line", vec![(0.0, 1.0), (12.0, 2.0)])])],
+    );
+    let svg = figure.to_svg();
+    let transitions = [
+        Transition { t_ms: 0, state: MachineState::SelfTest },
+        Transition { t_ms: 6_000, state: MachineState::Ready },
+    ];
+    let combined = with_timeline(&svg, &transitions, 12.0);
+    assert!(combined.contains(&svg), "the figure is nested unchanged");
+    // The first band starts where the data's t = 0 is drawn; the second starts half way.
+    let band_x = |n: usize| -> f64 {
+        let tail = &combined[combined.find(&svg).unwrap() + svg.len()..];
+        let rect = tail.match_indices("<rect x=\"").nth(n).unwrap().0;
+        let rest = &tail[rect + "<rect x=\"".len()..];
+        rest[..rest.find('"').unwrap()].parse().unwrap()
+    };
+    let left = first_path_x(&svg);
+    let end = {
+        let path = &svg[svg.find("<path d=\"").unwrap() + "<path d=\"".len()..];
+        let last = path[..path.find('"').unwrap()].rsplit(' ').next().unwrap();
+        last.trim_start_matches('L').split(',').next().unwrap().parse::<f64>().unwrap()
+    };
+    assert!((band_x(0) - left).abs() < 0.11, "{} vs {left}", band_x(0));
+    assert!(
+        (band_x(1) - (left + end) / 2.0).abs() < 0.11,
+        "{} vs {}",
+        band_x(1),
+        (left + end) / 2.0
+    );
+}
+
+#[test]
+fn the_binary_runs_the_main_job_with_no_subcommand() {
+    let dir = std::env::temp_dir().join(format!("taut-cycle-{}", std::process::id()));
+    let svg = dir.join("plots/cycle.svg");
+    let json = dir.join("cycle.json");
+    let output = Command::new(env!("CARGO_BIN_EXE_taut"))
+        .args(["--hold", "1", "--svg"])
+        .arg(&svg)
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .expect("runs");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    println!("{stdout}\n{stderr}");
+    assert!(output.status.success(), "exit {:?}", output.status);
+    assert!(stdout.contains("| time to tension (Start → holding lamp) |"));
+    assert!(stdout.contains("| cycle completed | yes |"));
+    assert!(stdout.contains(&format!("plot: {}", svg.display())));
+    // Progress on stderr (not a terminal here: one line per state change).
+    for state in ["motor test", "homing", "pulling", "holding", "releasing"] {
+        assert!(stderr.contains(state), "progress names {state}");
+    }
+    let plot = std::fs::read_to_string(&svg).expect("the plot is written");
+    assert!(plot.starts_with("<svg") && plot.contains("holding"));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("valid JSON");
+    assert_eq!(summary["completed"], true);
+    assert_eq!(summary["set_point"], "25.0 kg");
+    std::fs::remove_dir_all(&dir).ok();
+
+    let refused =
+        Command::new(env!("CARGO_BIN_EXE_taut")).args(["--tension", "70"]).output().expect("runs");
+    assert_eq!(refused.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("5.0–50.0 kg"));
+}

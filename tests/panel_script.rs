@@ -1,0 +1,219 @@
+//! `taut panel --script`: the front panel driven from a script — the display's segments,
+//! the lamps, the keys' effects and the states the machine reaches.
+#![allow(
+    clippy::expect_used,
+    clippy::unwrap_used,
+    clippy::indexing_slicing,
+    clippy::arithmetic_side_effects,
+    clippy::float_arithmetic,
+    clippy::print_stdout,
+    reason = "a test: a panic is how it reports"
+)]
+
+use std::io::Write as _;
+use std::process::{Command, Stdio};
+
+use taut::panel::script::{Script, ScriptFailure};
+use taut::panel::{Flash, PanelSession, display};
+use taut_core::io::Segments;
+use taut_core::machine::MachineState;
+use taut_sim::StringKind;
+
+fn session(flash: Flash) -> PanelSession {
+    PanelSession::new(StringKind::TennisSynthetic, None, flash).expect("session")
+}
+
+/// Runs `text` on `session`, returning the transcript.
+fn run(session: &mut PanelSession, text: &str) -> Result<String, (ScriptFailure, String)> {
+    let script = Script::parse(text).expect("parses");
+    let mut out = Vec::new();
+    let result = script.run(session, false, &mut out);
+    let transcript = String::from_utf8(out).unwrap();
+    println!("{transcript}");
+    result.map(|()| transcript.clone()).map_err(|failure| (failure, transcript))
+}
+
+const TO_READY: &str = "until calibration-window 5000\npress start\nuntil ready 1000\n";
+
+#[test]
+fn the_ready_panel_shows_25_0_as_the_right_segments() {
+    let mut s = session(Flash::Factory);
+    run(&mut s, &format!("{TO_READY}expect display 25.0\nexpect led kg on\nexpect led lb off\n"))
+        .unwrap();
+    // Blank, 2, 5 with its decimal point, 0 — segment a = bit 0 … g = bit 6, point = bit 7.
+    assert_eq!(
+        s.outputs().display,
+        [Segments(0x00), Segments(0x5B), Segments(0x6D | 0x80), Segments(0x3F)]
+    );
+    let frame = s.frame().join("\n");
+    let art = display::art(&s.outputs().display);
+    assert_eq!(art[0], "     _   _   _  ");
+    assert_eq!(art[1], "     _| |_  | | ");
+    assert_eq!(art[2], "    |_   _|.|_| ");
+    for line in &art {
+        assert!(frame.contains(line.as_str()), "the frame draws the digits");
+    }
+    assert!(frame.contains("[*] kg") && frame.contains("[ ] lb"));
+    assert!(frame.contains("state: ready"));
+}
+
+#[test]
+fn keys_walk_the_settings_pages_and_change_the_set_point() {
+    let mut s = session(Flash::Factory);
+    let transcript = run(
+        &mut s,
+        &format!(
+            "{TO_READY}\
+             press up 5\n\
+             expect display 25.5\n\
+             press down\n\
+             expect display 25.4\n\
+             hold up 1250\n\
+             expect display 26.2\n\
+             press function\n\
+             expect display \"SP 5\"\n\
+             press up 2\n\
+             expect display \"SP 7\"\n\
+             press function\n\
+             expect display \"PS 0\"\n\
+             press up\n\
+             expect display \"PS 5\"\n\
+             press function\n\
+             expect display \"Kn 0\"\n\
+             press function\n\
+             expect display kg\n\
+             press up\n\
+             expect display lb\n\
+             expect led lb on\n\
+             press function\n\
+             expect display 58.0\n"
+        ),
+    )
+    .unwrap();
+    // Held 1.25 s: the press after the 20 ms debounce, then the panel's own repeat (from
+    // 0.6 s held, every 0.1 s): 1 + 7 steps.
+    assert!(transcript.contains("hold up 1250"));
+    let settings = s.bench().machine().record().settings;
+    assert_eq!(settings.speed(), 7);
+    assert_eq!(settings.pre_stretch_percent(), 5);
+    assert_eq!(
+        settings.set_point().tenths(),
+        580,
+        "26.2 kg → 57.8 lb → 58.0 lb on the 0.5 lb step"
+    );
+}
+
+#[test]
+fn a_scripted_pull_holds_beeps_and_releases() {
+    let mut s = session(Flash::Calibrated);
+    let transcript = run(
+        &mut s,
+        &format!(
+            "{TO_READY}\
+             expect display 22.0\n\
+             press up 30\n\
+             expect display 25.0\n\
+             press start\n\
+             expect state pulling\n\
+             expect led pull on\n\
+             until holding 20000\n\
+             expect beeper on\n\
+             expect led hold on\n\
+             wait 2000\n\
+             expect tension 24.85 25.15\n\
+             expect beeper off\n\
+             frame\n\
+             press start\n\
+             until ready 20000\n\
+             expect led hold off\n\
+             expect tension 0 0.05\n"
+        ),
+    );
+    let transcript = transcript.unwrap_or_else(|(failure, t)| panic!("{failure}\n{t}"));
+    assert!(transcript.contains("ready -> pulling"));
+    assert!(transcript.contains("pulling -> holding"));
+    assert!(transcript.contains("holding -> releasing"));
+    assert!(transcript.contains("releasing -> ready"));
+    assert!(transcript.contains("+-- taut front panel"), "the frame is printed");
+    let log = s.bench().machine().log().last().copied().expect("the pull is logged");
+    assert_eq!(log.target, taut_core::units::Kgf::from_int(25));
+}
+
+#[test]
+fn knot_mode_and_a_broken_string_show_on_the_panel() {
+    let mut s = session(Flash::Factory);
+    run(
+        &mut s,
+        &format!(
+            "{TO_READY}\
+             hold f 1700\n\
+             expect led knot on\n\
+             until display 25.0 6000\n\
+             press start\n\
+             until holding 20000\n\
+             break\n\
+             until fault 200\n\
+             expect state E-15\n\
+             expect display E-15\n\
+             expect led fault on\n\
+             expect led hold off\n"
+        ),
+    )
+    .unwrap();
+    assert_eq!(s.state(), MachineState::Fault(taut_core::machine::FaultCode::StringBreak));
+}
+
+#[test]
+fn a_failed_expectation_names_its_line_and_what_the_panel_showed() {
+    let mut s = session(Flash::Factory);
+    let (failure, _) =
+        run(&mut s, &format!("{TO_READY}# the machine shows 25.0\nexpect display 30.0\n"))
+            .unwrap_err();
+    let message = failure.to_string();
+    assert!(message.starts_with("line 5: expected display \"30.0\""), "{message}");
+    assert!(message.contains("display=[ 25.0]"), "{message}");
+    let (late, _) = run(&mut s, "100 press start\n").unwrap_err();
+    assert!(late.to_string().contains("in the past"), "{late}");
+    let (timeout, _) = run(&mut s, "until holding 50\n").unwrap_err();
+    assert!(timeout.to_string().contains("not reached within 50 ms"), "{timeout}");
+}
+
+#[test]
+fn the_binary_runs_a_script_from_stdin_and_refuses_interactive_mode_without_a_terminal() {
+    let script = format!("{TO_READY}expect display 25.0\nprint\n");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_taut"))
+        .args(["panel", "--flash", "factory", "--frames", "--script", "-"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("runs");
+    child.stdin.take().unwrap().write_all(script.as_bytes()).unwrap();
+    let output = child.wait_with_output().unwrap();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&output.stderr));
+    assert!(stdout.contains("display=[ 25.0]"));
+    assert!(stdout.contains("    |_   _|.|_| "), "frames drawn");
+
+    let failing = Command::new(env!("CARGO_BIN_EXE_taut"))
+        .args(["panel", "--flash", "blank", "--script", "-"])
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    assert!(failing.status.success(), "an empty script passes");
+
+    let interactive = Command::new(env!("CARGO_BIN_EXE_taut"))
+        .args(["panel", "--flash", "factory"])
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    assert_eq!(interactive.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&interactive.stderr).contains("needs a terminal"));
+}
+
+#[test]
+fn a_blank_flash_boots_on_defaults_with_the_store_notice() {
+    let mut s = session(Flash::Blank);
+    run(&mut s, &format!("{TO_READY}expect display E-20\npress down\nexpect display 25.0\n"))
+        .unwrap();
+}

@@ -217,3 +217,83 @@ fn a_blank_flash_boots_on_defaults_with_the_store_notice() {
     run(&mut s, &format!("{TO_READY}expect display E-20\npress down\nexpect display 25.0\n"))
         .unwrap();
 }
+
+mod format {
+    use proptest::prelude::*;
+    use taut::panel::script::{Check, Command, Lamp, Script, StatePattern};
+    use taut_core::io::Key;
+
+    fn key() -> impl Strategy<Value = Key> {
+        prop::sample::select(Key::ALL.to_vec())
+    }
+
+    fn check() -> impl Strategy<Value = Check> {
+        let states = vec![
+            StatePattern::SelfTest,
+            StatePattern::MotorTest,
+            StatePattern::Homing,
+            StatePattern::CalibrationWindow,
+            StatePattern::CalibrationPull,
+            StatePattern::CalibrationEntry,
+            StatePattern::Ready,
+            StatePattern::Pulling,
+            StatePattern::Holding,
+            StatePattern::Releasing,
+            StatePattern::AnyFault,
+        ];
+        let lamps = vec![Lamp::Kg, Lamp::Lb, Lamp::Pull, Lamp::Hold, Lamp::Fault, Lamp::Knot];
+        prop_oneof![
+            prop::sample::select(states).prop_map(Check::State),
+            (1..=99u8).prop_map(|n| Check::State(StatePattern::Fault(n))),
+            "[A-Za-z0-9.?_ -]{0,6}".prop_map(Check::Display),
+            (prop::sample::select(lamps), any::<bool>()).prop_map(|(l, on)| Check::Lamp(l, on)),
+            any::<bool>().prop_map(Check::Beeper),
+            (-100.0..100.0f64, -100.0..100.0f64).prop_map(|(a, b)| Check::Tension(a, b)),
+        ]
+    }
+
+    fn command() -> impl Strategy<Value = Command> {
+        prop_oneof![
+            any::<u64>().prop_map(Command::Wait),
+            (key(), any::<u32>()).prop_map(|(k, n)| Command::Press(k, n)),
+            (key(), any::<u64>()).prop_map(|(k, ms)| Command::Hold(k, ms)),
+            key().prop_map(Command::Down),
+            key().prop_map(Command::Up),
+            (check(), any::<u64>()).prop_map(|(c, ms)| Command::Until(c, ms)),
+            check().prop_map(Command::Expect),
+            Just(Command::Print),
+            Just(Command::Frame),
+            Just(Command::Gauge),
+            Just(Command::Break),
+        ]
+    }
+
+    proptest! {
+        /// Any text at all: the parser answers with a script or a line-numbered error.
+        #[test]
+        fn the_script_parser_never_panics(text in "\\PC{0,200}(\n\\PC{0,80}){0,8}") {
+            if let Err(error) = Script::parse(&text) {
+                prop_assert!(error.line >= 1 && error.line <= text.lines().count());
+            }
+        }
+
+        /// Every command prints as a line that parses back to the same command, with an
+        /// optional leading time.
+        #[test]
+        fn printed_commands_parse_back(commands in prop::collection::vec((command(), prop::option::of(any::<u32>())), 0..12)) {
+            let text: String = commands
+                .iter()
+                .map(|(c, at)| match at {
+                    Some(at) => format!("{at} {c}  # comment\n"),
+                    None => format!("{c}\n"),
+                })
+                .collect();
+            let script = Script::parse(&text).map_err(|e| TestCaseError::fail(format!("{e}\n{text}")))?;
+            prop_assert_eq!(script.lines.len(), commands.len());
+            for (line, (command, at)) in script.lines.iter().zip(&commands) {
+                prop_assert_eq!(&line.command, command);
+                prop_assert_eq!(line.at, at.map(u64::from));
+            }
+        }
+    }
+}

@@ -32,7 +32,8 @@ runs until then (a time in the past is an error).
   down KEY | up KEY        put KEY down / let it go; it stays so until changed
   until STATE [MS]         run until the machine is in STATE and has drawn its panel
                            (1 ms after entering it; fails after MS, default 60000)
-  until display TEXT [MS]  run until the display reads TEXT (same limit)
+  until CHECK [MS]         run until CHECK holds (any check of `expect`, same limit):
+                           until display 25.0 3000, until led hold on, until tension 20 30
   expect state STATE       fail unless the machine is in STATE
   expect display TEXT      fail unless the display reads TEXT
   expect led LED on|off    fail unless the lamp is lit / dark (kg lb pull hold fault knot)
@@ -256,6 +257,91 @@ pub enum Command {
     Break,
 }
 
+/// A key's name in scripts.
+#[must_use]
+pub const fn key_name(key: Key) -> &'static str {
+    match key {
+        Key::Start => "start",
+        Key::Up => "up",
+        Key::Down => "down",
+        Key::Function => "function",
+        Key::Preset => "preset",
+    }
+}
+
+impl StatePattern {
+    /// The pattern's name in scripts.
+    #[must_use]
+    pub fn name(self) -> String {
+        match self {
+            Self::SelfTest => "self-test".to_owned(),
+            Self::MotorTest => "motor-test".to_owned(),
+            Self::Homing => "homing".to_owned(),
+            Self::CalibrationWindow => "calibration-window".to_owned(),
+            Self::CalibrationPull => "calibration-pull".to_owned(),
+            Self::CalibrationEntry => "calibration-entry".to_owned(),
+            Self::Ready => "ready".to_owned(),
+            Self::Pulling => "pulling".to_owned(),
+            Self::Holding => "holding".to_owned(),
+            Self::Releasing => "releasing".to_owned(),
+            Self::AnyFault => "fault".to_owned(),
+            Self::Fault(number) => format!("E-{number:02}"),
+        }
+    }
+}
+
+impl Lamp {
+    /// The lamp's name in scripts.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Kg => "kg",
+            Self::Lb => "lb",
+            Self::Pull => "pull",
+            Self::Hold => "hold",
+            Self::Fault => "fault",
+            Self::Knot => "knot",
+        }
+    }
+}
+
+/// The check as a script writes it after `expect` (display text always quoted).
+fn check_text(check: &Check) -> String {
+    let on = |b: bool| if b { "on" } else { "off" };
+    match check {
+        Check::State(pattern) => format!("state {}", pattern.name()),
+        Check::Display(text) => format!("display \"{text}\""),
+        Check::Lamp(lamp, lit) => format!("led {} {}", lamp.name(), on(*lit)),
+        Check::Beeper(sounding) => format!("beeper {}", on(*sounding)),
+        Check::Tension(min, max) => format!("tension {min} {max}"),
+    }
+}
+
+/// The command in the script format: what [`Script::parse`] reads back as the same command.
+impl fmt::Display for Command {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Wait(ms) => write!(f, "wait {ms}"),
+            Self::Press(key, times) => write!(f, "press {} {times}", key_name(*key)),
+            Self::Hold(key, ms) => write!(f, "hold {} {ms}", key_name(*key)),
+            Self::Down(key) => write!(f, "down {}", key_name(*key)),
+            Self::Up(key) => write!(f, "up {}", key_name(*key)),
+            Self::Until(Check::State(pattern), limit) => {
+                write!(f, "until {} {limit}", pattern.name())
+            }
+            Self::Until(Check::Display(text), limit) => {
+                write!(f, "until display \"{text}\" {limit}")
+            }
+            Self::Until(other, limit) => write!(f, "until {} {limit}", check_text(other)),
+            Self::Expect(check) => write!(f, "expect {}", check_text(check)),
+            Self::Print => f.write_str("print"),
+            Self::Frame => f.write_str("frame"),
+            Self::Gauge => f.write_str("gauge"),
+            Self::Break => f.write_str("break"),
+        }
+    }
+}
+
 /// One parsed line.
 #[derive(Clone, PartialEq, Debug)]
 pub struct Line {
@@ -397,6 +483,14 @@ fn check(words: &[String]) -> Result<Check, String> {
     }
 }
 
+/// How many words a check takes (`display 25.0`: 2, `led hold on`: 3).
+const fn check_words(check: &Check) -> usize {
+    match check {
+        Check::State(_) | Check::Display(_) | Check::Beeper(_) => 2,
+        Check::Lamp(..) | Check::Tension(..) => 3,
+    }
+}
+
 fn command(words: &[String]) -> Result<Command, String> {
     let name = words.first().map(String::as_str).unwrap_or_default();
     let rest = words.get(1..).unwrap_or_default();
@@ -432,32 +526,24 @@ fn command(words: &[String]) -> Result<Command, String> {
             Command::Up(key(rest.first().ok_or("missing key")?)?)
         }
         "until" => {
-            let (condition, limit) = match rest.first().map(String::as_str) {
-                Some("display") => {
-                    arity(3)?;
-                    (
-                        Check::Display(rest.get(1).ok_or("missing display text")?.clone()),
-                        rest.get(2),
-                    )
+            let (condition, used) = match rest.first().map(String::as_str) {
+                Some("state" | "display" | "led" | "lamp" | "beeper" | "tension") => {
+                    let condition = check(rest)?;
+                    let used = check_words(&condition);
+                    (condition, used)
                 }
-                _ => {
-                    arity(2)?;
-                    (Check::State(state(rest.first())?), rest.get(1))
-                }
+                _ => (Check::State(state(rest.first())?), 1),
             };
-            let limit = match limit {
-                Some(_) => number(limit, "limit (ms)")?,
+            arity(used + 1)?;
+            let limit = match rest.get(used) {
+                Some(_) => number(rest.get(used), "limit (ms)")?,
                 None => UNTIL_LIMIT_MS,
             };
             Command::Until(condition, limit)
         }
         "expect" => {
             let check = check(rest)?;
-            let max = match check {
-                Check::State(_) | Check::Display(_) | Check::Beeper(_) => 2,
-                Check::Lamp(..) | Check::Tension(..) => 3,
-            };
-            arity(max)?;
+            arity(check_words(&check))?;
             Command::Expect(check)
         }
         "print" | "frame" | "gauge" | "break" => {
@@ -632,6 +718,8 @@ mod tests {
              up function\n\
              until holding 20000\n\
              until display \"SP 5\"\n\
+             until led hold on 500\n\
+             until tension 20 30\n\
              expect state E-15\n\
              expect display 25.0\n\
              expect led hold on\n\
@@ -654,6 +742,8 @@ mod tests {
                 &Command::Up(Key::Function),
                 &Command::Until(Check::State(StatePattern::Holding), 20_000),
                 &Command::Until(Check::Display("SP 5".to_owned()), UNTIL_LIMIT_MS),
+                &Command::Until(Check::Lamp(Lamp::Hold, true), 500),
+                &Command::Until(Check::Tension(20.0, 30.0), UNTIL_LIMIT_MS),
                 &Command::Expect(Check::State(StatePattern::Fault(15))),
                 &Command::Expect(Check::Display("25.0".to_owned())),
                 &Command::Expect(Check::Lamp(Lamp::Hold, true)),

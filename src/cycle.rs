@@ -104,6 +104,8 @@ pub enum OptionError {
     PreStretch,
     /// The knot increase is not 0–20 % in steps of 5.
     Knot,
+    /// The hold time is not 0–120 s.
+    Hold,
 }
 
 impl fmt::Display for OptionError {
@@ -116,6 +118,7 @@ impl fmt::Display for OptionError {
             Self::Speed => "speed: 1–9",
             Self::PreStretch => "pre-stretch: 0–30 % in steps of 5",
             Self::Knot => "knot: 0–20 % in steps of 5",
+            Self::Hold => "hold: 0–120 s",
         })
     }
 }
@@ -1358,13 +1361,16 @@ impl CycleRun {
         let panel_reading: Vec<(f64, f64)> =
             self.rows.iter().filter_map(|r| r.panel_kgf.map(|v| (t(r), v))).collect();
         let s = self.summary();
-        let title = format!(
-            "taut main job on the twin: {} at {}, speed {}{}",
-            s.string,
-            s.set_point,
-            self.options.speed,
-            if self.options.knot_percent.is_some() { ", knot pull" } else { "" }
+        let mut title = format!(
+            "taut main job on the twin: {} at {}, speed {}",
+            s.string, s.set_point, self.options.speed
         );
+        if self.options.pre_stretch_percent > 0 {
+            let _ = write!(title, ", pre-stretch {} %", self.options.pre_stretch_percent);
+        }
+        if let Some(knot) = self.options.knot_percent {
+            let _ = write!(title, ", knot pull +{knot} %");
+        }
         let figure = Figure::new(
             &title,
             "time since power-up (s)",
@@ -1519,6 +1525,20 @@ pub fn with_timeline(figure_svg: &str, transitions: &[Transition], end_s: f64) -
 
 // ───────────────────────────── command line ─────────────────────────────
 
+/// What `taut --help` says after the options.
+pub const AFTER_HELP: &str = "\
+With no subcommand, taut runs the main job: a whole machine cycle on the digital twin through
+the same machine the firmware links. A simulated operator commissions the machine (4-point
+calibration against the reference gauge), then powers it up, keys the settings in on the
+panel, presses Start, lets it hold while the string creeps and releases. Progress goes to
+stderr, the summary table to stdout, the plot to --svg (out/cycle.svg).
+
+Examples:
+  taut                                   25 kg on tennis-synthetic, speed 5
+  taut --tension 55lb --string tennis-poly --speed 9
+  taut --pre-stretch 10 --knot --json out/cycle.json
+  taut panel                             the front panel in this terminal";
+
 /// The main job's command-line options (`taut` with no subcommand).
 #[derive(clap::Args, Clone, Debug)]
 pub struct JobArgs {
@@ -1576,7 +1596,11 @@ impl JobArgs {
             pre_stretch_percent: self.pre_stretch,
             knot_percent: self.knot,
             seed: self.seed,
-            hold_ms: (self.hold.clamp(0.0, 120.0) * 1_000.0).round() as u32,
+            hold_ms: if (0.0..=120.0).contains(&self.hold) {
+                (self.hold * 1_000.0).round() as u32
+            } else {
+                return Err(OptionError::Hold);
+            },
             calibrate: !self.uncalibrated,
         };
         options.settings()?;

@@ -19,7 +19,7 @@ use taut_sim::{StringKind, TwinConfig};
 
 #[derive(Parser)]
 #[command(name = "taut", about = "taut: the stringing machine's host tool (digital twin, reports)")]
-#[command(args_conflicts_with_subcommands = true)]
+#[command(args_conflicts_with_subcommands = true, after_help = taut::cycle::AFTER_HELP)]
 struct Cli {
     /// No subcommand: the main job (a whole machine cycle on the twin, see `taut --help`).
     #[command(subcommand)]

@@ -98,6 +98,8 @@ fn command_line_options_become_the_operators_settings() {
         (&["--pre-stretch", "35"][..], "pre-stretch"),
         (&["--knot", "25"][..], "knot"),
         (&["--string", "rope"][..], "rope"),
+        (&["--hold=-1"][..], "hold"),
+        (&["--hold", "500"][..], "hold"),
     ] {
         let error = args(line).unwrap_err();
         assert!(error.contains(message), "{line:?}: {error}");

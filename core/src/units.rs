@@ -165,7 +165,7 @@ impl Kgf {
     /// Tenths of a kgf: the panel's set-point unit (`250` → 25.0 kgf).
     #[must_use]
     pub fn from_tenths(tenths: i32) -> Self {
-        Self(Q16::from_num(tenths).saturating_div_int(10))
+        Self(Q16::from_bits(scaled_to_bits(tenths, 10)))
     }
 
     /// The tension in tenths of a kgf, rounded to the nearest tenth (half away from zero).
@@ -183,18 +183,25 @@ impl Kgf {
     /// A tension given in tenths of a pound-force.
     #[must_use]
     pub fn from_lbf_tenths(lbf_tenths: i32) -> Self {
-        let lbf = Q16::from_num(lbf_tenths).saturating_div_int(10);
+        let lbf = Q16::from_bits(scaled_to_bits(lbf_tenths, 10));
         Self(lbf.saturating_div(LBF_PER_KGF))
     }
 }
 
-/// Thousandths → Q15.16 bits: `milli × 65 536 / 1000`, rounded half away from zero, computed
-/// in 64 bits and saturated to the format's range.
-fn milli_to_bits(milli: i32) -> i32 {
-    let scaled = i64::from(milli).saturating_mul(65_536);
-    let rounded =
-        if scaled >= 0 { scaled.saturating_add(500) } else { scaled.saturating_sub(500) } / 1000;
+/// `value / denominator` as Q15.16 bits (`value × 65 536 / denominator`), rounded half away
+/// from zero, computed in 64 bits and saturated to the format's range. `denominator` is a
+/// positive constant at every call site (10 or 1000).
+fn scaled_to_bits(value: i32, denominator: i64) -> i32 {
+    let scaled = i64::from(value).saturating_mul(65_536);
+    let half = denominator.checked_div(2).unwrap_or(0);
+    let nudged = if scaled >= 0 { scaled.saturating_add(half) } else { scaled.saturating_sub(half) };
+    let rounded = nudged.checked_div(denominator).unwrap_or(0);
     i32::try_from(rounded).unwrap_or(if rounded < 0 { i32::MIN } else { i32::MAX })
+}
+
+/// Thousandths → Q15.16 bits, rounded to nearest and saturating.
+fn milli_to_bits(milli: i32) -> i32 {
+    scaled_to_bits(milli, 1000)
 }
 
 /// Q15.16 bits → thousandths, rounded to the nearest (ties up). |bits| ≤ 2³¹ gives
@@ -204,9 +211,14 @@ fn bits_to_milli(bits: i32) -> i32 {
     i32::try_from(milli).unwrap_or(if milli < 0 { i32::MIN } else { i32::MAX })
 }
 
-/// `value × scale`, rounded to the nearest integer, half away from zero, saturating.
+/// `value × scale`, rounded to the nearest integer, half away from zero, computed in 64 bits
+/// and saturated to `i32` (the fixed crate's `round` would overflow at the top of the range).
 fn round_scaled(value: Q16, scale: i32) -> i32 {
-    value.saturating_mul_int(scale).round().to_num::<i32>()
+    let product = i64::from(value.to_bits()).saturating_mul(i64::from(scale));
+    let magnitude = product.unsigned_abs().saturating_add(32_768).checked_div(65_536).unwrap_or(0);
+    let rounded = i64::try_from(magnitude).unwrap_or(i64::MAX);
+    let signed = if product < 0 { rounded.saturating_neg() } else { rounded };
+    i32::try_from(signed).unwrap_or(if signed < 0 { i32::MIN } else { i32::MAX })
 }
 
 /// Number of bits the ADC converts: the paper runs the dsPIC's converter as 12-bit.
@@ -300,6 +312,18 @@ mod tests {
             let back = Kgf::from_lbf_tenths(lbf_tenths).to_lbf_tenths_rounded();
             assert_eq!(back, lbf_tenths);
         }
+    }
+
+    #[test]
+    fn tenths_conversions_saturate_instead_of_panicking() {
+        assert_eq!(Kgf::from_tenths(i32::MAX), Kgf::MAX);
+        assert_eq!(Kgf::from_tenths(i32::MIN), Kgf::MIN);
+        assert_eq!(Kgf::from_tenths(500_000).to_tenths_rounded(), 327_680);
+        assert_eq!(Kgf::MAX.to_tenths_rounded(), 327_680);
+        assert_eq!(Kgf::MIN.to_tenths_rounded(), -327_680);
+        assert_eq!(Kgf::MAX.to_lbf_tenths_rounded(), 327_680, "lbf saturates at the format's top");
+        assert!(Kgf::from_lbf_tenths(i32::MAX) > Kgf::from_int(14_000));
+        assert!(Kgf::from_lbf_tenths(i32::MIN) < Kgf::from_int(-14_000));
     }
 
     #[test]

@@ -7,7 +7,7 @@ use libfuzzer_sys::fuzz_target;
 use taut_core::sense::load_cell::{KGF_PER_VOLT_RANGE, ZERO_RANGE};
 use taut_proofs::fixed_point::{
     adc_volts_exact, current_amps_exact, load_cell_within_bound, panel_units_round_trip,
-    saturating_ops_within_bound,
+    saturating_ops_within_bound, unit_conversions_total,
 };
 
 #[derive(Arbitrary, Debug)]
@@ -32,4 +32,5 @@ fuzz_target!(|case: Case| {
     load_cell_within_bound(case.code, case.zero_bits, case.kgf_per_volt_bits);
     saturating_ops_within_bound(case.a_bits, case.b_bits);
     panel_units_round_trip(case.tenths);
+    unit_conversions_total(case.a_bits, case.b_bits);
 });

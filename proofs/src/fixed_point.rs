@@ -93,3 +93,24 @@ pub fn panel_units_round_trip(tenths: i16) {
     let shown = f64::from(kgf.to_lbf_tenths_rounded());
     assert!((shown - reference).abs() <= 1.0, "REQ-FXP-05: {tenths} → {shown} lbf tenths");
 }
+
+/// REQ-FXP-06: every unit conversion is total: any `i32` of tenths, thousandths or pound
+/// tenths, and any Q15.16 value, converts without panicking, saturating at the format's range,
+/// and conversions of in-range values agree with the exact result to the rounding step.
+pub fn unit_conversions_total(value: i32, bits: i32) {
+    let exact = f64::from(value);
+    let clamp = |x: f64| x.clamp(Q16_RANGE.0, Q16_RANGE.1);
+    let tenths = q(Kgf::from_tenths(value).0);
+    assert!((tenths - clamp(exact / 10.0)).abs() <= ULP, "REQ-FXP-06: {value} tenths → {tenths}");
+    let milli = q(Kgf::from_milli(value).0);
+    assert!((milli - clamp(exact / 1000.0)).abs() <= ULP, "REQ-FXP-06: {value} milli → {milli}");
+    let lbf = q(Kgf::from_lbf_tenths(value).0);
+    let lbf_exact = clamp(clamp(exact / 10.0) / q(taut_core::units::LBF_PER_KGF));
+    assert!((lbf - lbf_exact).abs() <= 2.0 * ULP, "REQ-FXP-06: {value} lbf tenths → {lbf}");
+    let kgf = Kgf::from_bits(bits);
+    let shown = f64::from(kgf.to_tenths_rounded());
+    assert!((shown - q(kgf.0) * 10.0).abs() <= 0.5 + 1e-9, "REQ-FXP-06: {bits} bits → {shown}");
+    let shown_milli = f64::from(kgf.to_milli());
+    assert!((shown_milli - q(kgf.0) * 1000.0).abs() <= 0.5 + 1e-9, "REQ-FXP-06: to_milli {bits}");
+    let _ = kgf.to_lbf_tenths_rounded();
+}

@@ -8,7 +8,7 @@ use proptest::prelude::*;
 use taut_core::sense::load_cell::{KGF_PER_VOLT_RANGE, ZERO_RANGE};
 use taut_proofs::fixed_point::{
     adc_volts_exact, current_amps_exact, load_cell_within_bound, panel_units_round_trip,
-    saturating_ops_within_bound,
+    saturating_ops_within_bound, unit_conversions_total,
 };
 
 #[test]
@@ -75,4 +75,19 @@ fn saturating_ops_near_physical_values() {
     common::check("saturating_ops_near_physical_values", 20_000, (near.clone(), near), |(a, b)| {
         saturating_ops_within_bound(a, b);
     });
+}
+
+#[test]
+fn unit_conversions_total_whole_range() {
+    for (value, bits) in [(i32::MAX, i32::MAX), (i32::MIN, i32::MIN), (0, 0), (-1, -1), (1, 1)] {
+        unit_conversions_total(value, bits);
+    }
+    common::check(
+        "unit_conversions_total_whole_range",
+        20_000,
+        (any::<i32>(), any::<i32>()),
+        |(v, b)| {
+            unit_conversions_total(v, b);
+        },
+    );
 }

@@ -45,8 +45,8 @@ mod tests {
     #[test]
     fn full_scale_is_25_amps() {
         assert_eq!(amps(AdcCode::new(0)), Amps::ZERO);
-        // 4095 codes × 5 V / 4096 / 0.2 V/A = 24.994 A
-        assert_eq!(amps(AdcCode::MAX).to_milli(), 24_993);
+        // 4095 codes × 5 V / 4096 / 0.2 V/A = 24.9939 A
+        assert_eq!(amps(AdcCode::MAX).to_milli(), 24_994);
     }
 
     #[test]

@@ -194,7 +194,8 @@ impl Kgf {
 fn scaled_to_bits(value: i32, denominator: i64) -> i32 {
     let scaled = i64::from(value).saturating_mul(65_536);
     let half = denominator.checked_div(2).unwrap_or(0);
-    let nudged = if scaled >= 0 { scaled.saturating_add(half) } else { scaled.saturating_sub(half) };
+    let nudged =
+        if scaled >= 0 { scaled.saturating_add(half) } else { scaled.saturating_sub(half) };
     let rounded = nudged.checked_div(denominator).unwrap_or(0);
     i32::try_from(rounded).unwrap_or(if rounded < 0 { i32::MIN } else { i32::MAX })
 }

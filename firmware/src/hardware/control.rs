@@ -183,7 +183,8 @@ pub fn init(resources: Resources) {
         Input::new(keys.4, Pull::Up),
     ];
     let beeper = Output::new(beeper, Level::Low, Speed::Low);
-    let tick = Tick { machine: Machine::from_stored(record), analog, encoder, keys, beeper, now_ms: 0 };
+    let tick =
+        Tick { machine: Machine::from_stored(record), analog, encoder, keys, beeper, now_ms: 0 };
     // One static copy of the state (a `singleton!` is zero-initialised RAM, not `.data`).
     let tick: Option<&'static mut Tick> = cortex_m::singleton!(: Tick = tick);
     critical_section::with(|cs| *TICK.borrow_ref_mut(cs) = tick);

@@ -395,9 +395,41 @@ pub fn resume<const LOG: usize>(input: &CheckpointInput) -> Option<Machine<LOG>>
     checkpoint.is_valid().then(|| Machine::<LOG>::resume(Record::default(), &checkpoint))
 }
 
+/// REQ-SAFE-01 at the rule the motion superstate applies: for any command and any limit
+/// switches, [`safety::limit_guard`](taut_core::machine::safety::limit_guard) never lets a
+/// command toward an active limit through, and leaves every other command unchanged.
+pub fn limit_guard_is_sound(command: DriveCommand, limits: LimitSwitches) {
+    let guarded = taut_core::machine::safety::limit_guard(command, limits);
+    if let Some(direction) = guarded.direction() {
+        assert!(!direction.blocked_by(limits), "REQ-SAFE-01: guard let {direction:?} through");
+    }
+    let blocked = command.direction().is_some_and(|direction| direction.blocked_by(limits));
+    let expected = if blocked { DriveCommand::Coast } else { command };
+    assert_eq!(guarded, expected, "REQ-SAFE-01: guard changed an allowed command");
+}
+
+/// REQ-SAFE-02/03 at the rule every state applies: both limits, a latched drive fault and a
+/// current at or above the limit (judged by [`current::amps`]) each raise a global fault.
+pub fn global_fault_is_sound(inputs: &Inputs) {
+    let fault = taut_core::machine::safety::global_fault(inputs);
+    if inputs.limits.both() {
+        assert_eq!(fault, Some(FaultCode::LimitsBoth), "REQ-SAFE-02: both limits missed");
+    }
+    if inputs.drive.fault.is_some() || overcurrent(inputs) {
+        assert!(fault.is_some(), "REQ-SAFE-03: drive fault or overcurrent missed");
+    }
+    if !inputs.limits.both() && inputs.drive.fault.is_none() && !overcurrent(inputs) {
+        assert_eq!(fault, None, "REQ-SAFE-03: a global fault without a cause");
+    }
+}
+
 #[cfg(kani)]
 mod verification {
     use super::*;
+
+    // Unwind bound 33: the longest loop a tick can reach is the calibration's 31-step long
+    // division (`Calibration::new`, run when the last calibration point is confirmed);
+    // every other loop in the tick is over keys (5), digits (4) or legs (3).
 
     /// A machine at an arbitrary valid checkpoint and one arbitrary tick.
     fn one_tick() -> TickRecord {
@@ -410,50 +442,70 @@ mod verification {
     }
 
     #[kani::proof]
-    #[kani::unwind(10)]
+    #[kani::unwind(33)]
     fn verify_machine_never_toward_active_limit() {
         never_toward_active_limit(&one_tick());
     }
 
     #[kani::proof]
-    #[kani::unwind(10)]
+    #[kani::unwind(33)]
     fn verify_machine_both_limits_fault_and_coast() {
         both_limits_fault_and_coast(&one_tick());
     }
 
     #[kani::proof]
-    #[kani::unwind(10)]
+    #[kani::unwind(33)]
     fn verify_machine_overcurrent_coasts() {
         overcurrent_coasts(&one_tick());
     }
 
     #[kani::proof]
-    #[kani::unwind(10)]
+    #[kani::unwind(33)]
     fn verify_machine_releasing_stops_at_home() {
         releasing_stops_at_home(&one_tick());
     }
 
     #[kani::proof]
-    #[kani::unwind(10)]
+    #[kani::unwind(33)]
     fn verify_machine_duty_bounded() {
         duty_bounded(&one_tick());
     }
 
     #[kani::proof]
-    #[kani::unwind(10)]
+    #[kani::unwind(33)]
     fn verify_machine_fault_and_idle_coast() {
         fault_and_idle_coast(&one_tick());
     }
 
     #[kani::proof]
-    #[kani::unwind(10)]
+    #[kani::unwind(33)]
     fn verify_machine_clear_only_with_zero_command() {
         clear_only_with_zero_command(&one_tick());
     }
 
     #[kani::proof]
-    #[kani::unwind(10)]
+    #[kani::unwind(33)]
     fn verify_machine_fault_latches() {
         fault_latches(&one_tick());
+    }
+
+    /// The limit rule alone, for any command: small and always fast, beside the whole-tick
+    /// harness above.
+    #[kani::proof]
+    fn verify_limit_guard() {
+        let duty = taut_core::drive::Duty::from_raw_clamped(kani::any());
+        let command = match kani::any::<u8>() % 3 {
+            0 => DriveCommand::Coast,
+            1 => DriveCommand::Drive { direction: Direction::Pull, duty },
+            _ => DriveCommand::Drive { direction: Direction::Release, duty },
+        };
+        limit_guard_is_sound(command, LimitSwitches { home: kani::any(), end: kani::any() });
+    }
+
+    /// The global-fault rule alone, for any inputs.
+    #[kani::proof]
+    fn verify_global_fault() {
+        let tick: TickInput = kani::any();
+        global_fault_is_sound(&tick.inputs());
     }
 }

@@ -246,3 +246,46 @@ proptest! {
         }
     }
 }
+
+/// REQ-SAFE-01 at the rule: every command (coast, both directions × all 65 536 duties) × every
+/// limit-switch combination.
+#[test]
+fn limit_guard_exhaustive() {
+    use taut_core::drive::{Direction, DriveCommand, Duty};
+    use taut_core::io::LimitSwitches;
+    let mut cases = 0u64;
+    for limits in LimitSwitches::ALL {
+        taut_proofs::machine::limit_guard_is_sound(DriveCommand::Coast, limits);
+        cases += 1;
+        for raw in 0..=u16::MAX {
+            for direction in Direction::ALL {
+                let command = DriveCommand::Drive { direction, duty: Duty::from_raw_clamped(raw) };
+                taut_proofs::machine::limit_guard_is_sound(command, limits);
+                cases += 1;
+            }
+        }
+    }
+    println!("limit_guard_exhaustive: {cases} cases");
+}
+
+/// REQ-SAFE-02/03 at the rule: every limit combination × every drive fault × every current code.
+#[test]
+fn global_fault_exhaustive() {
+    let mut cases = 0u64;
+    for limits in 0..4u8 {
+        for drive_fault in 0..5u8 {
+            for motor_current in 0..=4095u16 {
+                let tick = TickInput {
+                    home: limits & 1 != 0,
+                    end: limits & 2 != 0,
+                    drive_fault,
+                    motor_current,
+                    ..TickInput::default()
+                };
+                taut_proofs::machine::global_fault_is_sound(&tick.inputs());
+                cases += 1;
+            }
+        }
+    }
+    println!("global_fault_exhaustive: {cases} cases");
+}

@@ -1263,8 +1263,8 @@ impl CycleRun {
             ("true tension settled (±0.1 kgf for 0.5 s)", secs(s.true_settle_s)),
             ("peak true tension", format!("{:.3} kgf", s.peak_tension_kgf)),
             ("overshoot above the peak target", format!("{:.3} kgf", s.overshoot_kgf)),
-            ("hold error, max |true − target| (from 1 s)", kg(s.hold_error_max_kgf)),
-            ("hold error, mean |true − target|", kg(s.hold_error_mean_kgf)),
+            ("hold error, largest true − target (from 1 s)", kg(s.hold_error_max_kgf)),
+            ("hold error, mean distance true − target", kg(s.hold_error_mean_kgf)),
             ("hold time", secs(s.hold_s)),
             (
                 "creep followed during the hold",

@@ -166,6 +166,11 @@ fn the_binary_runs_the_main_job_with_no_subcommand() {
     assert!(output.status.success(), "exit {:?}", output.status);
     assert!(stdout.contains("| time to tension (Start → holding lamp) |"));
     assert!(stdout.contains("| cycle completed | yes |"));
+    let table: Vec<&str> = stdout.lines().filter(|l| l.starts_with('|')).collect();
+    assert!(
+        table.len() >= 20 && table.iter().all(|l| l.matches('|').count() == 3),
+        "a 2-column table"
+    );
     assert!(stdout.contains(&format!("plot: {}", svg.display())));
     // Progress on stderr (not a terminal here: one line per state change).
     for state in ["motor test", "homing", "pulling", "holding", "releasing"] {

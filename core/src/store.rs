@@ -550,13 +550,17 @@ fn word(bytes: &[u8], at: usize) -> Result<[u8; 4], StoreError> {
 mod tests {
     use super::*;
 
+    fn settings(unit: Unit, tenths: u16, speed: u8, pre: u8, knot: u8) -> Settings {
+        let made =
+            SetPoint::new(unit, tenths).and_then(|point| Settings::new(point, speed, pre, knot));
+        let Ok(settings) = made else { panic!("{unit:?} {tenths} must be a valid setting") };
+        settings
+    }
+
     fn sample() -> Record {
-        let mut record = Record {
-            settings: Settings::new(SetPoint::new(Unit::Pounds, 550).unwrap(), 7, 10, 15).unwrap(),
-            ..Record::default()
-        };
-        record.presets[3] =
-            Settings::new(SetPoint::new(Unit::Kilograms, 235).unwrap(), 3, 0, 0).unwrap();
+        let mut record =
+            Record { settings: settings(Unit::Pounds, 550, 7, 10, 15), ..Record::default() };
+        record.presets[3] = settings(Unit::Kilograms, 235, 3, 0, 0);
         record.calibration = Some([
             CalibrationPoint { raw: Kgf::from_tenths(98), reference: Kgf::from_tenths(100) },
             CalibrationPoint { raw: Kgf::from_tenths(199), reference: Kgf::from_tenths(200) },

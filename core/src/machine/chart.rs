@@ -1062,7 +1062,9 @@ mod tests {
                 for speed in 1..=9u8 {
                     for pre in (0..=30u8).step_by(5) {
                         for knot in (0..=20u8).step_by(5) {
-                            let settings = Settings::new(point, speed, pre, knot).unwrap();
+                            let Ok(settings) = Settings::new(point, speed, pre, knot) else {
+                                panic!("{point:?} {speed} {pre} {knot} must be valid")
+                            };
                             let pull = to_pull_settings(&settings);
                             assert_eq!(pull.tension(), point.to_kgf());
                             assert_eq!(pull.speed().get(), speed);
@@ -1079,8 +1081,8 @@ mod tests {
 
     #[test]
     fn calibration_settings_pull_to_the_four_points() {
-        for (point, target) in CALIBRATION_TARGETS.iter().enumerate() {
-            let settings = calibration_settings(u8::try_from(point).unwrap());
+        for (point, target) in (0u8..).zip(CALIBRATION_TARGETS.iter()) {
+            let settings = calibration_settings(point);
             assert_eq!(settings.tension(), *target);
             assert_eq!(settings.peak_target(PullKind::Main), *target);
         }

@@ -124,7 +124,9 @@ mod tests {
 
     #[test]
     fn paper_point_920_mv_is_about_10_kgf_above_zero() {
-        let scale = LoadCellScale::new(Volts::ZERO, NOMINAL_KGF_PER_VOLT).unwrap();
+        let Ok(scale) = LoadCellScale::new(Volts::ZERO, NOMINAL_KGF_PER_VOLT) else {
+            panic!("a zero offset with the nominal gain is plausible")
+        };
         let code = AdcCode::from_volts(Volts::from_milli(920));
         let kgf = scale.to_kgf(code);
         assert!((kgf.to_milli() - 10_000).abs() < 15, "{kgf:?}");

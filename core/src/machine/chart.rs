@@ -69,6 +69,10 @@ pub const CALIBRATION_SETTLE: u32 = 1_000;
 pub const CALIBRATION_SPEED: u8 = 3;
 /// A pull that has not reached tension after this many ticks faults.
 pub const PULL_TIMEOUT: u32 = 40_000;
+/// While the carriage works the display refreshes every 200 ms (5 Hz, what the eye reads
+/// comfortably) from the ≈ 64 ms running average, so single-tick switching spikes (paper
+/// fig. 22) never reach the digits and the last digit does not flicker.
+pub const DISPLAY_REFRESH_MS: u16 = 200;
 /// A release that has not reached home after this many ticks faults.
 pub const RELEASE_TIMEOUT: u32 = 40_000;
 /// Ticks the fault state keeps asking the drive to clear after the operator's Start.
@@ -218,6 +222,9 @@ pub struct Chart {
     pub rail_ticks: u8,
     /// Consecutive ticks the carriage was expected to move under at least the stall duty.
     pub driven_ms: u32,
+    /// The tension digits shown while the carriage works, and how long ago they were
+    /// refreshed ([`DISPLAY_REFRESH_MS`]).
+    pub shown: (crate::io::Display, u16),
     /// Set while [`crate::machine::Machine::resume`] enters its checkpoint's state: the entry
     /// actions then keep the checkpoint's watch and rail count instead of starting afresh.
     /// Cleared by the first tick.
@@ -253,6 +260,7 @@ impl Chart {
             calibration_points: [CalibrationPoint::default(); CALIBRATION_POINTS],
             rail_ticks: 0,
             driven_ms: 0,
+            shown: (crate::io::Display::default(), u16::MAX),
             resuming: false,
         }
     }
@@ -284,9 +292,17 @@ impl Chart {
         to_pull_settings(&self.record.settings)
     }
 
-    /// The tension in the operator's unit, for the display.
-    fn show_tension(&self, context: &mut Context, tension: Kgf) {
-        context.out.display = tension_display(tension, self.record.settings.set_point().unit());
+    /// The tension while the carriage works: the calibrated running average, refreshed every
+    /// [`DISPLAY_REFRESH_MS`].
+    fn show_working_tension(&mut self, context: &mut Context, sample: &Sample) {
+        let (digits, age) = self.shown;
+        self.shown = if age >= DISPLAY_REFRESH_MS.saturating_sub(1) {
+            let tension = self.calibration.correct(sample.raw_average);
+            (tension_display(tension, self.record.settings.set_point().unit()), 0)
+        } else {
+            (digits, age.saturating_add(1))
+        };
+        context.out.display = self.shown.0;
     }
 
     /// The unit lamps.
@@ -308,6 +324,7 @@ impl Chart {
         self.peak_target = peak;
         self.time_to_tension = 0;
         self.string_counts = 0;
+        self.shown.1 = u16::MAX;
     }
 }
 
@@ -699,7 +716,7 @@ impl Chart {
         context.out.drive = output.command;
         context.expect_motion = taking_up(sample.tension, self.peak_target);
         context.out.leds = Leds { pulling: true, ..self.unit_leds() };
-        self.show_tension(context, sample.tension);
+        self.show_working_tension(context, sample);
         *elapsed = elapsed.saturating_add(1);
         context.next = if pressed(sample.key) {
             context.out.drive = DriveCommand::Coast;
@@ -732,12 +749,12 @@ impl Chart {
         let output = self.controller.step(&Self::measurement(sample, sample.tension));
         context.out.drive = output.command;
         context.out.leds = Leds { holding: true, ..self.unit_leds() };
-        self.show_tension(context, sample.tension);
+        self.show_working_tension(context, sample);
         if pressed(sample.key) {
             let kind = if self.knot_mode { PullKind::Knot } else { PullKind::Main };
             let record = PullRecord {
                 target: self.pull_settings().final_target(kind),
-                reached: sample.tension,
+                reached: self.calibration.correct(sample.raw_average),
                 time_to_tension_ms: self.time_to_tension,
                 peak: self.watch.peak,
                 string_mm: string_mm(self.string_counts),
@@ -771,7 +788,7 @@ impl Chart {
         let Tick(sample) = event;
         match then {
             AfterRelease::CalibrationWindow => context.out.display = panel::text(b"HOnE"),
-            AfterRelease::Ready => self.show_tension(context, sample.tension),
+            AfterRelease::Ready => self.show_working_tension(context, sample),
         }
         context.out.leds = self.unit_leds();
         *elapsed = elapsed.saturating_add(1);

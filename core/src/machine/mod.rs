@@ -392,3 +392,40 @@ impl<const LOG: usize> Machine<LOG> {
         self.chart.inner().watch
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sense::load_cell::LoadCellScale;
+    use crate::store::Unit;
+
+    /// Feeds `ticks` ticks reading `code`; returns the last outputs.
+    fn holding_with(machine: &mut Machine, code: AdcCode, ticks: u32, now: &mut u32) -> Outputs {
+        let mut out = Outputs::default();
+        for _ in 0..ticks {
+            *now = now.wrapping_add(1);
+            let inputs = Inputs { now_ms: *now, load_cell: code, ..Inputs::default() };
+            out = machine.tick(&inputs);
+        }
+        out
+    }
+
+    #[test]
+    fn a_switching_spike_never_reaches_the_digits() {
+        let mut machine =
+            Machine::resume(Record::default(), &Checkpoint::at(MachineState::Holding));
+        // A checkpoint's pull has no target, so stay under the 5 kgf overload margin.
+        let steady = LoadCellScale::NOMINAL.to_code(Kgf::from_milli(3_040));
+        let spike = LoadCellScale::NOMINAL.to_code(Kgf::from_milli(3_740));
+        let mut now = 0;
+        let settled = holding_with(&mut machine, steady, 1_000, &mut now);
+        assert_eq!(machine.state(), MachineState::Holding);
+        assert_eq!(settled.display, chart::tension_display(Kgf::from_tenths(30), Unit::Kilograms));
+        // One tick 0.7 kgf high, then steady again: the digits never move.
+        let at_spike = holding_with(&mut machine, spike, 1, &mut now);
+        assert_eq!(at_spike.display, settled.display);
+        for _ in 0..400 {
+            assert_eq!(holding_with(&mut machine, steady, 1, &mut now).display, settled.display);
+        }
+    }
+}

@@ -420,7 +420,7 @@ mod tests {
         let mut now = 0;
         let settled = holding_with(&mut machine, steady, 1_000, &mut now);
         assert_eq!(machine.state(), MachineState::Holding);
-        assert_eq!(settled.display, chart::tension_display(Kgf::from_tenths(30), Unit::Kilograms));
+        assert_eq!(settled.display, tension_display(Kgf::from_tenths(30), Unit::Kilograms));
         // One tick 0.7 kgf high, then steady again: the digits never move.
         let at_spike = holding_with(&mut machine, spike, 1, &mut now);
         assert_eq!(at_spike.display, settled.display);

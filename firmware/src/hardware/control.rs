@@ -20,6 +20,7 @@ use embassy_stm32::peripherals::{
 };
 use embassy_stm32::timer::low_level::Timer;
 use embassy_stm32::timer::qei::{Config as QeiConfig, Qei};
+use static_cell::StaticCell;
 use taut_core::io::{Inputs, Keys};
 use taut_core::machine::Machine;
 use taut_core::store::{Record, StoreError};
@@ -183,11 +184,18 @@ pub fn init(resources: Resources) {
         Input::new(keys.4, Pull::Up),
     ];
     let beeper = Output::new(beeper, Level::Low, Speed::Low);
-    let tick =
-        Tick { machine: Machine::from_stored(record), analog, encoder, keys, beeper, now_ms: 0 };
-    // One static copy of the state (a `singleton!` is zero-initialised RAM, not `.data`).
-    let tick: Option<&'static mut Tick> = cortex_m::singleton!(: Tick = tick);
-    critical_section::with(|cs| *TICK.borrow_ref_mut(cs) = tick);
+    // One static copy of the state, built in place (`init_with` writes the closure's value
+    // straight into the cell, so the ≈ 1.3 KB machine is not staged on the start-up stack).
+    static CELL: StaticCell<Tick> = StaticCell::new();
+    let tick = CELL.init_with(|| Tick {
+        machine: Machine::from_stored(record),
+        analog,
+        encoder,
+        keys,
+        beeper,
+        now_ms: 0,
+    });
+    critical_section::with(|cs| *TICK.borrow_ref_mut(cs) = Some(tick));
 
     core::mem::forget(Timer::new(tick_timer));
     let tim = pac::TIM6;

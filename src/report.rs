@@ -12,9 +12,11 @@
 //! hold error, as on a real machine. Each controller then pulls (speed 9, no pre-stretch)
 //! on a fresh twin of the same scenario for [`PULL_MS`]. Metrics ([`Metrics`]):
 //!
-//! - **settle time**: Start to the first moment after which the *measured* tension (the
-//!   calibrated reading through the controller's 5-sample median) stays within 0.1 kgf of
-//!   the target for 0.5 s;
+//! - **settle time**: Start to the first moment after which the *measured* tension — the
+//!   tension the controller acted on and the machine shows ([`crate::sil::Sample::estimate`]:
+//!   the calibrated reading through the controller's own spike filtering; the paper's laws
+//!   get the median of five, taut adds its clip and observer) — stays within 0.1 kgf of the
+//!   target for 0.5 s;
 //! - **hold error**: the largest |true tension − target| from 1 s to 10 s after settling;
 //! - **overshoot**: the largest true tension above the target before the hold window;
 //! - **pull-time ratio**: settle time over `t_min`, the time the bang-bang oracle
@@ -24,6 +26,8 @@
 //!   [`ORACLE_CURRENT_LIMIT`] at the measured speed — the fastest pull the drive permits;
 //! - **chattering**: total variation of the signed duty per second over the hold window;
 //! - **peak current**: the largest phase current of the run;
+//! - **peak bus voltage**: the highest DC bus voltage of the run (braking regenerates into
+//!   the bus capacitance; see `taut_sim::twin`);
 //! - **failed**: never settled, or a drive fault latched.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -71,6 +75,8 @@ pub struct Metrics {
     pub chattering: f64,
     /// Largest phase current, A.
     pub peak_current_a: f64,
+    /// Highest DC bus voltage, V.
+    pub bus_peak_v: f64,
     /// Failed (never settled or faulted).
     pub failed: bool,
 }
@@ -150,22 +156,10 @@ pub fn pull_trace(
     trace
 }
 
-/// The measured tension as the controller filters it (5-sample median), per tick.
-fn median_filtered(trace: &[Sample]) -> Vec<f64> {
-    let mut out = Vec::with_capacity(trace.len());
-    for i in 0..trace.len() {
-        let lo = i.saturating_sub(4);
-        let mut w: Vec<f64> = trace[lo..=i].iter().map(|s| s.measured).collect();
-        w.sort_by(f64::total_cmp);
-        out.push(w[w.len() / 2]);
-    }
-    out
-}
-
 /// The figures of one trace against `target` and the oracle's `t_min`.
 #[must_use]
 pub fn metrics(trace: &[Sample], target: f64, t_min: Option<f64>) -> Metrics {
-    let measured = median_filtered(trace);
+    let measured: Vec<f64> = trace.iter().map(|s| s.estimate).collect();
     let hold_ticks = (SETTLE_HOLD_S * 1000.0) as usize;
     // The first index from which the measured tension stays in band for hold_ticks.
     let mut settle_index = None;
@@ -183,6 +177,7 @@ pub fn metrics(trace: &[Sample], target: f64, t_min: Option<f64>) -> Metrics {
     }
     let fault = trace.iter().any(|s| s.fault);
     let peak_current_a = trace.iter().map(|s| s.peak_current).fold(0.0, f64::max);
+    let bus_peak_v = trace.iter().map(|s| s.bus_peak).fold(0.0, f64::max);
     // A run that never settles is censored: its "settle time" is the run's length and its
     // hold window the run's last 9 s, so every figure stays a number; it counts as failed.
     let settled = settle_index.is_some();
@@ -210,6 +205,7 @@ pub fn metrics(trace: &[Sample], target: f64, t_min: Option<f64>) -> Metrics {
         pull_time_ratio: t_min.map_or(f64::NAN, |t| if settled { settle_s } else { run_end } / t),
         chattering,
         peak_current_a,
+        bus_peak_v,
         failed: fault || !settled || !hold_complete,
     }
 }
@@ -318,6 +314,8 @@ pub struct Summary {
     pub chattering_p50: f64,
     /// Max peak current, A.
     pub peak_current_max_a: f64,
+    /// Highest bus voltage, V.
+    pub bus_peak_max_v: f64,
     /// Failed scenarios.
     pub failed: usize,
 }
@@ -341,6 +339,7 @@ pub fn summarize(results: &[ScenarioResult], which: usize) -> Summary {
         pull_time_ratio_median: percentile(&of(|m| m.pull_time_ratio), 50.0),
         chattering_p50: percentile(&of(|m| m.chattering), 50.0),
         peak_current_max_a: all.iter().map(|m| m.peak_current_a).fold(0.0, f64::max),
+        bus_peak_max_v: all.iter().map(|m| m.bus_peak_v).fold(0.0, f64::max),
         failed: all.iter().filter(|m| m.failed).count(),
     }
 }
@@ -367,6 +366,7 @@ pub fn to_json(seed: u64, results: &[ScenarioResult]) -> Value {
                 "pull_time_ratio_median": number(s.pull_time_ratio_median),
                 "chattering_p50": number(s.chattering_p50),
                 "peak_current_max_a": number(s.peak_current_max_a),
+                "bus_peak_max_v": number(s.bus_peak_max_v),
                 "failed": s.failed,
             }),
         );
@@ -378,12 +378,12 @@ pub fn to_json(seed: u64, results: &[ScenarioResult]) -> Value {
 #[must_use]
 pub fn markdown(results: &[ScenarioResult]) -> String {
     let mut out = String::from(
-        "| controller | hold p50 kgf | hold p99 kgf | hold max kgf | overshoot p99 kgf | settle p50 s | pull-time ratio | chattering p50 /s | peak A | failed |\n|---|---|---|---|---|---|---|---|---|---|\n",
+        "| controller | hold p50 kgf | hold p99 kgf | hold max kgf | overshoot p99 kgf | settle p50 s | pull-time ratio | chattering p50 /s | peak A | bus max V | failed |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for (which, (name, _)) in CONTROLLERS.iter().enumerate() {
         let s = summarize(results, which);
         out.push_str(&format!(
-            "| {name} | {:.4} | {:.4} | {:.4} | {:.4} | {:.3} | {:.3} | {:.3} | {:.2} | {} |\n",
+            "| {name} | {:.4} | {:.4} | {:.4} | {:.4} | {:.3} | {:.3} | {:.3} | {:.2} | {:.1} | {} |\n",
             s.hold_error_p50_kgf,
             s.hold_error_p99_kgf,
             s.hold_error_max_kgf,
@@ -392,6 +392,7 @@ pub fn markdown(results: &[ScenarioResult]) -> String {
             s.pull_time_ratio_median,
             s.chattering_p50,
             s.peak_current_max_a,
+            s.bus_peak_max_v,
             s.failed
         ));
     }

@@ -11,9 +11,11 @@
 //! which the reports turn into metrics and plots.
 //!
 //! [`calibrate`] runs the paper's 4-point calibration on the twin: pull to 10, 20, 30,
-//! 40 kgf by the raw reading with the identity correction, hold, average the raw reading,
-//! read the reference gauge once (as the operator keys in one value), and fit
-//! [`Calibration::new`].
+//! 40 kgf by the raw reading with the identity correction, hold, average the raw reading
+//! (through the same median of five the controller uses, so switching spikes do not bias
+//! it) over half a second, read the reference gauge once in the middle of that window (as
+//! the operator keys in one value; a reading paired with the average of the window around
+//! it, so a slow drift of the held tension cancels), and fit [`Calibration::new`].
 
 use taut_core::drive::DriveCommand;
 use taut_core::io::{Inputs, Outputs};
@@ -41,6 +43,9 @@ pub struct Sample {
     pub tension: f64,
     /// What the controller was given (calibrated, before its spike filter), kgf.
     pub measured: f64,
+    /// The tension the controller acted on (its spike-filtered, observed estimate: what the
+    /// machine shows), kgf.
+    pub estimate: f64,
     /// The controller's reference, kgf.
     pub reference: f64,
     /// Signed duty (negative = release), fraction.
@@ -57,6 +62,8 @@ pub struct Sample {
     pub force: f64,
     /// A drive fault is latched.
     pub fault: bool,
+    /// The highest DC bus voltage in the tick, V.
+    pub bus_peak: f64,
 }
 
 /// Kgf as f64.
@@ -161,6 +168,8 @@ impl Rig {
             phase: out.phase,
             force: kgf(out.force),
             fault: truth.drive_fault.is_some(),
+            estimate: kgf(out.tension),
+            bus_peak: truth.bus_peak_volts,
         };
         (sample, out, inputs)
     }
@@ -219,12 +228,20 @@ pub fn calibrate(config: &TwinConfig) -> CalibrationRun {
             rig.tick();
         }
         let mut sum = 0.0;
-        for _ in 0..CALIBRATION_AVERAGE_TICKS {
+        let mut reference = 0.0;
+        let mut window = [kgf(rig.raw(&rig.twin.inputs())); 5];
+        for tick in 0..CALIBRATION_AVERAGE_TICKS {
             let inputs = rig.twin.inputs();
-            sum += kgf(rig.raw(&inputs));
+            window.rotate_left(1);
+            window[4] = kgf(rig.raw(&inputs));
+            let mut sorted = window;
+            sorted.sort_by(f64::total_cmp);
+            sum += sorted[2];
+            if tick == CALIBRATION_AVERAGE_TICKS / 2 {
+                reference = rig.twin.reference_gauge();
+            }
             rig.tick();
         }
-        let reference = rig.twin.reference_gauge();
         *slot = CalibrationPoint {
             raw: to_kgf(sum / f64::from(CALIBRATION_AVERAGE_TICKS)),
             reference: to_kgf(reference),

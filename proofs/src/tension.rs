@@ -1,47 +1,270 @@
-//! Tension-controller properties (`REQ-TEN-*`): the step is bounded and keeps its invariant;
-//! the fixed-point law tracks its `f64` reference.
+//! Tension-controller properties (`REQ-TEN-01` … `05`): every part of the step is bounded
+//! and keeps its invariant; the composed step too; the fixed-point law tracks its `f64`
+//! reference within the stated bound.
 //!
-//! [`rsmc_step_bounded`] is the one body behind the Kani harness
-//! `verify_rsmc_step_bounded`, the `cargo test` mirror in `proofs/tests/tension.rs` and the
-//! `rsmc_step` fuzz target: from **any** internal state that satisfies
-//! `TensionController::is_valid` (law state, Hall speed filter, profile state, every phase)
-//! and **any** measurement, one step never panics or overflows (the core is compiled with
-//! overflow checks in tests and Kani checks every arithmetic operation), emits a duty within
-//! `DUTY_MAX`, and leaves a valid state. The state is built from primitive values through
-//! the controller's own setters (`set_state`, `set_profile_state`), and the invariant is
-//! assumed, not constructed — an over-approximation of the reachable states.
+//! # Parts, each with one body and three drivers
+//!
+//! The controller's tick is a composition — [`TensionEstimator::update`] (spike filter,
+//! observer, rate and speed), the profile (braking onset, reference), the law
+//! ([`Rsmc::step`]), the force → duty stage ([`ForceToDuty::command`]) — and each part is a
+//! total function of its inputs given its own invariant. So each is proven on its own, for
+//! every input and every state satisfying the invariant:
+//!
+//! | body | Kani harness | what it checks |
+//! |---|---|---|
+//! | [`rsmc_step_bounded`] | `verify_rsmc_step_bounded` | the law: no panic or overflow, `φ̂ ∈ [0, φ_max]`, `\|z\| ≤ z_max`, plant scale kept |
+//! | [`force_to_duty_bounded`] | `verify_force_to_duty_bounded` | always `Pull`, duty ≤ `DUTY_MAX` and within the current-limit window |
+//! | [`estimator_step_bounded`] | `verify_estimator_step_bounded` | no panic, stiffness kept, the spike clip's per-tick limit |
+//! | [`reciprocal_accurate`] | `verify_reciprocal_accurate` | `1/x` within 2⁻²⁰ relative for `x ≥ 2⁻⁷`, no division |
+//! | [`controller_step_bounded`] | `verify_controller_step_bounded` | the composition: duty ≤ `DUTY_MAX`, `is_valid()` kept, every phase |
+//!
+//! # Why the harnesses are small enough for CBMC
+//!
+//! CBMC's cost is the bit-blasted arithmetic. The law's step is fourteen products of two
+//! 32-bit operands into a 64-bit result (`mul_wide`) and saturating 64-bit adds and shifts —
+//! no division (the period's `1/dt` and every coefficient are computed at construction from
+//! constant gains, which CBMC's simplifier folds), no `i128`, no loop. The force → duty
+//! stage is four such products, the estimator five, the reciprocal six plus a shift by a
+//! leading-zero count and a three-iteration loop (`unwind(4)`). Each part's state is built
+//! from primitive `kani::any()` values through the real setters and constrained only by
+//! `kani::assume(is_valid())` — an over-approximation of the reachable states. The
+//! composed harness adds the profile's dozen products to the sum of the parts; it is the
+//! one to run with `--harness` on its own.
+//!
+//! The same bodies run under `cargo test` (`proofs/tests/tension.rs`: proptest over the
+//! valid domain, printing the cases checked) and under the `rsmc_step` fuzz target.
 
-use taut_core::drive::{DUTY_MAX, DriveStatus};
+use taut_core::drive::{DUTY_MAX, Direction, DriveStatus};
 use taut_core::io::LimitSwitches;
-use taut_core::tension::controller::{ProfileState, TensionController};
-use taut_core::tension::law::{RsmcState, Saturation};
+use taut_core::tension::controller::{ProfileState, TAUT_GAINS, TAUT_PLANT, TensionController};
+use taut_core::tension::estimator::{
+    CLIP_ALLOWANCE, CLIP_STIFFNESS, EstimatorConfig, EstimatorState, STEP_MM_BITS, TensionEstimator,
+};
+use taut_core::tension::law::{
+    Reference, Rsmc, RsmcGains, RsmcState, Saturation, mul_wide, narrow, reciprocal_q24,
+};
+use taut_core::tension::motor::{DutyMap, ForceToDuty, MotorModel};
 use taut_core::tension::{ControllerConfig, Measurement, MmPerSecond, PullPhase};
-use taut_core::units::{Amps, Kgf, Q16};
+use taut_core::units::{Amps, Kgf, KgfPerSecond, Q16, Seconds};
 
-/// Everything one step depends on, as primitives.
+/// A saturation flag from a selector (`% 3`).
+#[must_use]
+pub const fn saturation(selector: u8) -> Saturation {
+    match selector % 3 {
+        0 => Saturation::None,
+        1 => Saturation::High,
+        _ => Saturation::Low,
+    }
+}
+
+/// The law step's inputs, as primitives.
+#[derive(Clone, Copy, Debug, Default)]
+#[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
+#[cfg_attr(kani, derive(kani::Arbitrary))]
+pub struct LawCase {
+    /// The paper's gains (on taut's nominal plant) instead of taut's.
+    pub paper: bool,
+    /// State: previous error, kgf bits.
+    pub e_prev: i32,
+    /// State: error rate, kgf/s bits.
+    pub e_rate: i32,
+    /// State: integral `z`, kgf/s bits.
+    pub z: i32,
+    /// State: adaptive gain `φ̂`, Q31.32.
+    pub phi_hat: i64,
+    /// The plant scale `ρ`, Q15.16 bits (clamped by the setter).
+    pub scale: i32,
+    /// Reference tension, kgf bits.
+    pub y_d: i32,
+    /// Reference rate, kgf/s bits.
+    pub rate: i32,
+    /// Reference acceleration, kgf/s² bits.
+    pub accel: i32,
+    /// Measured tension, kgf bits.
+    pub y: i32,
+    /// Saturation selector (`% 3`).
+    pub saturated: u8,
+}
+
+/// The law at 1 kHz in the case's state (its invariant not yet checked).
+#[must_use]
+pub fn law_in(case: &LawCase) -> Rsmc {
+    let gains = if case.paper { RsmcGains::paper(TAUT_PLANT) } else { TAUT_GAINS };
+    let Ok(mut law) = Rsmc::new(&gains, 1_000) else {
+        panic!("REQ-TEN-06: a built-in law was rejected");
+    };
+    law.set_state(RsmcState {
+        e_prev: case.e_prev,
+        e_rate: case.e_rate,
+        z: case.z,
+        phi_hat: case.phi_hat,
+    });
+    law.set_plant_scale(Q16::from_bits(case.scale));
+    law
+}
+
+/// REQ-TEN-01/03 for the law: from a valid state, one step never panics or overflows, keeps
+/// `φ̂ ∈ [0, φ_max]` and `|z| ≤ z_max`, and leaves the plant scale alone. Returns whether the
+/// case was in the domain.
+pub fn rsmc_step_bounded(case: &LawCase) -> bool {
+    let mut law = law_in(case);
+    if !law.is_valid() {
+        return false;
+    }
+    let scale = law.plant_scale();
+    let reference = Reference {
+        tension: Kgf::from_bits(case.y_d),
+        rate: KgfPerSecond::from_bits(case.rate),
+        accel: Q16::from_bits(case.accel),
+    };
+    let _ = law.step(&reference, Kgf::from_bits(case.y), saturation(case.saturated));
+    assert!(law.is_valid(), "REQ-TEN-03: the law step broke its invariant: {case:?}");
+    assert_eq!(law.plant_scale(), scale, "REQ-TEN-03: the law step changed the plant scale");
+    true
+}
+
+/// REQ-TEN-02/09: whatever the force and the speed, both maps command `Pull` (a negative
+/// force brakes) with a duty within `DUTY_MAX` and within the current-limit window around
+/// the measured back-EMF (or, when the window lies wholly outside `[0, DUTY_MAX]`, its
+/// nearest end).
+pub fn force_to_duty_bounded(current_map: bool, force: i32, speed: i32) {
+    let limit = Amps::from_int(8);
+    let map = if current_map {
+        DutyMap::BackEmf { current_limit: limit }
+    } else {
+        DutyMap::Proportional { current_limit: limit }
+    };
+    let Ok(stage) = ForceToDuty::new(&MotorModel::PAPER, map) else {
+        panic!("REQ-TEN-06: the paper's motor model was rejected");
+    };
+    let (command, _) = stage.command(Kgf::from_bits(force), MmPerSecond(Q16::from_bits(speed)));
+    assert_eq!(command.direction(), Some(Direction::Pull), "REQ-TEN-09: a pull never reverses");
+    let duty = command.duty();
+    assert!(duty <= DUTY_MAX && duty.is_valid(), "REQ-TEN-02: duty {duty:?} above DUTY_MAX");
+    // The window, recomputed: v·c_v ± F_lim·c_f (Q15.16 bits).
+    let back_emf = mul_wide(speed, stage.duty_per_mm_s_q24()) >> 24;
+    let room = mul_wide(stage.force_limit().to_bits(), stage.duty_per_kgf_q24()) >> 24;
+    let bits = i64::from(duty.raw());
+    let high = back_emf.saturating_add(room).min(i64::from(DUTY_MAX.raw()));
+    let low = back_emf.saturating_sub(room).max(0);
+    if low <= high {
+        assert!(bits >= low && bits <= high, "REQ-TEN-09: duty {bits} outside [{low}, {high}]");
+    } else {
+        // No duty keeps the current within the limit (a speed beyond the motor's reach in
+        // either direction): the one closest to the window — zero when back-driven, full
+        // duty (the least braking) when over-running.
+        assert_eq!(bits, high.max(0), "REQ-TEN-09: outside the window, the nearest duty");
+    }
+}
+
+/// The estimator step's inputs, as primitives.
+#[derive(Clone, Copy, Debug, Default)]
+#[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
+#[cfg_attr(kani, derive(kani::Arbitrary))]
+pub struct EstimatorCase {
+    /// Spike clip on.
+    pub clip: bool,
+    /// Observer on.
+    pub observer: bool,
+    /// State: the median window.
+    pub window: [i32; 5],
+    /// State: the filtered sample.
+    pub filtered: i32,
+    /// State: the observer's tension, Q31.32.
+    pub fused: i64,
+    /// State: the rate low-pass.
+    pub rate: i32,
+    /// State: the speed low-pass.
+    pub speed: i32,
+    /// State: the previous step count.
+    pub last_steps: i32,
+    /// State: primed.
+    pub primed: bool,
+    /// State: the observer's stiffness.
+    pub stiffness: i32,
+    /// Input: the tension sample, kgf bits.
+    pub sample: i32,
+    /// Input: the Hall step count.
+    pub steps: i32,
+}
+
+/// REQ-TEN-01/03/10 for the estimator: from a valid state, one update never panics, keeps
+/// the stiffness in range and, with the clip on, moves the filtered sample by no more than
+/// the carriage's travel allows.
+pub fn estimator_step_bounded(case: &EstimatorCase) -> bool {
+    let config = EstimatorConfig {
+        spike_clip: case.clip,
+        observer_gain: case.observer.then_some(Q16::lit("0.05")),
+        rate_filter: Seconds::from_milli(16),
+    };
+    let Ok(mut estimator) = TensionEstimator::new(&config, 1_000) else {
+        panic!("REQ-TEN-06: the estimator configuration was rejected");
+    };
+    estimator.set_state(EstimatorState {
+        window: case.window,
+        filtered: case.filtered,
+        fused: case.fused,
+        rate: case.rate,
+        speed: case.speed,
+        last_steps: case.last_steps,
+        primed: case.primed,
+        stiffness: case.stiffness,
+    });
+    if !estimator.is_valid() {
+        return false;
+    }
+    let before = if case.primed { case.filtered } else { case.sample };
+    let out = estimator.update(Kgf::from_bits(case.sample), case.steps);
+    assert!(estimator.is_valid(), "REQ-TEN-03: the estimator broke its invariant: {case:?}");
+    assert!(out.steps.abs() <= 16, "REQ-TEN-10: step count change not clamped");
+    if case.clip {
+        let travel = out.steps.saturating_abs().saturating_mul(STEP_MM_BITS);
+        let limit = narrow(mul_wide(CLIP_STIFFNESS.to_bits(), travel))
+            .saturating_add(CLIP_ALLOWANCE.to_bits());
+        let moved = i64::from(out.sample.to_bits()).saturating_sub(i64::from(before)).abs();
+        assert!(moved <= i64::from(limit), "REQ-TEN-10: the clip let {moved} through ({limit})");
+    }
+    true
+}
+
+/// REQ-TEN-01: the division-free reciprocal is within 2⁻²⁰ relative (or 2 LSB) of `1/x`
+/// for every `x ≥ 2⁻⁷` (Q15.16 bits ≥ 512, so that `1/x ≤ 128` fits Q8.24), checked by
+/// multiplying back.
+pub fn reciprocal_accurate(x: i32) -> bool {
+    if x < 512 {
+        return false;
+    }
+    let r = i64::from(reciprocal_q24(x));
+    // r ≈ 2⁴⁰/x ⇔ r·x ≈ 2⁴⁰; |r·x − 2⁴⁰| ≤ x·max(2, r/2²⁰).
+    let product = r.saturating_mul(i64::from(x));
+    let tolerance = i64::from(x).saturating_mul((r >> 20).max(2));
+    assert!(
+        product.saturating_sub(1_i64 << 40).abs() <= tolerance,
+        "REQ-TEN-01: 1/{x} = {r} (Q8.24) is off by more than 2⁻²⁰"
+    );
+    true
+}
+
+/// Everything one controller step depends on, as primitives.
 #[derive(Clone, Copy, Debug, Default)]
 #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
 #[cfg_attr(kani, derive(kani::Arbitrary))]
 pub struct StepCase {
     /// Use the paper's RSMC configuration instead of taut's.
     pub paper: bool,
-    /// Law: previous error, error rate, integral (bits).
-    pub e_prev: i32,
-    /// Law: error rate (bits).
-    pub e_rate: i32,
-    /// Law: integral (bits).
-    pub z: i32,
-    /// Law: adaptive gain, Q31.32.
-    pub phi_hat: i64,
+    /// The law's state and plant scale (its reference and measurement fields unused).
+    pub law: LawCase,
+    /// The tension estimator's state and configuration switches (its inputs unused).
+    pub estimator: EstimatorCase,
     /// Speed filter: last step count.
     pub last_steps: i32,
     /// Speed filter: speed (bits).
     pub speed: i32,
     /// Speed filter primed.
     pub primed: bool,
-    /// Profile: phase selector (mod 7).
+    /// Profile: phase selector (`% 7`).
     pub phase: u8,
-    /// Profile: peak, final, goal (bits).
+    /// Profile: peak (bits).
     pub peak: i32,
     /// Profile: final target (bits).
     pub final_target: i32,
@@ -51,20 +274,18 @@ pub struct StepCase {
     pub speed_limit: i32,
     /// Profile: reference (Q31.32).
     pub reference: i64,
+    /// Profile: reference rate (bits).
+    pub reference_rate: i32,
+    /// Profile: reference acceleration (bits).
+    pub reference_accel: i32,
     /// Profile: ticks in phase.
     pub ticks: u32,
-    /// Profile: last tension (bits).
-    pub last_tension: i32,
-    /// Profile: filtered rate (bits).
-    pub rate: i32,
     /// Profile: at tension.
     pub at_tension: bool,
-    /// Profile: saturation selector (mod 3).
+    /// Profile: saturation selector (`% 3`).
     pub saturated: u8,
-    /// Profile: coasting.
-    pub coasting: bool,
-    /// Profile: median window.
-    pub window: [i32; 5],
+    /// Profile: the law is to be reset on the next closed-loop tick.
+    pub fresh: bool,
     /// Measurement: tension (bits).
     pub tension: i32,
     /// Measurement: Hall steps.
@@ -77,16 +298,6 @@ pub struct StepCase {
     pub end: bool,
 }
 
-const PHASES: [PullPhase; 7] = [
-    PullPhase::Idle,
-    PullPhase::TakeUp,
-    PullPhase::Approach,
-    PullPhase::PreStretch,
-    PullPhase::Settle,
-    PullPhase::Hold,
-    PullPhase::Release,
-];
-
 /// The controller in the case's state (its invariant not yet checked).
 #[must_use]
 pub fn controller_in(case: &StepCase) -> TensionController {
@@ -96,49 +307,56 @@ pub fn controller_in(case: &StepCase) -> TensionController {
     };
     if let Some(rsmc) = controller.rsmc_mut() {
         rsmc.set_state(RsmcState {
-            e_prev: case.e_prev,
-            e_rate: case.e_rate,
-            z: case.z,
-            phi_hat: case.phi_hat,
+            e_prev: case.law.e_prev,
+            e_rate: case.law.e_rate,
+            z: case.law.z,
+            phi_hat: case.law.phi_hat,
         });
+        rsmc.set_plant_scale(Q16::from_bits(case.law.scale));
     }
+    let e = &case.estimator;
+    controller.estimator_mut().set_state(EstimatorState {
+        window: e.window,
+        filtered: e.filtered,
+        fused: e.fused,
+        rate: e.rate,
+        speed: e.speed,
+        last_steps: e.last_steps,
+        primed: e.primed,
+        stiffness: e.stiffness,
+    });
     controller.speed_estimator_mut().set_state(
         case.last_steps,
         MmPerSecond(Q16::from_bits(case.speed)),
         case.primed,
     );
-    let phase = PHASES.into_iter().nth(usize::from(case.phase % 7)).unwrap_or_default();
-    let saturated = match case.saturated % 3 {
-        0 => Saturation::None,
-        1 => Saturation::High,
-        _ => Saturation::Low,
-    };
+    let phase = PullPhase::ALL.into_iter().nth(usize::from(case.phase % 7)).unwrap_or_default();
     controller.set_profile_state(ProfileState {
         phase,
         peak: Kgf::from_bits(case.peak),
         final_target: Kgf::from_bits(case.final_target),
         speed_limit: MmPerSecond(Q16::from_bits(case.speed_limit)),
         reference: case.reference,
+        reference_rate: case.reference_rate,
+        reference_accel: case.reference_accel,
         goal: Kgf::from_bits(case.goal),
         ticks: case.ticks,
-        last_tension: case.last_tension,
-        rate: case.rate,
         at_tension: case.at_tension,
-        saturated,
-        coasting: case.coasting,
-        window: case.window,
+        saturated: saturation(case.saturated),
+        fresh: case.fresh,
     });
     controller
 }
 
-/// REQ-TEN-01/02/03: for a valid state, one step is panic-free, its duty is within
-/// `DUTY_MAX`, and the state stays valid. Returns whether the case was in the domain
-/// (the state was valid).
-pub fn rsmc_step_bounded(case: &StepCase) -> bool {
+/// REQ-TEN-01/02/03 for the composed step: for a valid state, one step is panic-free, its
+/// duty is within `DUTY_MAX`, within a pull it never reverses, and the state stays valid.
+/// Returns whether the case was in the domain (the state was valid).
+pub fn controller_step_bounded(case: &StepCase) -> bool {
     let mut controller = controller_in(case);
     if !controller.is_valid() {
         return false;
     }
+    let phase = controller.phase();
     let measurement = Measurement {
         tension: Kgf::from_bits(case.tension),
         drive: DriveStatus { steps: case.steps, ..DriveStatus::default() },
@@ -148,6 +366,13 @@ pub fn rsmc_step_bounded(case: &StepCase) -> bool {
     let out = controller.step(&measurement);
     let duty = out.command.duty();
     assert!(duty <= DUTY_MAX && duty.is_valid(), "REQ-TEN-02: duty {duty:?} above DUTY_MAX");
+    if !matches!(phase, PullPhase::Idle | PullPhase::Release) {
+        assert_eq!(
+            out.command.direction(),
+            Some(Direction::Pull),
+            "REQ-TEN-09: a pull never coasts or reverses"
+        );
+    }
     assert!(controller.is_valid(), "REQ-TEN-03: the step broke the invariant: {case:?}");
     true
 }
@@ -156,14 +381,49 @@ pub fn rsmc_step_bounded(case: &StepCase) -> bool {
 mod verification {
     use super::*;
 
-    /// REQ-TEN-01/02/03 for every valid state and every measurement, one step, taut's and
-    /// the paper's configuration. The median window and the step count are symbolic too.
+    /// REQ-TEN-01/03, the law: every valid state (paper's and taut's gains, any plant
+    /// scale), every reference and measurement. Fourteen 32 × 32 → 64-bit products, no
+    /// division, no loop (see the module docs).
     #[kani::proof]
-    #[kani::unwind(6)]
     fn verify_rsmc_step_bounded() {
-        let case: StepCase = kani::any();
-        let controller = controller_in(&case);
-        kani::assume(controller.is_valid());
+        let case: LawCase = kani::any();
+        kani::assume(law_in(&case).is_valid());
         assert!(rsmc_step_bounded(&case));
+    }
+
+    /// REQ-TEN-02/09, the force → duty stage: every force and speed, both maps.
+    #[kani::proof]
+    fn verify_force_to_duty_bounded() {
+        force_to_duty_bounded(kani::any(), kani::any(), kani::any());
+    }
+
+    /// REQ-TEN-01/03/10, the estimator: every valid state and input, clip and observer on
+    /// or off. The median is six comparisons; five products.
+    #[kani::proof]
+    fn verify_estimator_step_bounded() {
+        let case: EstimatorCase = kani::any();
+        // The estimator's invariant, as `TensionEstimator::is_valid` states it.
+        kani::assume(case.stiffness >= 0 && case.stiffness <= 4 << 16);
+        assert!(estimator_step_bounded(&case));
+    }
+
+    /// REQ-TEN-01, the reciprocal: every `x ≥ 2⁻⁷` (three Newton steps, `unwind(4)`).
+    #[kani::proof]
+    #[kani::unwind(4)]
+    fn verify_reciprocal_accurate() {
+        let x: i32 = kani::any();
+        kani::assume(x >= 512);
+        assert!(reciprocal_accurate(x));
+    }
+
+    /// REQ-TEN-01/02/03, the composition: every valid controller state (law, estimator,
+    /// Hall filter, profile in every phase), every measurement. The sum of the parts plus
+    /// the profile's arithmetic; run on its own (`--harness`).
+    #[kani::proof]
+    #[kani::unwind(4)]
+    fn verify_controller_step_bounded() {
+        let case: StepCase = kani::any();
+        kani::assume(controller_in(&case).is_valid());
+        assert!(controller_step_bounded(&case));
     }
 }

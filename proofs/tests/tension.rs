@@ -1,113 +1,209 @@
-//! The tension controller's properties under `cargo test`: the Kani property sampled by
-//! proptest over the valid domain (and over raw inputs), and the fixed-point law against its
-//! `f64` reference (REQ-TEN-01 … 05).
+//! The tension controller's properties under `cargo test`: each Kani property sampled by
+//! proptest over its valid domain (or swept), and the fixed-point law against its `f64`
+//! reference (REQ-TEN-01 … 05). Each test prints how many cases it checked.
 #![allow(
     clippy::arithmetic_side_effects,
     clippy::float_arithmetic,
     clippy::cast_precision_loss,
     clippy::cast_possible_truncation,
     clippy::print_stdout,
-    reason = "test bookkeeping and the f64 comparison"
+    clippy::unwrap_used,
+    reason = "test bookkeeping, the f64 comparison and its report"
 )]
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use proptest::prelude::*;
-use taut_core::tension::controller::TAUT_GAINS;
-use taut_core::tension::controller::TAUT_PLANT;
-use taut_core::tension::law::{Reference, Rsmc, RsmcGains, Saturation};
-use taut_core::units::{Kgf, KgfPerSecond, Q16};
-use taut_proofs::tension::{StepCase, rsmc_step_bounded};
-use taut_proofs::tension_reference::{
-    FORCE_COMPARED_MAX, FORCE_TOLERANCE_ABS, FORCE_TOLERANCE_REL, RsmcReference, SGN_GUARD, q,
+use taut_core::tension::controller::{TAUT_GAINS, TAUT_PLANT};
+use taut_core::tension::law::RsmcGains;
+use taut_proofs::tension::{
+    EstimatorCase, LawCase, StepCase, controller_step_bounded, estimator_step_bounded,
+    force_to_duty_bounded, reciprocal_accurate, rsmc_step_bounded,
 };
+use taut_proofs::tension_reference::{TrackStep, coefficient_errors, law_tracks_reference};
 
 const KGF: i32 = 65_536;
 
-fn valid_case() -> impl Strategy<Value = StepCase> {
+fn law_case() -> impl Strategy<Value = LawCase> {
     (
-        (
-            any::<bool>(),
-            any::<i32>(),
-            any::<i32>(),
-            -2_000 * KGF..=2_000 * KGF,
-            0_i64..=(2_i64 << 32),
-        ),
-        (
-            any::<i32>(),
-            any::<i32>(),
-            any::<bool>(),
-            0_u8..7,
-            0..=50 * KGF,
-            0..=50 * KGF,
-            0..=50 * KGF,
-        ),
-        (any::<i32>(), 0_i64..=(50_i64 << 32), any::<u32>(), any::<i32>(), any::<i32>()),
-        (any::<bool>(), 0_u8..3, any::<bool>(), any::<[i32; 5]>()),
+        (any::<bool>(), any::<i32>(), any::<i32>(), -2_000 * KGF..=2_000 * KGF),
+        (0_i64..=(2_i64 << 32), 0..=11 * KGF),
+        (any::<i32>(), any::<i32>(), any::<i32>(), any::<i32>(), any::<u8>()),
+    )
+        .prop_map(
+            |((paper, e_prev, e_rate, z), (phi_hat, scale), (y_d, rate, accel, y, saturated))| {
+                LawCase { paper, e_prev, e_rate, z, phi_hat, scale, y_d, rate, accel, y, saturated }
+            },
+        )
+}
+
+fn estimator_case() -> impl Strategy<Value = EstimatorCase> {
+    (
+        (any::<bool>(), any::<bool>(), any::<[i32; 5]>(), any::<i32>(), any::<i64>()),
+        (any::<i32>(), any::<i32>(), any::<i32>(), any::<bool>(), 0..=4 * KGF),
+        (any::<i32>(), any::<i32>()),
+    )
+        .prop_map(
+            |(
+                (clip, observer, window, filtered, fused),
+                (rate, speed, last_steps, primed, stiffness),
+                (sample, steps),
+            )| {
+                EstimatorCase {
+                    clip,
+                    observer,
+                    window,
+                    filtered,
+                    fused,
+                    rate,
+                    speed,
+                    last_steps,
+                    primed,
+                    stiffness,
+                    sample,
+                    steps,
+                }
+            },
+        )
+}
+
+fn step_case() -> impl Strategy<Value = StepCase> {
+    (
+        (any::<bool>(), law_case(), estimator_case()),
+        (any::<i32>(), any::<i32>(), any::<bool>(), 0_u8..7),
+        (0..=50 * KGF, 0..=50 * KGF, 0..=50 * KGF, any::<i32>()),
+        (0_i64..=(50_i64 << 32), any::<i32>(), any::<i32>(), any::<u32>()),
+        (any::<bool>(), any::<u8>(), any::<bool>()),
         (-5 * KGF..=70 * KGF, any::<i32>(), any::<i32>(), any::<bool>(), any::<bool>()),
     )
-        .prop_map(|(a, b, c, d, e)| {
-            let (peak, final_target) = if b.4 >= b.5 { (b.4, b.5) } else { (b.5, b.4) };
+        .prop_map(|(a, b, c, d, e, f)| {
+            let (peak, final_target) = if c.0 >= c.1 { (c.0, c.1) } else { (c.1, c.0) };
             StepCase {
                 paper: a.0,
-                e_prev: a.1,
-                e_rate: a.2,
-                z: a.3,
-                phi_hat: a.4,
+                law: a.1,
+                estimator: a.2,
                 last_steps: b.0,
                 speed: b.1,
                 primed: b.2,
                 phase: b.3,
                 peak,
                 final_target,
-                goal: b.6.min(peak),
-                speed_limit: c.0,
-                reference: c.1,
-                ticks: c.2,
-                last_tension: c.3,
-                rate: c.4,
-                at_tension: d.0,
-                saturated: d.1,
-                coasting: d.2,
-                window: d.3,
-                tension: e.0,
-                steps: e.1,
-                current: e.2,
-                home: e.3,
-                end: e.4,
+                goal: c.2.min(peak),
+                speed_limit: c.3,
+                reference: d.0,
+                reference_rate: d.1,
+                reference_accel: d.2,
+                ticks: d.3,
+                at_tension: e.0,
+                saturated: e.1,
+                fresh: e.2,
+                tension: f.0,
+                steps: f.1,
+                current: f.2,
+                home: f.3,
+                end: f.4,
             }
         })
 }
 
-static IN_DOMAIN: AtomicU64 = AtomicU64::new(0);
+static LAW_CASES: AtomicU64 = AtomicU64::new(0);
+static ESTIMATOR_CASES: AtomicU64 = AtomicU64::new(0);
+static STEP_CASES: AtomicU64 = AtomicU64::new(0);
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(20_000))]
 
     /// Mirror of `verify_rsmc_step_bounded` (Kani), steered into the valid domain.
     #[test]
-    fn rsmc_step_bounded_sampled(case in valid_case()) {
+    fn rsmc_step_bounded_sampled(case in law_case()) {
         if rsmc_step_bounded(&case) {
-            IN_DOMAIN.fetch_add(1, Ordering::Relaxed);
+            LAW_CASES.fetch_add(1, Ordering::Relaxed);
         }
     }
 
-    /// The same property on unconstrained inputs: invalid states are skipped, valid ones hold.
+    /// The law's property on unconstrained states: invalid ones are skipped, valid ones hold.
     #[test]
-    fn rsmc_step_bounded_raw(paper in any::<bool>(), e_prev in any::<i32>(), tension in any::<i32>(), steps in any::<i32>(), phase in any::<u8>()) {
-        let case = StepCase { paper, e_prev, tension, steps, phase, peak: 20 * KGF, final_target: 20 * KGF, goal: 20 * KGF, ..StepCase::default() };
-        prop_assert!(rsmc_step_bounded(&case));
+    fn rsmc_step_bounded_raw(case in any::<(bool, i32, i32, i32, i64, i32, i32, i32)>()) {
+        let (paper, e_prev, e_rate, z, phi_hat, scale, y_d, y) = case;
+        let case = LawCase { paper, e_prev, e_rate, z, phi_hat, scale, y_d, y, ..LawCase::default() };
+        let _ = rsmc_step_bounded(&case);
+    }
+
+    /// Mirror of `verify_force_to_duty_bounded` (Kani).
+    #[test]
+    fn force_to_duty_bounded_sampled(current_map in any::<bool>(), force in any::<i32>(), speed in any::<i32>()) {
+        force_to_duty_bounded(current_map, force, speed);
+    }
+
+    /// Mirror of `verify_estimator_step_bounded` (Kani), over the valid domain.
+    #[test]
+    fn estimator_step_bounded_sampled(case in estimator_case()) {
+        if estimator_step_bounded(&case) {
+            ESTIMATOR_CASES.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    /// Mirror of `verify_controller_step_bounded` (Kani), steered into the valid domain.
+    #[test]
+    fn controller_step_bounded_sampled(case in step_case()) {
+        if controller_step_bounded(&case) {
+            STEP_CASES.fetch_add(1, Ordering::Relaxed);
+        }
     }
 }
 
 #[test]
-fn rsmc_step_bounded_coverage() {
-    // Runs after (or alongside) the proptest; reports how many valid states were checked.
+fn force_to_duty_bounded_swept() {
+    // A grid over the physical range and beyond: forces ±2 000 kgf by 7.3, speeds
+    // ±300 mm/s by 1.7, both maps, plus the format's extremes.
+    let mut cases = 0_u64;
+    for current_map in [false, true] {
+        for force in (-2_000 * KGF..=2_000 * KGF).step_by(478_412) {
+            for speed in (-300 * KGF..=300 * KGF).step_by(111_411) {
+                force_to_duty_bounded(current_map, force, speed);
+                cases += 1;
+            }
+        }
+        for force in [i32::MIN, -1, 0, 1, i32::MAX] {
+            for speed in [i32::MIN, -1, 0, 1, i32::MAX] {
+                force_to_duty_bounded(current_map, force, speed);
+                cases += 1;
+            }
+        }
+    }
+    println!("force_to_duty_bounded_swept: {cases} (force, speed, map) cases");
+    assert!(cases > 100_000);
+}
+
+#[test]
+fn reciprocal_accurate_swept() {
+    // Every x from 2⁻⁷ to 2¹⁵ on a 0.01 % geometric grid, plus each power of two ± 1.
+    let mut cases = 0_u64;
+    let mut x: i64 = 512;
+    while x <= i64::from(i32::MAX) {
+        assert!(reciprocal_accurate(i32::try_from(x).unwrap()));
+        cases += 1;
+        x += (x / 10_000).max(1);
+    }
+    for shift in 10..31 {
+        for x in [(1_i32 << shift) - 1, 1 << shift, (1 << shift) + 1] {
+            assert!(reciprocal_accurate(x));
+            cases += 1;
+        }
+    }
+    println!("reciprocal_accurate_swept: {cases} values of x");
+    assert!(cases > 100_000);
+}
+
+#[test]
+fn step_properties_coverage() {
+    // Runs alongside the proptests; reports how many valid states were checked, and samples
+    // the composed step once more on its own to be sure the generator stays in the domain.
     let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig::with_cases(5_000));
     let valid = AtomicU64::new(0);
     runner
-        .run(&valid_case(), |case| {
-            if rsmc_step_bounded(&case) {
+        .run(&step_case(), |case| {
+            if controller_step_bounded(&case) {
                 valid.fetch_add(1, Ordering::Relaxed);
             }
             Ok(())
@@ -115,68 +211,108 @@ fn rsmc_step_bounded_coverage() {
         .unwrap();
     let valid = valid.load(Ordering::Relaxed);
     println!(
-        "rsmc_step_bounded_coverage: {valid} of 5 000 sampled states valid and checked \
-         (plus {} in rsmc_step_bounded_sampled)",
-        IN_DOMAIN.load(Ordering::Relaxed)
+        "step_properties_coverage: {valid} of 5 000 sampled controller states valid and checked \
+         (plus {} law, {} estimator and {} controller states in the proptests)",
+        LAW_CASES.load(Ordering::Relaxed),
+        ESTIMATOR_CASES.load(Ordering::Relaxed),
+        STEP_CASES.load(Ordering::Relaxed)
     );
     assert!(valid > 4_000, "the generator must mostly produce valid states");
 }
 
-/// The gains compared: the paper's law on taut's nominal plant and taut's law.
-fn gains(which: bool) -> RsmcGains {
-    if which { RsmcGains::paper(TAUT_PLANT) } else { TAUT_GAINS }
+#[test]
+fn coefficients_are_correctly_rounded() {
+    // REQ-TEN-05 part 1: every derived coefficient within one unit of its last place of
+    // its exact value, both laws, at 1 ms and at the paper's 0.1 ms.
+    let mut checked = 0;
+    for gains in [TAUT_GAINS, RsmcGains::paper(TAUT_PLANT)] {
+        for period in [1_000_u32, 100] {
+            for (name, error) in coefficient_errors(&gains, period) {
+                assert!(error <= 1.0, "{name} at {period} µs: {error} units off");
+                checked += 1;
+            }
+        }
+    }
+    println!("coefficients_are_correctly_rounded: {checked} coefficients within 1 ulp");
 }
 
 static COMPARED: AtomicU64 = AtomicU64::new(0);
 
-proptest! {
-    #![proptest_config(ProptestConfig::with_cases(400))]
+fn track_steps(len: usize) -> impl Strategy<Value = Vec<TrackStep>> {
+    // A tension walk and a moving reference in the machine's range: tension 0–60 kgf (the
+    // first step's values are the start), reference steps ±0.1 kgf, rate ±200 kgf/s,
+    // acceleration ±3 000 kgf/s², measured steps ±0.1 kgf.
+    proptest::collection::vec(
+        (0..60 * KGF, -200 * KGF..200 * KGF, -3_000 * KGF..3_000 * KGF, 0..60 * KGF, any::<u8>())
+            .prop_map(|(y_d, rate, accel, dy, saturated)| TrackStep {
+                y_d,
+                rate,
+                accel,
+                dy,
+                saturated,
+            }),
+        len,
+    )
+    .prop_map(|mut steps| {
+        // After the first step, the walks' increments: ±0.1 kgf.
+        for step in steps.iter_mut().skip(1) {
+            step.y_d = step.y_d % (KGF / 5) - KGF / 10;
+            step.dy = step.dy % (KGF / 5) - KGF / 10;
+        }
+        steps
+    })
+}
 
-    /// REQ-TEN-05: over 100 steps of a random tension walk and a random ramping reference,
-    /// the fixed-point force stays within `FORCE_TOLERANCE_ABS + FORCE_TOLERANCE_REL·|u|` of
-    /// the f64 reference (outside the `sgn` guard band).
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+
+    /// REQ-TEN-05 part 2: over 1 000-step runs (1 s at 1 kHz, 0.1 s at 10 kHz) the fixed-point
+    /// force stays within `tracking_bound(k)` of the f64 reference at every step `k`, for
+    /// both laws and both periods, any plant scale.
     #[test]
     fn fixed_rsmc_tracks_float_reference(
-        which in any::<bool>(),
+        paper in any::<bool>(),
         fast in any::<bool>(),
-        start in 0.0_f64..40.0,
-        target in 5.0_f64..50.0,
-        ramp in -20.0_f64..20.0,
-        steps in proptest::collection::vec(-0.05_f64..0.05, 100),
+        scale in (KGF / 10)..=(10 * KGF),
+        steps in track_steps(1_000),
     ) {
-        // 0.1 ms only for the paper's law (taut's filter gain dt/(τ+dt) ≈ 0.012 at 0.1 ms is
-        // quantised to 5 × 10⁻⁴ relative in Q15.16, which this bound does not cover).
-        let period_us = if fast && which { 100 } else { 1_000 };
-        let g = gains(which);
-        let mut fixed = Rsmc::new(&g, period_us).unwrap();
-        let mut float = RsmcReference::new(&g, period_us);
-        let mut y = start;
-        let dt = f64::from(period_us) * 1e-6;
-        let mut y_d = target;
-        // Both start from the same error, as `Rsmc::reset` does.
-        let e0 = Kgf::from_bits(((y_d - y) * 65_536.0).round() as i32);
-        fixed.reset(e0);
-        float.e_prev = q(e0.to_bits());
-        for (k, step) in steps.iter().enumerate() {
-            y = (y + step).clamp(0.0, 60.0);
-            y_d = (y_d + ramp * dt).clamp(0.0, 60.0);
-            let y_bits = (y * 65_536.0).round() as i32;
-            let yd_bits = (y_d * 65_536.0).round() as i32;
-            let rate_bits = (ramp * 65_536.0).round() as i32;
-            let r = Reference { tension: Kgf::from_bits(yd_bits), rate: KgfPerSecond::from_bits(rate_bits), accel: Q16::ZERO };
-            let out = fixed.step(&r, Kgf::from_bits(y_bits), Saturation::None);
-            let reference = float.step(q(yd_bits), q(rate_bits), 0.0, q(y_bits), Saturation::None);
-            if (reference.surface.abs() < SGN_GUARD && which) || reference.force.abs() > FORCE_COMPARED_MAX {
-                // Under sgn the two may pick opposite sides: resynchronise φ̂ and move on.
-                continue;
-            }
-            let bound = FORCE_TOLERANCE_ABS + FORCE_TOLERANCE_REL * reference.force.abs();
-            let error = (q(out.force.to_bits()) - reference.force).abs();
-            prop_assert!(error <= bound, "REQ-TEN-05: paper={which} fast={fast} step {k}: fixed {} vs float {} (error {error}, bound {bound})", q(out.force.to_bits()), reference.force);
-            COMPARED.fetch_add(1, Ordering::Relaxed);
-        }
-        if COMPARED.load(Ordering::Relaxed) % 10_000 < 300 {
-            println!("fixed_rsmc_tracks_float_reference: {} steps compared so far", COMPARED.load(Ordering::Relaxed));
+        let compared = law_tracks_reference(paper, fast, scale, &steps);
+        COMPARED.fetch_add(compared as u64, Ordering::Relaxed);
+    }
+}
+
+#[test]
+fn fixed_rsmc_tracks_float_reference_at_rest_and_in_a_ramp() {
+    // Deterministic runs: a held string (reference constant, tension within ±0.05 kgf of
+    // it) for 10 000 steps, and the braking parabola of a stiff string, each law and period.
+    let mut total = 0;
+    for paper in [false, true] {
+        for fast in [false, true] {
+            let hold: Vec<TrackStep> = (0..10_000_i32)
+                .map(|k| TrackStep {
+                    y_d: if k == 0 { 25 * KGF } else { 0 },
+                    rate: 0,
+                    accel: 0,
+                    dy: if k == 0 { 25 * KGF } else { ((k * 7_919) % 6_553) - 3_276 },
+                    saturated: 0,
+                })
+                .collect();
+            total += law_tracks_reference(paper, fast, KGF, &hold);
+            let ramp: Vec<TrackStep> = (0..1_000_i32)
+                .map(|k| TrackStep {
+                    y_d: if k == 0 { 20 * KGF } else { 50 },
+                    rate: (80 - k / 20) * KGF,
+                    accel: -1_600 * KGF,
+                    dy: if k == 0 { 20 * KGF } else { 48 },
+                    saturated: 0,
+                })
+                .collect();
+            total += law_tracks_reference(paper, fast, 2 * KGF / 5, &ramp);
         }
     }
+    println!(
+        "fixed_rsmc_tracks_float_reference: {total} deterministic steps compared (plus {} in the proptest)",
+        COMPARED.load(Ordering::Relaxed)
+    );
+    assert!(total > 40_000, "{total}");
 }

@@ -5,33 +5,45 @@
 //! [`TensionController::start`] arms a pull from [`PullSettings`]; every tick
 //! [`TensionController::step`] takes a [`Measurement`] (calibrated tension, the drive's
 //! status with its Hall step count, motor current, limit switches) and returns a
-//! [`ControlOutput`]: the [`DriveCommand`] for the bridge, the [`PullPhase`] and the
-//! "at tension" flag the machine turns into the hold LED and the beeper.
-//! [`TensionController::release`] starts the homing move and [`TensionController::stop`]
-//! coasts at once.
+//! [`ControlOutput`]: the [`DriveCommand`] for the bridge, the [`PullPhase`], the
+//! "at tension" flag the machine turns into the hold LED and the beeper, and the tension
+//! estimate it acted on. [`TensionController::release`] starts the homing move and
+//! [`TensionController::stop`] coasts at once.
+//!
+//! Every tick the measurement goes through the [`TensionEstimator`] (median of five, spike
+//! clip, Hall-fused observer, rate and speed). Within a pull the drive is always commanded
+//! in the pull direction: the switched leg is complementary, so a duty below the back-EMF
+//! ratio brakes (`crate::drive::commutation`), and a pull never coasts or reverses.
 //!
 //! With the **shaped** profile (taut) a pull runs through these phases:
 //!
 //! 1. [`PullPhase::TakeUp`] — velocity mode: the carriage runs at the speed setting's limit
-//!    (duty = back-EMF of that speed + resistive drop of the present tension), taking up the
-//!    slack and stretching the string, while the tension and its rate are watched.
-//! 2. [`PullPhase::Approach`] — when the remaining tension `T_peak − y` drops to what the
-//!    present tension rate would cover in the approach time constant `τ_a` (plus a small
-//!    margin), the law takes over, tracking a reference that starts at the present tension
-//!    and rate and closes on the target exponentially: `ẏ_d = (T − y_d)/τ_a`,
-//!    `ÿ_d = −ẏ_d/τ_a`. The reference's deceleration enters the law's equivalent control
-//!    (`ÿ_d/D̄`) so the carriage is braked *before* the tension arrives, which is the only
-//!    way to stop hundreds of kilograms of reflected rotor inertia without overshoot.
-//! 3. [`PullPhase::PreStretch`] — with pre-stretch, the peak `T(1 + p)` is held for
+//!    (duty = back-EMF of that speed + resistive drop of the present tension, accelerating
+//!    no harder than the current limit allows), taking up the slack and stretching the
+//!    string, while the estimator measures the tension rate `ẏ` and the carriage speed `v`.
+//! 2. [`PullPhase::Approach`] — **braking**. A carriage at speed `v` into a string of
+//!    stiffness `K = ẏ/v`, braked at a constant deceleration `a`, adds `K·v²/(2a) = ẏ·v/(2a)`
+//!    of tension before it stops. The braking starts in the tick where that rise reaches
+//!    the gap left to the goal (the peak target less a margin of 0.02 kgf and 5 % of the
+//!    rise for the stiffness estimate's error; the tension lag-compensated by the sensing
+//!    delay): a comparison of two products, no division. At that tick the string's
+//!    stiffness `K̂ = ẏ/v` is identified (one division-free reciprocal), the law's plant is
+//!    scaled to it (`ρ = K̄/K̂`, [`Rsmc::set_plant_scale`]) and the observer starts fusing
+//!    the Hall travel. The reference then follows the braking parabola exactly —
+//!    `ÿ_d = −K̂·a`, from the present tension and rate to the goal with zero rate — and the
+//!    law's equivalent control turns `ÿ_d` and `ẏ_d` into the braking force.
+//! 3. [`PullPhase::PreStretch`] — with pre-stretch, the reference closes exponentially
+//!    (time constant `τ_c`) on the peak `T(1 + p)`, held for
 //!    [`ProfileConfig::pre_stretch_dwell_ms`], then
-//! 4. [`PullPhase::Settle`] — the reference closes exponentially on the final target.
-//! 5. [`PullPhase::Hold`] — constant pull at the final target: the law keeps feeding string
-//!    as it creeps. "At tension" latches the first time the measured tension is within
-//!    [`ProfileConfig::at_tension_band`] of the final target in this phase.
+//! 4. [`PullPhase::Settle`] — the reference closes on the final target.
+//! 5. [`PullPhase::Hold`] — constant pull at the final target (the reference closing on it
+//!    first): the law keeps feeding string as it creeps. "At tension" latches the first
+//!    time the estimated tension is within [`ProfileConfig::at_tension_band`] of the final
+//!    target in this phase.
 //!
 //! With the **step** profile (the paper's simulation, used for the `paper_rsmc` and `pd`
-//! baselines) the reference jumps to the target at Start and the law acts from the first
-//! tick; the phase reads `Approach` until the tension first enters the band, then `Hold`.
+//! baselines) the reference is the target from the first tick and the law acts at once;
+//! the phase reads `Approach` until the tension first enters the band, then `Hold`.
 //!
 //! [`PullPhase::Release`] drives toward home at [`ProfileConfig::release_speed`] (velocity
 //! feed-forward, duty at most [`RELEASE_DUTY_MAX`]) until the home switch closes, then goes
@@ -40,22 +52,26 @@
 //! # Invariant and guarantees
 //!
 //! [`TensionController::is_valid`] states what every reachable state satisfies (the law's
-//! integral and adaptive gain within their bounds, the reference within the tension range).
-//! For every valid state and every measurement, [`TensionController::step`] returns a duty
-//! within [`crate::drive::DUTY_MAX`] (by the `Duty` type), never panics, and leaves a valid
-//! state; `proofs/` checks this with Kani, exhaustively-sampled tests and a fuzzer.
+//! integral, adaptive gain and plant scale within their bounds, the estimator's stiffness
+//! within its range, the reference and targets within the tension range). For every valid
+//! state and every measurement, [`TensionController::step`] returns a duty within
+//! [`crate::drive::DUTY_MAX`] (by the `Duty` type), never panics, and leaves a valid
+//! state; `proofs/` checks this part by part with Kani and for the whole step with
+//! proptest and a fuzzer.
 //!
 //! # Fixed point
 //!
-//! The reference `y_d` is kept in Q31.32 (`i64`) so the exponential approach keeps moving
+//! The reference `y_d` is kept in Q31.32 (`i64`) so the exponential closure keeps moving
 //! when its per-tick increment is below Q15.16's 15 µkgf; everything else is as in
-//! [`crate::tension::law`].
+//! [`crate::tension::law`]. The step has no division: the one reciprocal (the stiffness,
+//! at the braking onset) is [`reciprocal_q24`].
 
-use crate::drive::{Direction, DriveCommand, DriveStatus, Duty};
+use crate::drive::{DUTY_MAX, Direction, DriveCommand, Duty};
 use crate::io::LimitSwitches;
+use crate::tension::estimator::{Estimate, EstimatorConfig, EstimatorError, TensionEstimator};
 use crate::tension::law::{
     BoundedAdaptation, GainError, Improvements, NominalPlant, Pd, PdGains, Reference, Rsmc,
-    RsmcGains, Saturation, mul_wide, narrow, saturate_i32,
+    RsmcGains, Saturation, mul_q16, mul_wide, narrow, reciprocal_q24, saturate_i32,
 };
 use crate::tension::motor::{DutyMap, ForceToDuty, MotorError, MotorModel, SpeedEstimator};
 use crate::tension::settings::{MmPerSecond, PullKind, PullSettings, TENSION_MAX};
@@ -67,6 +83,16 @@ pub const RELEASE_DUTY_MAX: Duty = Duty::from_raw_clamped(39_322);
 /// The shortest and longest control periods accepted: 50 µs to 10 ms.
 pub const PERIOD_RANGE_US: (u32, u32) = (50, 10_000);
 
+/// Below this tension the string is still slack (or in its toe) and the braking is not
+/// timed: 2 kgf.
+pub const TAUT_TENSION: Kgf = Kgf::from_int(2);
+
+/// The softest and stiffest string the identification accepts, kgf/mm: 0.05 and 4.
+pub const STIFFNESS_RANGE: (Q16, Q16) = (Q16::lit("0.05"), Q16::const_from_int(4));
+
+/// The fastest reference rate, kgf/s (a 4 kgf/mm string at 250 mm/s).
+pub const REFERENCE_RATE_MAX: KgfPerSecond = KgfPerSecond::from_int(1_000);
+
 /// Which law computes the force.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
 pub enum LawConfig {
@@ -76,46 +102,74 @@ pub enum LawConfig {
     Pd(PdGains),
 }
 
-/// The pull profile's parameters.
+/// The pull profile's and the estimator's parameters; the switches are taut's improvements
+/// outside the law, each measurable on its own (`taut report ablation`).
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
 pub struct ProfileConfig {
-    /// Shaped profile (take-up, approach, …) or a step set point (the paper's simulation).
+    /// Shaped profile (take-up, braking approach, …) or a step set point (the paper's
+    /// simulation).
     pub shaped: bool,
-    /// The approach time constant `τ_a`.
-    pub approach_time_constant: Seconds,
-    /// Extra tension margin before the approach starts, kgf.
+    /// The carriage deceleration the braking is planned with, mm/s² (Q15.16).
+    pub braking_deceleration: Q16,
+    /// The goal of the braking sits this many per cent of the braking rise below the
+    /// target, for the stiffness estimate's error.
+    pub braking_margin_percent: u8,
+    /// … and this much more, kgf.
     pub approach_margin: Kgf,
+    /// The time constant `τ_c` of the reference's exponential closure on a target.
+    pub closing_time_constant: Seconds,
     /// How long the pre-stretch peak is held, ms.
     pub pre_stretch_dwell_ms: u16,
     /// The band around the final target that counts as "at tension".
     pub at_tension_band: Kgf,
     /// The carriage speed of a release move.
     pub release_speed: MmPerSecond,
-    /// Low-pass time constant of the tension-rate estimate that times the approach.
-    pub rate_filter: Seconds,
-    /// Low-pass time constant of the Hall speed estimate.
+    /// Low-pass time constant of the Hall speed the current limit is computed from.
     pub speed_filter: Seconds,
-    /// The carriage's effective mass for the coast-stop prediction, kgf·s²/mm (rotor and
-    /// gearbox inertia reflected through the screw plus the carriage: 394 kg = 0.0402).
-    pub coast_mass: Q16,
+    /// Low-pass time constant of the tension rate and carriage speed that time the braking.
+    pub rate_filter: Seconds,
+    /// The delay of the tension measurement (conversion, one tick, the median), which the
+    /// braking onset compensates.
+    pub sensing_lag: Seconds,
+    /// Limit the filtered tension's change per tick by the carriage travel.
+    pub spike_clip: bool,
+    /// The Hall-fused observer's gain per tick (`None`: the law sees the filtered sample).
+    pub observer_gain: Option<Q16>,
+    /// Scale the law's nominal plant to the identified string stiffness.
+    pub adapt_plant: bool,
+    /// The stiffness the law's nominal plant was written for, kgf/mm (`K̄ = D̄·M̄`).
+    pub nominal_stiffness: Q16,
 }
 
 impl ProfileConfig {
     /// taut's profile.
     pub const TAUT: Self = Self {
         shaped: true,
-        approach_time_constant: Seconds(Q16::lit("0.15")),
-        approach_margin: Kgf(Q16::lit("0.3")),
+        braking_deceleration: Q16::const_from_int(1_200),
+        braking_margin_percent: 5,
+        approach_margin: Kgf(Q16::lit("0.02")),
+        closing_time_constant: Seconds(Q16::lit("0.03")),
         pre_stretch_dwell_ms: 300,
         at_tension_band: Kgf(Q16::lit("0.1")),
         release_speed: MmPerSecond::from_int(40),
-        rate_filter: Seconds(Q16::lit("0.005")),
         speed_filter: Seconds(Q16::lit("0.004")),
-        coast_mass: Q16::lit("0.0402"),
+        rate_filter: Seconds(Q16::lit("0.016")),
+        sensing_lag: Seconds(Q16::lit("0.003")),
+        spike_clip: true,
+        observer_gain: Some(Q16::lit("0.05")),
+        adapt_plant: true,
+        nominal_stiffness: Q16::lit("0.5"),
     };
 
-    /// A step set point, as in the paper's simulation.
-    pub const STEP: Self = Self { shaped: false, ..Self::TAUT };
+    /// A step set point, as in the paper's simulation: no shaping, no observer, no spike
+    /// clip, no plant adaptation (the machine's median of five stays).
+    pub const STEP: Self = Self {
+        shaped: false,
+        spike_clip: false,
+        observer_gain: None,
+        adapt_plant: false,
+        ..Self::TAUT
+    };
 }
 
 /// Everything a controller is built from.
@@ -133,17 +187,21 @@ pub struct ControllerConfig {
     pub profile: ProfileConfig,
 }
 
-/// taut's nominal plant: `M̄` = the rotor and gearbox inertia reflected to the carriage
-/// (1.6 × 10⁻⁵ kg·m² / (0.2021 mm/rad)² ≈ 392 kg, plus the 2 kg carriage: 394 kg =
-/// 40.2 kgf·s²/m), `K̄` = a mid-range string, 5 kgf/cm = 500 kgf/m, `B̄` small (screw
-/// viscous friction only: back-EMF is compensated in the duty map):
-/// `D̄ = K̄/M̄ ≈ 12.4 s⁻²`, `Ā ≈ 2 s⁻¹`.
+/// taut's nominal plant, the voltage-driven machine (see `crate::tension::law`): `M̄` = the
+/// rotor and gearbox inertia reflected to the carriage (1.6 × 10⁻⁵ kg·m² / (0.2021 mm/rad)²
+/// ≈ 392 kg, plus the 2 kg carriage: 394 kg = 40.2 kgf·s²/m); `B̄` = the back-EMF damping
+/// the duty map's constants imply, `c_v/c_f` = 6.82 kgf per mm/s = 6 818 kgf·s/m (the
+/// screw's own viscous drag is negligible beside it); `K̄` = a mid-range string, 5 kgf/cm
+/// = 500 kgf/m. So `Ā = B̄/M̄ ≈ 170 s⁻¹` and `D̄ = K̄/M̄ ≈ 12.4 s⁻²`.
 pub const TAUT_PLANT: NominalPlant =
-    NominalPlant { a_bar: Q16::const_from_int(2), d_bar: Q16::lit("12.4") };
+    NominalPlant { a_bar: Q16::const_from_int(170), d_bar: Q16::lit("12.4") };
 
-/// taut's RSMC: the paper's structure with every improvement on.
+/// taut's RSMC: the paper's structure with every improvement on. `λ = Ā/2 = 85` makes the
+/// `ė` term of the equivalent control vanish (`c_e = (2λ − Ā)/D̄ = 0`), so the noisy
+/// tension derivative only enters through `G·s`; the closed loop's bandwidth is then
+/// `λ²/Ā ≈ 42 rad/s` for every string (the plant scale normalises `K`).
 pub const TAUT_GAINS: RsmcGains = RsmcGains {
-    lambda: Q16::const_from_int(25),
+    lambda: Q16::const_from_int(85),
     g: Q16::lit("0.1"),
     k_phi_micro: 20_000,
     plant: TAUT_PLANT,
@@ -159,33 +217,36 @@ pub const TAUT_GAINS: RsmcGains = RsmcGains {
     },
 };
 
+/// The current every built-in configuration limits the winding to: 8 A.
+pub const CURRENT_LIMIT: Amps = Amps::from_int(8);
+
 impl ControllerConfig {
     /// taut's controller at 1 kHz.
     pub const TAUT: Self = Self {
         period_us: 1_000,
         law: LawConfig::Rsmc(TAUT_GAINS),
-        duty_map: DutyMap::BackEmf { current_limit: Amps::from_int(8) },
+        duty_map: DutyMap::Proportional { current_limit: CURRENT_LIMIT },
         motor: MotorModel::PAPER,
         profile: ProfileConfig::TAUT,
     };
 
     /// The paper's RSMC as published (λ = 100, G = 0.2, k_φ = 0.001, `sgn`, unbounded
-    /// `φ̂`, raw derivative) on the machine's nominal plant, duty proportional to force, step
-    /// set point, at 1 kHz.
+    /// `φ̂`, raw derivative) on the machine's nominal plant, through the same force → duty
+    /// stage as taut (always pulling, a negative force brakes), step set point, at 1 kHz.
     pub const PAPER_RSMC: Self = Self {
         period_us: 1_000,
         law: LawConfig::Rsmc(RsmcGains::paper(TAUT_PLANT)),
-        duty_map: DutyMap::Proportional { current_limit: Amps::from_int(8) },
+        duty_map: DutyMap::Proportional { current_limit: CURRENT_LIMIT },
         motor: MotorModel::PAPER,
         profile: ProfileConfig::STEP,
     };
 
-    /// The paper's PD baseline (`k_p = 100`, `k_d = 20`), duty proportional to force, step
-    /// set point, at 1 kHz.
+    /// The paper's PD baseline (`k_p = 100`, `k_d = 20`) through the same force → duty
+    /// stage as taut, step set point, at 1 kHz.
     pub const PD: Self = Self {
         period_us: 1_000,
         law: LawConfig::Pd(PdGains::PAPER),
-        duty_map: DutyMap::Proportional { current_limit: Amps::from_int(8) },
+        duty_map: DutyMap::Proportional { current_limit: CURRENT_LIMIT },
         motor: MotorModel::PAPER,
         profile: ProfileConfig::STEP,
     };
@@ -200,8 +261,10 @@ pub enum ConfigError {
     Gain(GainError),
     /// The motor model is implausible.
     Motor(MotorError),
-    /// A profile parameter is not positive.
+    /// A profile parameter is out of range.
     Profile,
+    /// An estimator parameter is out of range.
+    Estimator(EstimatorError),
 }
 
 /// What the controller is told each tick.
@@ -210,7 +273,7 @@ pub struct Measurement {
     /// The calibrated string tension.
     pub tension: Kgf,
     /// The drive's report (Hall step count for carriage speed, fault, rotation).
-    pub drive: DriveStatus,
+    pub drive: crate::drive::DriveStatus,
     /// The motor current.
     pub current: Amps,
     /// The carriage limit switches.
@@ -225,7 +288,7 @@ pub enum PullPhase {
     Idle,
     /// Taking up slack at the speed setting's carriage speed.
     TakeUp,
-    /// Closing in on the (peak) target.
+    /// Braking into the (peak) target.
     Approach,
     /// Holding the pre-stretch peak.
     PreStretch,
@@ -235,6 +298,19 @@ pub enum PullPhase {
     Hold,
     /// Moving home to loosen the string.
     Release,
+}
+
+impl PullPhase {
+    /// Every phase, for exhaustive checks.
+    pub const ALL: [Self; 7] = [
+        Self::Idle,
+        Self::TakeUp,
+        Self::Approach,
+        Self::PreStretch,
+        Self::Settle,
+        Self::Hold,
+        Self::Release,
+    ];
 }
 
 /// What the controller asks for after a tick.
@@ -250,6 +326,9 @@ pub struct ControlOutput {
     pub reference: Kgf,
     /// The law's force this tick, kgf (zero outside the closed-loop phases).
     pub force: Kgf,
+    /// The tension the controller acted on: the estimator's (spike-filtered, observed)
+    /// tension — what the machine shows.
+    pub tension: Kgf,
 }
 
 /// The law with its state.
@@ -272,22 +351,20 @@ pub struct ProfileState {
     pub speed_limit: MmPerSecond,
     /// The reference tension `y_d`, Q31.32.
     pub reference: i64,
-    /// The goal the reference closes on.
+    /// The reference rate `ẏ_d`, kgf/s bits.
+    pub reference_rate: i32,
+    /// The reference's second derivative `ÿ_d`, kgf/s² bits.
+    pub reference_accel: i32,
+    /// Where the braking parabola ends (shaped) or the set point (step).
     pub goal: Kgf,
     /// Ticks spent in the present phase (saturating).
     pub ticks: u32,
-    /// The previous measured tension, kgf bits.
-    pub last_tension: i32,
-    /// The filtered tension rate, kgf/s bits.
-    pub rate: i32,
     /// "At tension" latched.
     pub at_tension: bool,
     /// Which way the previous output saturated.
     pub saturated: Saturation,
-    /// The approach is coasting toward the target (drive off, string and friction braking).
-    pub coasting: bool,
-    /// The last five tension samples, kgf bits (oldest first), for the spike filter.
-    pub window: [i32; 5],
+    /// The law has not run since Start (its memory is reset on the first closed-loop tick).
+    pub fresh: bool,
 }
 
 /// The tension controller. See the module docs.
@@ -296,29 +373,33 @@ pub struct TensionController {
     law: Law,
     map: ForceToDuty,
     speed: SpeedEstimator,
+    estimator: TensionEstimator,
     shaped: bool,
-    /// `dt/τ_a`, Q0.32 in an `i64`.
-    approach_step: i64,
-    /// `1/τ_a`, Q15.16.
+    adapt_plant: bool,
+    /// `dt` in Q0.32 seconds.
+    dt_q32: i64,
+    /// `dt/τ_c`, Q0.32 in an `i64`.
+    closing_step: i64,
+    /// `1/τ_c`, Q15.16.
     inv_tau: i32,
-    /// `1/dt`, Hz.
-    inv_dt: i32,
-    /// Tension-rate filter gain, Q15.16.
-    rate_alpha: i32,
+    /// `1/(2a)`, Q8.24 s²/mm.
+    inv_two_decel: i32,
+    /// `a`, Q15.16 mm/s².
+    decel: i32,
+    /// The braking margin, a Q15.16 fraction of the rise.
+    margin_fraction: i32,
     /// Approach margin, kgf bits.
     margin: i32,
-    /// τ_a, Q15.16 seconds.
-    tau: i32,
+    /// The sensing lag, Q8.24 s.
+    lag_q24: i32,
+    /// `K̄`, kgf/mm bits.
+    nominal_stiffness: i32,
     dwell_ticks: u32,
     band: i32,
-    /// Coast-stop mass, Q15.16 kgf·s²/mm.
-    coast_mass: i32,
-    /// The coast ends below this tension rate (kgf/s bits) …
-    stop_rate: i32,
-    /// … or below this carriage speed (mm/s bits).
-    stop_speed: i32,
     release_speed: MmPerSecond,
     profile: ProfileState,
+    /// The last estimate's tension (what the machine shows between pulls too).
+    shown: Kgf,
 }
 
 impl Default for TensionController {
@@ -328,29 +409,9 @@ impl Default for TensionController {
     }
 }
 
-/// The median of five values: `median(e, max(min(a,b), min(c,d)), min(max(a,b), max(c,d)))`
-/// (six comparisons, no branches on data beyond `min`/`max`).
-#[must_use]
-pub fn median5(a: i32, b: i32, c: i32, d: i32, e: i32) -> i32 {
-    let f = a.min(b).max(c.min(d));
-    let g = a.max(b).min(c.max(d));
-    // Median of three: max(min(e, f), min(max(e, f), g)).
-    e.min(f).max(e.max(f).min(g))
-}
-
-/// `dt` in Q15.16 seconds, at least one LSB.
-fn dt_q16(period_us: u32) -> Q16 {
-    let dt = Q16::from_num(period_us).saturating_div_int(1_000_000);
-    if dt == Q16::ZERO { Q16::DELTA } else { dt }
-}
-
-/// A filter gain `dt/(τ + dt)`, Q15.16, at least one LSB.
-fn alpha(period_us: u32, tau: Seconds) -> Result<i32, ConfigError> {
-    let dt = dt_q16(period_us);
-    if tau.0 < Q16::ZERO {
-        return Err(ConfigError::Profile);
-    }
-    Ok(dt.checked_div(tau.0.saturating_add(dt)).ok_or(ConfigError::Profile)?.to_bits().max(1))
+/// `a × b` of a Q15.16 value and a Q8.24 factor, rounded, as Q15.16 bits.
+fn mul_q24(a: i32, b_q24: i32) -> i32 {
+    saturate_i32(mul_wide(a, b_q24).saturating_add(1 << 23) >> 24)
 }
 
 impl TensionController {
@@ -370,48 +431,71 @@ impl TensionController {
             LawConfig::Pd(gains) => Law::Pd(Pd::new(&gains, period).map_err(ConfigError::Gain)?),
         };
         let map = ForceToDuty::new(&config.motor, config.duty_map).map_err(ConfigError::Motor)?;
-        let profile = config.profile;
-        let speed =
-            SpeedEstimator::new(period, profile.speed_filter).map_err(ConfigError::Motor)?;
-        let tau = profile.approach_time_constant.0;
+        let p = config.profile;
+        let speed = SpeedEstimator::new(period, p.speed_filter).map_err(ConfigError::Motor)?;
+        let estimator = TensionEstimator::new(
+            &EstimatorConfig {
+                spike_clip: p.spike_clip,
+                observer_gain: p.observer_gain,
+                rate_filter: p.rate_filter,
+            },
+            period,
+        )
+        .map_err(ConfigError::Estimator)?;
+        let tau = p.closing_time_constant.0;
+        let decel = p.braking_deceleration;
         if tau <= Q16::ZERO
-            || profile.at_tension_band.0 <= Q16::ZERO
-            || profile.approach_margin.0 < Q16::ZERO
-            || profile.release_speed.0 <= Q16::ZERO
+            || decel < Q16::const_from_int(50)
+            || decel > Q16::const_from_int(20_000)
+            || p.braking_margin_percent > 50
+            || p.approach_margin.0 < Q16::ZERO
+            || p.approach_margin > Kgf::from_int(5)
+            || p.at_tension_band.0 <= Q16::ZERO
+            || p.release_speed.0 <= Q16::ZERO
+            || p.sensing_lag.0 < Q16::ZERO
+            || p.sensing_lag.0 > Q16::lit("0.1")
+            || p.nominal_stiffness < STIFFNESS_RANGE.0
+            || p.nominal_stiffness > STIFFNESS_RANGE.1
         {
             return Err(ConfigError::Profile);
         }
-        // dt/τ in Q0.32: period_us · 2³² / (τ in µs).
+        // Construction-time constants (divisions allowed here, never in the step).
+        let dt_q32 = (i64::from(period) << 32).checked_div(1_000_000).ok_or(ConfigError::Period)?;
         let tau_us = i64::from(tau.to_bits()).saturating_mul(1_000_000) >> 16;
-        let approach_step =
+        let closing_step =
             (i64::from(period) << 32).checked_div(tau_us).ok_or(ConfigError::Profile)?;
-        if approach_step <= 0 || approach_step >= (1_i64 << 32) {
+        if closing_step <= 0 || closing_step >= (1_i64 << 32) {
             return Err(ConfigError::Profile);
         }
         let inv_tau = Q16::ONE.checked_div(tau).ok_or(ConfigError::Profile)?.to_bits();
-        let inv_dt = i32::try_from(1_000_000_u32.checked_div(period).unwrap_or(0))
-            .map_err(|_| ConfigError::Period)?;
+        let two_decel = i64::from(decel.to_bits()).saturating_mul(2);
+        let inv_two_decel = i32::try_from((1_i64 << 40).checked_div(two_decel).unwrap_or(0))
+            .map_err(|_| ConfigError::Profile)?;
+        let margin_fraction = Q16::from_num(p.braking_margin_percent).saturating_div_int(100);
         Ok(Self {
             law,
             map,
             speed,
-            shaped: profile.shaped,
-            approach_step,
+            estimator,
+            shaped: p.shaped,
+            adapt_plant: p.adapt_plant,
+            dt_q32,
+            closing_step,
             inv_tau,
-            inv_dt,
-            rate_alpha: alpha(period, profile.rate_filter)?,
-            margin: profile.approach_margin.to_bits(),
-            tau: tau.to_bits(),
-            dwell_ticks: u32::from(profile.pre_stretch_dwell_ms)
+            inv_two_decel,
+            decel: decel.to_bits(),
+            margin_fraction: margin_fraction.to_bits(),
+            margin: p.approach_margin.to_bits(),
+            lag_q24: p.sensing_lag.0.to_bits().saturating_mul(256),
+            nominal_stiffness: p.nominal_stiffness.to_bits(),
+            dwell_ticks: u32::from(p.pre_stretch_dwell_ms)
                 .saturating_mul(1_000)
                 .checked_div(period)
                 .unwrap_or(0),
-            band: profile.at_tension_band.to_bits(),
-            coast_mass: profile.coast_mass.to_bits(),
-            stop_rate: Q16::const_from_int(1).to_bits(),
-            stop_speed: Q16::lit("0.5").to_bits(),
-            release_speed: profile.release_speed,
+            band: p.at_tension_band.to_bits(),
+            release_speed: p.release_speed,
             profile: ProfileState::default(),
+            shown: Kgf::ZERO,
         })
     }
 
@@ -432,20 +516,23 @@ impl TensionController {
             law: Law::Pd(Pd::ZERO),
             map: ForceToDuty::ZERO,
             speed: SpeedEstimator::ZERO,
+            estimator: TensionEstimator::FALLBACK,
             shaped: false,
-            approach_step: 1 << 27,
-            inv_tau: 40 << 16,
-            inv_dt: 1_000,
-            rate_alpha: 1 << 13,
-            margin: 1 << 14,
-            tau: 1_638,
+            adapt_plant: false,
+            dt_q32: 4_294_967,
+            closing_step: 1 << 27,
+            inv_tau: 32 << 16,
+            inv_two_decel: 1 << 12,
+            decel: 1_000 << 16,
+            margin_fraction: 0,
+            margin: 0,
+            lag_q24: 0,
+            nominal_stiffness: 1 << 15,
             dwell_ticks: 0,
             band: 6_554,
-            coast_mass: 0,
-            stop_rate: 0,
-            stop_speed: 0,
             release_speed: MmPerSecond::from_int(20),
             profile: ProfileState::default(),
+            shown: Kgf::ZERO,
         }
     }
 
@@ -455,22 +542,24 @@ impl TensionController {
         let peak = settings.peak_target(kind);
         let final_target = settings.final_target(kind);
         self.speed.reset();
+        self.estimator.reset();
+        if let Law::Rsmc(rsmc) = &mut self.law {
+            rsmc.set_plant_scale(Q16::ONE);
+        }
         self.profile = ProfileState {
             phase: if self.shaped { PullPhase::TakeUp } else { PullPhase::Approach },
             peak,
             final_target,
             speed_limit: settings.speed().carriage_limit(),
             reference: i64::from(peak.to_bits()) << 16,
+            reference_rate: 0,
+            reference_accel: 0,
             goal: peak,
             ticks: 0,
-            last_tension: 0,
-            rate: 0,
             at_tension: false,
             saturated: Saturation::None,
-            coasting: false,
-            window: self.profile.window,
+            fresh: true,
         };
-        self.reset_law(Kgf::ZERO, Kgf::ZERO);
     }
 
     /// Starts the release (homing) move.
@@ -519,8 +608,14 @@ impl TensionController {
         &mut self.speed
     }
 
-    /// The invariant every reachable state satisfies: the law's own invariant, targets and
-    /// reference within `[0, TENSION_MAX]`, the peak at or above the final target.
+    /// The tension estimator (for proofs and fuzzing).
+    pub fn estimator_mut(&mut self) -> &mut TensionEstimator {
+        &mut self.estimator
+    }
+
+    /// The invariant every reachable state satisfies: the law's and the estimator's own
+    /// invariants, targets and reference within `[0, TENSION_MAX]`, the peak at or above
+    /// the final target.
     #[must_use]
     pub fn is_valid(&self) -> bool {
         let law_ok = match &self.law {
@@ -532,18 +627,12 @@ impl TensionController {
         let reference_ok =
             p.reference >= 0 && p.reference <= i64::from(TENSION_MAX.to_bits()) << 16;
         law_ok
+            && self.estimator.is_valid()
             && in_range(p.peak)
             && in_range(p.final_target)
             && in_range(p.goal)
             && p.final_target <= p.peak
             && reference_ok
-    }
-
-    fn reset_law(&mut self, e0: Kgf, _rate: Kgf) {
-        match &mut self.law {
-            Law::Rsmc(rsmc) => rsmc.reset(e0),
-            Law::Pd(pd) => pd.reset(e0),
-        }
     }
 
     /// The reference tension `y_d` (Q15.16).
@@ -557,42 +646,115 @@ impl TensionController {
         self.profile.ticks = 0;
     }
 
-    /// Advances the exponential reference toward the goal; returns (ẏ_d, ÿ_d) in bits.
-    fn advance_reference(&mut self) -> (i32, i32) {
-        let goal = i64::from(self.profile.goal.to_bits()) << 16;
+    /// Sets the reference, clamped to `[0, TENSION_MAX]` (Q31.32).
+    fn set_reference(&mut self, reference: i64) {
+        let max = i64::from(TENSION_MAX.to_bits()) << 16;
+        self.profile.reference = reference.clamp(0, max);
+    }
+
+    /// The tension a braking carriage still adds, `ẏ·v/(2a)`, kgf bits (see the module
+    /// docs), and the lag-compensated tension `y + ẏ·t_lag`.
+    fn braking_rise(&self, est: &Estimate) -> (i32, i32) {
+        let rate = est.rate.to_bits().max(0);
+        let speed = est.speed.0.to_bits().max(0);
+        let rise = mul_q24(narrow(mul_wide(rate, speed)), self.inv_two_decel);
+        let predicted = est.sample.to_bits().saturating_add(mul_q24(rate, self.lag_q24));
+        (rise, predicted)
+    }
+
+    /// The braking's goal for a rise of `rise`: the peak less the margins, kgf bits.
+    fn braking_goal(&self, rise: i32) -> i32 {
+        self.profile
+            .peak
+            .to_bits()
+            .saturating_sub(self.margin)
+            .saturating_sub(mul_q16(rise, self.margin_fraction))
+    }
+
+    /// Whether the take-up must start braking this tick (division-free: see the module docs).
+    fn braking_due(&self, est: &Estimate) -> bool {
+        let (rise, predicted) = self.braking_rise(est);
+        let goal = self.braking_goal(rise);
+        let taut = est.sample >= TAUT_TENSION;
+        (taut && predicted.saturating_add(rise) >= goal)
+            || predicted >= self.profile.peak.to_bits().saturating_sub(self.margin)
+    }
+
+    /// Starts the braking: identifies the stiffness, scales the law, plans the parabola.
+    fn begin_braking(&mut self, est: &Estimate) {
+        let (rise, predicted) = self.braking_rise(est);
+        let rate = est.rate.to_bits().clamp(0, REFERENCE_RATE_MAX.to_bits());
+        // K̂ = ẏ/v, with v at least 1 mm/s (a still carriage gives the nominal string).
+        let speed = est.speed.0.to_bits();
+        let stiffness = if speed >= Q16::ONE.to_bits() {
+            mul_q24(rate, reciprocal_q24(speed))
+        } else {
+            self.nominal_stiffness
+        }
+        .clamp(STIFFNESS_RANGE.0.to_bits(), STIFFNESS_RANGE.1.to_bits());
+        if self.adapt_plant {
+            let scale = mul_q24(self.nominal_stiffness, reciprocal_q24(stiffness));
+            if let Law::Rsmc(rsmc) = &mut self.law {
+                rsmc.set_plant_scale(Q16::from_bits(scale));
+            }
+        }
+        self.estimator.set_stiffness(Q16::from_bits(stiffness));
+        let start = predicted.clamp(0, self.profile.peak.to_bits());
+        self.estimator.set_tension(Kgf::from_bits(start));
+        let goal = self.braking_goal(rise).clamp(start, self.profile.peak.to_bits());
+        self.profile.goal = Kgf::from_bits(goal);
+        self.set_reference(i64::from(start) << 16);
+        self.profile.reference_rate = rate;
+        // ÿ_d = −K̂·a.
+        self.profile.reference_accel = narrow(mul_wide(stiffness, self.decel)).saturating_neg();
+        self.profile.fresh = true;
+        self.enter(PullPhase::Approach);
+    }
+
+    /// One tick of the braking parabola; ends at the goal with zero rate.
+    fn advance_braking(&mut self) -> (i32, i32) {
+        let p = self.profile;
+        let dv = saturate_i32(i64::from(p.reference_accel).saturating_mul(self.dt_q32) >> 32);
+        let next_rate = p.reference_rate.saturating_add(dv);
+        let mean_rate = i64::from(p.reference_rate).saturating_add(i64::from(next_rate)) >> 1;
+        let advanced = p.reference.saturating_add(mean_rate.saturating_mul(self.dt_q32) >> 16);
+        let goal = i64::from(p.goal.to_bits()) << 16;
+        if next_rate <= 0 || advanced >= goal {
+            self.set_reference(goal);
+            self.profile.reference_rate = 0;
+            self.profile.reference_accel = 0;
+            let next =
+                if p.peak > p.final_target { PullPhase::PreStretch } else { PullPhase::Hold };
+            self.enter(next);
+            (0, 0)
+        } else {
+            self.set_reference(advanced);
+            self.profile.reference_rate = next_rate;
+            (next_rate, p.reference_accel)
+        }
+    }
+
+    /// One tick of the exponential closure on `target`; returns `(ẏ_d, ÿ_d)` bits.
+    fn advance_closing(&mut self, target: Kgf) -> (i32, i32) {
+        let goal = i64::from(target.to_bits()) << 16;
         let gap = goal.saturating_sub(self.profile.reference);
         // y_d += gap·dt/τ (Q31.32 × Q0.32 → split the product to stay in 64 bits).
-        let step = (gap >> 16).saturating_mul(self.approach_step) >> 16;
+        let step = (gap >> 16).saturating_mul(self.closing_step) >> 16;
         let step = if step == 0 && gap != 0 { gap.signum() } else { step };
-        self.profile.reference = self.profile.reference.saturating_add(step);
+        self.set_reference(self.profile.reference.saturating_add(step));
         let gap_bits = saturate_i32(goal.saturating_sub(self.profile.reference) >> 16);
         let rate = narrow(mul_wide(gap_bits, self.inv_tau));
         let accel = narrow(mul_wide(rate, self.inv_tau)).saturating_neg();
+        self.profile.reference_rate = rate;
+        self.profile.reference_accel = accel;
         (rate, accel)
     }
 
     /// One control tick.
     pub fn step(&mut self, m: &Measurement) -> ControlOutput {
         let speed = self.speed.update(m.drive.steps);
-        let [_, w1, w2, w3, w4] = self.profile.window;
-        let sample = m.tension.to_bits();
-        self.profile.window = [w1, w2, w3, w4, sample];
-        let y = median5(w1, w2, w3, w4, sample);
-        let filtered = Measurement { tension: Kgf::from_bits(y), ..*m };
-        let m = &filtered;
-        // Tension rate: filtered backward difference (timing of the approach only).
-        let raw_rate = saturate_i32(
-            i64::from(y)
-                .saturating_sub(i64::from(self.profile.last_tension))
-                .saturating_mul(i64::from(self.inv_dt)),
-        );
-        let rate_step = narrow(
-            i64::from(raw_rate)
-                .saturating_sub(i64::from(self.profile.rate))
-                .saturating_mul(i64::from(self.rate_alpha)),
-        );
-        self.profile.rate = self.profile.rate.saturating_add(rate_step);
-        self.profile.last_tension = y;
+        let est = self.estimator.update(m.tension, m.drive.steps);
+        self.shown = est.tension;
         self.profile.ticks = self.profile.ticks.saturating_add(1);
 
         let mut force = Kgf::ZERO;
@@ -610,49 +772,21 @@ impl TensionController {
                 }
             }
             PullPhase::TakeUp => {
-                // Coast-stop prediction: a carriage of (reflected) mass M̄ moving at v into a
-                // string of stiffness K = ẏ/v stops after a further rise of
-                // ẏ/ω = ẏ·√(M̄/K) = √(M̄·v·ẏ) (friction only shortens it). The drive cannot
-                // brake (high-side PWM with diode freewheeling only ever motors), so the pull
-                // coasts as soon as that rise reaches the remaining tension minus a margin.
-                let remaining =
-                    self.profile.peak.to_bits().saturating_sub(y).saturating_sub(self.margin);
-                let momentum = narrow(mul_wide(self.coast_mass, speed.0.to_bits().max(0)));
-                let rise_squared = mul_wide(momentum, self.profile.rate.max(0));
-                if remaining <= 0 || mul_wide(remaining, remaining) <= rise_squared {
-                    self.profile.coasting = true;
-                    self.enter(PullPhase::Approach);
-                    DriveCommand::Drive { direction: Direction::Pull, duty: Duty::ZERO }
+                if self.braking_due(&est) {
+                    self.begin_braking(&est);
+                    self.closed_loop(&est, speed, &mut force)
                 } else {
                     // Run at the speed limit, accelerating no harder than the current
-                    // limit allows (full duty from rest would draw the stall current).
-                    let load = Kgf::from_bits(y.max(0));
-                    let cruise = self.map.velocity_duty(
-                        self.profile.speed_limit,
-                        load,
-                        crate::drive::DUTY_MAX,
-                    );
-                    let (limited, _) = self.map.command(self.map.force_limit(), speed);
-                    let duty = if limited.duty() < cruise { limited.duty() } else { cruise };
+                    // limit allows.
+                    let load = Kgf::from_bits(est.sample.to_bits().max(0));
+                    let cruise = self.map.velocity_duty(self.profile.speed_limit, load, DUTY_MAX);
+                    let limited = self.map.current_limited_duty(speed);
+                    let duty = if limited < cruise { limited } else { cruise };
                     DriveCommand::Drive { direction: Direction::Pull, duty }
                 }
             }
-            PullPhase::Approach if self.profile.coasting => {
-                // Coast until the tension stops rising or the carriage stops, then close the
-                // loop from where the coast ended.
-                if self.profile.rate <= self.stop_rate || speed.0.to_bits() <= self.stop_speed {
-                    self.profile.coasting = false;
-                    self.profile.reference =
-                        i64::from(y.clamp(0, self.profile.peak.to_bits())) << 16;
-                    self.profile.goal = self.profile.peak;
-                    self.reset_law(Kgf::ZERO, Kgf::ZERO);
-                    self.closed_loop(m, speed, &mut force)
-                } else {
-                    DriveCommand::Drive { direction: Direction::Pull, duty: Duty::ZERO }
-                }
-            }
             PullPhase::Approach | PullPhase::PreStretch | PullPhase::Settle | PullPhase::Hold => {
-                self.closed_loop(m, speed, &mut force)
+                self.closed_loop(&est, speed, &mut force)
             }
         };
         ControlOutput {
@@ -661,21 +795,32 @@ impl TensionController {
             at_tension: self.profile.at_tension,
             reference: self.reference_kgf(),
             force,
+            tension: est.tension,
         }
     }
 
     /// The closed-loop phases: advance the profile, run the law, map to duty.
     fn closed_loop(
         &mut self,
-        m: &Measurement,
+        est: &Estimate,
         speed: MmPerSecond,
         force_out: &mut Kgf,
     ) -> DriveCommand {
-        let y = m.tension;
+        let y = est.tension;
+        let phase = self.profile.phase;
         let (rate, accel) = if self.shaped {
-            self.advance_reference()
+            match phase {
+                PullPhase::Approach => self.advance_braking(),
+                PullPhase::PreStretch => self.advance_closing(self.profile.peak),
+                _ => self.advance_closing(self.profile.final_target),
+            }
         } else {
-            self.profile.reference = i64::from(self.profile.goal.to_bits()) << 16;
+            let set_point = match phase {
+                PullPhase::Approach | PullPhase::PreStretch => self.profile.peak,
+                _ => self.profile.final_target,
+            };
+            self.profile.goal = set_point;
+            self.set_reference(i64::from(set_point.to_bits()) << 16);
             (0, 0)
         };
         let reference = Reference {
@@ -683,6 +828,15 @@ impl TensionController {
             rate: KgfPerSecond::from_bits(rate),
             accel: Q16::from_bits(accel),
         };
+        if self.profile.fresh {
+            // No derivative kick: the law starts from the present error.
+            self.profile.fresh = false;
+            let e0 = reference.tension.saturating_sub(y);
+            match &mut self.law {
+                Law::Rsmc(rsmc) => rsmc.reset(e0),
+                Law::Pd(pd) => pd.reset(e0),
+            }
+        }
         let force = match &mut self.law {
             Law::Rsmc(rsmc) => rsmc.step(&reference, y, self.profile.saturated).force,
             Law::Pd(pd) => pd.step(&reference, y),
@@ -690,57 +844,61 @@ impl TensionController {
         let (command, saturated) = self.map.command(force, speed);
         self.profile.saturated = saturated;
         *force_out = force;
+        self.transitions(phase, y);
+        command
+    }
 
-        // Phase transitions.
-        let error_to_final =
-            y.to_bits().saturating_sub(self.profile.final_target.to_bits()).saturating_abs();
-        let reached_goal = {
-            let goal = i64::from(self.profile.goal.to_bits()) << 16;
-            goal.saturating_sub(self.profile.reference).abs() < (1 << 22)
+    /// The phase changes that depend on the tension (the braking's end is in
+    /// [`Self::advance_braking`]).
+    fn transitions(&mut self, phase: PullPhase, y: Kgf) {
+        let p = self.profile;
+        let error_to = |target: Kgf| y.to_bits().saturating_sub(target.to_bits()).saturating_abs();
+        let closed_on = |target: Kgf| {
+            let goal = i64::from(target.to_bits()) << 16;
+            goal.saturating_sub(p.reference).abs() < (1 << 22)
         };
-        let peak_above = self.profile.peak > self.profile.final_target;
-        match self.profile.phase {
-            PullPhase::Approach => {
-                let arrived = if self.shaped {
-                    reached_goal
-                } else {
-                    y.to_bits().saturating_sub(self.profile.goal.to_bits()).saturating_abs()
-                        <= self.band
-                };
-                if arrived {
-                    if peak_above {
-                        self.enter(PullPhase::PreStretch);
-                    } else {
-                        self.enter(PullPhase::Hold);
-                    }
+        let peak_above = p.peak > p.final_target;
+        match phase {
+            PullPhase::Approach if !self.shaped => {
+                if error_to(p.peak) <= self.band {
+                    self.enter(if peak_above { PullPhase::PreStretch } else { PullPhase::Hold });
                 }
             }
             PullPhase::PreStretch => {
-                if self.profile.ticks >= self.dwell_ticks {
-                    self.profile.goal = self.profile.final_target;
+                if p.ticks >= self.dwell_ticks {
                     self.enter(PullPhase::Settle);
                 }
             }
             PullPhase::Settle => {
-                let arrived = if self.shaped { reached_goal } else { error_to_final <= self.band };
+                let arrived = if self.shaped {
+                    closed_on(p.final_target)
+                } else {
+                    error_to(p.final_target) <= self.band
+                };
                 if arrived {
                     self.enter(PullPhase::Hold);
                 }
             }
             PullPhase::Hold => {
-                if error_to_final <= self.band {
+                if error_to(p.final_target) <= self.band {
                     self.profile.at_tension = true;
                 }
             }
-            PullPhase::Idle | PullPhase::TakeUp | PullPhase::Release => {}
+            PullPhase::Approach | PullPhase::Idle | PullPhase::TakeUp | PullPhase::Release => {}
         }
-        command
+    }
+
+    /// The tension last estimated (what the machine shows).
+    #[must_use]
+    pub const fn tension(&self) -> Kgf {
+        self.shown
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::drive::DriveStatus;
     use crate::tension::settings::{KnotBoost, PreStretch, Speed};
 
     #[test]
@@ -750,26 +908,16 @@ mod tests {
             assert!(controller.is_valid());
         }
         assert_ne!(TensionController::taut(), TensionController::fallback());
-    }
-
-    #[test]
-    fn median5_is_the_median_of_every_pattern() {
-        // Every ordering pattern of five values drawn from 0..5 (3 125 cases).
-        let mut cases = 0;
-        for n in 0..3_125_i32 {
-            let v = [n % 5, n / 5 % 5, n / 25 % 5, n / 125 % 5, n / 625 % 5];
-            let mut sorted = v;
-            sorted.sort_unstable();
-            assert_eq!(median5(v[0], v[1], v[2], v[3], v[4]), sorted[2], "{v:?}");
-            cases += 1;
-        }
-        assert_eq!(cases, 3_125);
+        assert!(TensionController::fallback().is_valid());
     }
 
     #[test]
     fn rejects_bad_periods() {
         let config = ControllerConfig { period_us: 20_000, ..ControllerConfig::TAUT };
         assert_eq!(TensionController::new(&config), Err(ConfigError::Period));
+        let bad = ProfileConfig { braking_deceleration: Q16::ZERO, ..ProfileConfig::TAUT };
+        let config = ControllerConfig { profile: bad, ..ControllerConfig::TAUT };
+        assert_eq!(TensionController::new(&config), Err(ConfigError::Profile));
     }
 
     #[test]
@@ -797,5 +945,56 @@ mod tests {
         controller.start(&settings, PullKind::Main);
         controller.stop();
         assert_eq!(controller.step(&Measurement::default()).command, DriveCommand::Coast);
+    }
+
+    /// A carriage pulled at one Hall step per tick into a `stiffness_milli` kgf/mm string
+    /// whose slack ends at `slack_steps` (an ideal plant: the controller only decides when).
+    fn braking_onset(stiffness_milli: i64, target: i32) -> (i32, Kgf) {
+        let mut controller = TensionController::taut();
+        let settings = PullSettings::new(
+            Kgf::from_int(i16::try_from(target).unwrap()),
+            Speed::MAX,
+            PreStretch::NONE,
+            KnotBoost::NONE,
+        )
+        .unwrap();
+        controller.start(&settings, PullKind::Main);
+        let slack_steps = 100_i64;
+        for tick in 0..4_000_i32 {
+            let steps = i64::from(tick);
+            let stretch_nm = (steps - slack_steps).max(0) * 52_917;
+            let tension_bits = stretch_nm * stiffness_milli * 65_536 / 1_000_000_000;
+            let m = Measurement {
+                tension: Kgf::from_bits(i32::try_from(tension_bits).unwrap()),
+                drive: DriveStatus { steps: tick, ..DriveStatus::default() },
+                ..Measurement::default()
+            };
+            let out = controller.step(&m);
+            if out.phase == PullPhase::Approach {
+                return (tick, m.tension);
+            }
+        }
+        (-1, Kgf::ZERO)
+    }
+
+    #[test]
+    fn braking_starts_when_the_remaining_gap_equals_the_braking_rise() {
+        // At 52.917 mm/s and a = 1 200 mm/s² the carriage stops in v²/(2a) = 1.167 mm: a
+        // 1 kgf/mm string gains 1.167 kgf, a 0.2 kgf/mm one 0.233 kgf. The braking starts
+        // that far below the target, plus 5 % of it and 0.02 kgf of margin, plus the 3 ms
+        // the tension measurement lags at the rate `v·K`.
+        for stiffness_milli in [1_000_i64, 200] {
+            let (_, at) = braking_onset(stiffness_milli, 25);
+            let gap = i64::from(25_000 - at.to_milli());
+            let rise = 52_917 * 52_917 * stiffness_milli / 2_400_000_000;
+            let rate_per_tick = 52_917 * stiffness_milli / 1_000_000; // mkgf per ms
+            let predicted = rise * 105 / 100 + 20 + 3 * rate_per_tick;
+            // Within 6 % (the rate filter's settling) and one tick of travel.
+            let tolerance = predicted * 6 / 100 + rate_per_tick;
+            assert!(
+                (gap - predicted).abs() <= tolerance,
+                "K {stiffness_milli} mkgf/mm: gap {gap} mkgf, predicted {predicted}"
+            );
+        }
     }
 }

@@ -19,6 +19,20 @@
 //! coefficient is computed once by [`RsmcGains::coefficients`] and the step only multiplies
 //! and adds. The integral is kept pre-scaled, `z = λ² ∫ e dt`, advanced by `(λ² dt)·e`.
 //!
+//! # The plant the law is written for
+//!
+//! taut drives the motor with a voltage (the duty), so the machine seen from the law's
+//! force `u` — expressed as the *stall* pull the duty would give, `u = duty / c_f` — is
+//! the paper's eq. (5) with `Ā = B_e/M̄`, the damping of the motor's own back-EMF reflected
+//! to the carriage (≈ 170 s⁻¹: the drive is close to a velocity source), and `D̄ = K̄/M̄`.
+//! Written that way the equivalent control's `Ā/D̄·ẏ_d = B_e·v_d` term *is* the back-EMF
+//! compensation — of the reference speed, so the drive's natural damping is kept rather than
+//! cancelled with a noisy measured speed. The string's stiffness `K` differs ten-fold
+//! between strings; the controller identifies it during the take-up and sets the
+//! **plant scale** `ρ = K̄/K̂` ([`Rsmc::set_plant_scale`]), which multiplies every `1/D̄`
+//! term: `u_eq = y + ρ·(c_dd ÿ_d + c_a ẏ_d + c_e ė + c_p e)`. With `ρ = 1` (the default,
+//! and always for the paper's law) the step is exactly eqs. (11)–(13).
+//!
 //! [`Improvements`] switches on, one by one, what the published law lacks:
 //!
 //! - **boundary layer**: `sat(s/Φ)` instead of `sgn(s)` — no chattering inside `|s| < Φ`;
@@ -52,6 +66,12 @@ pub type Coef = i32;
 
 /// Fraction bits of the adaptive-rate coefficient `k_φ·dt`.
 pub const KPHI_FRAC: u32 = 40;
+
+/// The smallest plant scale `ρ = K̄/K̂` (Q15.16): a string ten times stiffer than nominal.
+pub const PLANT_SCALE_MIN: Q16 = Q16::lit("0.1");
+
+/// The largest plant scale `ρ = K̄/K̂` (Q15.16): a string ten times softer than nominal.
+pub const PLANT_SCALE_MAX: Q16 = Q16::const_from_int(10);
 
 /// A reference trajectory sample: where the tension should be, how fast it should move and
 /// how fast that rate should change.
@@ -96,6 +116,61 @@ pub fn saturate_i32(value: i64) -> i32 {
 #[must_use]
 pub fn mul_q16(a: i32, b: i32) -> i32 {
     narrow(mul_wide(a, b))
+}
+
+/// The gain `dt/(τ + dt)` of a first-order low-pass sampled every `period_us` µs, as
+/// Q15.16 bits rounded to nearest (at least one LSB), computed exactly from the
+/// microseconds — `dt` itself is not representable in Q15.16 to better than 7 % at 0.1 ms,
+/// so it is never formed. Construction-time only (it divides); `None` for a negative `τ` or
+/// a zero period.
+#[must_use]
+pub fn filter_gain(period_us: u32, tau: crate::units::Seconds) -> Option<Coef> {
+    if period_us == 0 || tau.0 < Q16::ZERO {
+        return None;
+    }
+    // α = p·2³² / (τ_bits·10⁶ + p·2¹⁶), p in µs, τ_bits = τ·2¹⁶.
+    let p = i64::from(period_us);
+    let den =
+        i64::from(tau.to_bits()).checked_mul(1_000_000)?.checked_add(p.checked_mul(1 << 16)?)?;
+    let num = p.checked_mul(1 << 32)?;
+    let alpha = num.checked_add(den / 2)?.checked_div(den)?;
+    i32::try_from(alpha.max(1)).ok()
+}
+
+/// `1/x` for a positive Q15.16 `x`, as Q8.24 bits (`1 << 24` = 1.0), without a division:
+/// the argument is normalised to `M ∈ [½, 1)` by its leading-zero count, `1/M` is seeded
+/// with the best linear guess `48/17 − 32/17·M` (relative error ≤ 1/17) and refined by
+/// three Newton steps `y ← y·(2 − M·y)` (error ≤ 1/17 → 3.5 × 10⁻³ → 1.2 × 10⁻⁵ →
+/// 1.5 × 10⁻¹⁰, below the output's resolution), then shifted back. Six 32 × 32-bit products.
+/// Results saturate: `x ≤ 2⁻⁷` (`1/x ≥ 128`, beyond Q8.24) gives about `i32::MAX`, `x ≤ 0`
+/// gives 0.
+#[must_use]
+pub fn reciprocal_q24(x: i32) -> i32 {
+    if x <= 0 {
+        return 0;
+    }
+    // Bit index of the leading one: 0..=30 (x > 0 has at least one leading zero).
+    let top = 31_u32.saturating_sub(x.leading_zeros());
+    // M = x·2^(30−top) / 2^31 ∈ [½, 1), as Q1.31 in an i64.
+    let m = i64::from(x) << 30_u32.saturating_sub(top);
+    // Seed, Q2.30: 48/17 − 32/17·M.
+    let seed_a: i64 = 3_031_741_621; // 48/17 · 2^30
+    let seed_b: i64 = 2_021_161_081; // 32/17 · 2^30
+    let mut y = seed_a.saturating_sub(seed_b.saturating_mul(m) >> 31);
+    // Three Newton steps (constant bound).
+    for _ in 0..3 {
+        // M·y: Q1.31 × Q2.30 → Q.61 → Q2.30 (both below 2^32, the product below 2^63).
+        let my = m.saturating_mul(y) >> 31;
+        let correction = (2_i64 << 30).saturating_sub(my);
+        y = y.saturating_mul(correction) >> 30;
+    }
+    // 1/X = (1/M)·2^(15−top); as Q8.24 from Q2.30: shift by (15 − top) − 6 = 9 − top.
+    let shifted = if top >= 9 {
+        y >> top.saturating_sub(9)
+    } else {
+        y.checked_shl(9_u32.saturating_sub(top)).unwrap_or(i64::MAX)
+    };
+    saturate_i32(shifted)
 }
 
 /// The nominal plant of the paper's eq. (5): `Ā = B̄/M̄` (1/s) and `D̄ = K̄/M̄` (1/s²).
@@ -199,8 +274,8 @@ pub struct RsmcCoefficients {
     pub inv_boundary: Coef,
     /// Dead zone on `|s|`, kgf/s bits (0 = none).
     pub dead_zone: i32,
-    /// `1 − σ·dt` as Q15.16 (65 536 = no leakage).
-    pub leak_keep: Coef,
+    /// `σ·dt` as Q15.16 (0 = no leakage): `φ̂` loses `φ̂·σ·dt` per step.
+    pub leak_dt: Coef,
     /// `φ_max` in Q31.32 (`i64::MAX` = unbounded).
     pub phi_max: i64,
     /// `z_max` in kgf/s bits (`i32::MAX` = only the format bounds it).
@@ -235,8 +310,11 @@ impl RsmcGains {
     /// # Errors
     /// [`GainError`] naming the first out-of-range parameter.
     pub fn coefficients(&self, period_us: u32) -> Result<RsmcCoefficients, GainError> {
-        let dt = Q16::from_num(period_us).checked_div_int(1_000_000).ok_or(GainError::Plant)?;
-        // dt in Q15.16 is coarse (15 µs resolution); derive products from microseconds.
+        if period_us == 0 {
+            return Err(GainError::Plant);
+        }
+        // dt in Q15.16 is coarse (15 µs resolution); every product with dt is derived from
+        // the microseconds instead.
         let micros = i64::from(period_us);
         if self.lambda <= Q16::ZERO || self.lambda > Q16::const_from_int(1_000) {
             return Err(GainError::Lambda);
@@ -287,8 +365,8 @@ impl RsmcGains {
                 coef_from(Q16::ONE.checked_div(width.0).ok_or(GainError::Improvement)?)
             }
         };
-        let (dead_zone, leak_keep, phi_max) = match improvements.bounded_adaptation {
-            None => (0, Q16::ONE.to_bits(), i64::MAX),
+        let (dead_zone, leak_dt, phi_max) = match improvements.bounded_adaptation {
+            None => (0, 0, i64::MAX),
             Some(bounds) => {
                 if bounds.dead_zone.0 < Q16::ZERO
                     || bounds.leakage < Q16::ZERO
@@ -296,12 +374,17 @@ impl RsmcGains {
                 {
                     return Err(GainError::Improvement);
                 }
-                let leak_dt = bounds.leakage.checked_mul(dt).ok_or(GainError::Improvement)?;
-                if leak_dt >= Q16::ONE {
+                // σ·dt from the microseconds (dt itself is coarse in Q15.16).
+                let leak_dt = i64::from(bounds.leakage.to_bits())
+                    .checked_mul(micros)
+                    .and_then(|v| v.checked_add(500_000))
+                    .and_then(|v| v.checked_div(1_000_000))
+                    .ok_or(GainError::Improvement)?;
+                if leak_dt >= i64::from(Q16::ONE.to_bits()) {
                     return Err(GainError::Improvement);
                 }
-                let keep = Q16::ONE.saturating_sub(leak_dt).to_bits();
-                (bounds.dead_zone.0.to_bits(), keep, i64::from(bounds.max.0.to_bits()) << 16)
+                let leak_dt = i32::try_from(leak_dt).map_err(|_| GainError::Improvement)?;
+                (bounds.dead_zone.0.to_bits(), leak_dt, i64::from(bounds.max.0.to_bits()) << 16)
             }
         };
         let (z_max, conditional_integration) = match improvements.anti_windup {
@@ -315,13 +398,7 @@ impl RsmcGains {
         };
         let rate_alpha = match improvements.rate_filter {
             None => Q16::ONE.to_bits(),
-            Some(tau) => {
-                if tau.0 < Q16::ZERO {
-                    return Err(GainError::Improvement);
-                }
-                let sum = tau.0.checked_add(dt).ok_or(GainError::Improvement)?;
-                coef_from(dt.checked_div(sum).ok_or(GainError::Improvement)?).max(1)
-            }
+            Some(tau) => filter_gain(period_us, tau).ok_or(GainError::Improvement)?,
         };
         Ok(RsmcCoefficients {
             inv_dt,
@@ -335,7 +412,7 @@ impl RsmcGains {
             k_phi_dt,
             inv_boundary,
             dead_zone,
-            leak_keep,
+            leak_dt,
             phi_max,
             z_max,
             conditional_integration,
@@ -385,6 +462,8 @@ pub struct RsmcOutput {
 pub struct Rsmc {
     coefficients: RsmcCoefficients,
     state: RsmcState,
+    /// The plant scale `ρ = K̄/K̂`, Q15.16 bits, in `[PLANT_SCALE_MIN, PLANT_SCALE_MAX]`.
+    scale: Coef,
 }
 
 impl Rsmc {
@@ -393,7 +472,23 @@ impl Rsmc {
     /// # Errors
     /// [`GainError`] from [`RsmcGains::coefficients`].
     pub fn new(gains: &RsmcGains, period_us: u32) -> Result<Self, GainError> {
-        Ok(Self { coefficients: gains.coefficients(period_us)?, state: RsmcState::default() })
+        Ok(Self {
+            coefficients: gains.coefficients(period_us)?,
+            state: RsmcState::default(),
+            scale: Q16::ONE.to_bits(),
+        })
+    }
+
+    /// Sets the plant scale `ρ = K̄/K̂` (see the module docs), clamped to
+    /// `[PLANT_SCALE_MIN, PLANT_SCALE_MAX]`.
+    pub fn set_plant_scale(&mut self, scale: Q16) {
+        self.scale = scale.clamp(PLANT_SCALE_MIN, PLANT_SCALE_MAX).to_bits();
+    }
+
+    /// The plant scale `ρ`.
+    #[must_use]
+    pub fn plant_scale(&self) -> Q16 {
+        Q16::from_bits(self.scale)
     }
 
     /// The per-tick constants.
@@ -419,11 +514,13 @@ impl Rsmc {
         self.state = RsmcState { e_prev: e0.to_bits(), ..RsmcState::default() };
     }
 
-    /// The invariant: `φ̂ ∈ [0, φ_max]`, `|z| ≤ z_max`.
+    /// The invariant: `φ̂ ∈ [0, φ_max]`, `|z| ≤ z_max`, `ρ` within its range.
     #[must_use]
     pub fn is_valid(&self) -> bool {
         let c = &self.coefficients;
-        self.state.phi_hat >= 0
+        self.scale >= PLANT_SCALE_MIN.to_bits()
+            && self.scale <= PLANT_SCALE_MAX.to_bits()
+            && self.state.phi_hat >= 0
             && self.state.phi_hat <= c.phi_max
             && self.state.z <= c.z_max
             && self.state.z >= c.z_max.saturating_neg()
@@ -468,13 +565,13 @@ impl Rsmc {
             .saturating_add(i64::from(self.state.z));
         let s = saturate_i32(s_wide);
 
-        // Equivalent control: y + c_dd ÿ_d + c_a ẏ_d + c_e ė + c_p e.
+        // Equivalent control: y + ρ·(c_dd ÿ_d + c_a ẏ_d + c_e ė + c_p e).
         let eq_wide = mul_wide(c.c_dd, r.accel.to_bits())
             .saturating_add(mul_wide(c.c_a, r.rate.0.to_bits()))
             .saturating_add(mul_wide(c.c_e, e_rate))
             .saturating_add(mul_wide(c.c_p, e));
-        let equivalent =
-            saturate_i32(i64::from(y.0.to_bits()).saturating_add(i64::from(narrow(eq_wide))));
+        let scaled = mul_q16(narrow(eq_wide), self.scale);
+        let equivalent = saturate_i32(i64::from(y.0.to_bits()).saturating_add(i64::from(scaled)));
 
         // Switching function: sgn(s) or sat(s/Φ), Q15.16 in [−1, 1].
         let one = Q16::ONE.to_bits();
@@ -489,18 +586,19 @@ impl Rsmc {
             mul_q16(s, c.inv_boundary).clamp(minus_one, one)
         };
 
-        // Hitting control G s + φ̂·switch.
-        let phi_q16 = saturate_i32(self.state.phi_hat >> 16);
+        // Hitting control G s + φ̂·switch (φ̂ rounded from Q31.32 to Q15.16).
+        let phi_q16 = saturate_i32(self.state.phi_hat.saturating_add(1 << 15) >> 16);
         let hitting = mul_wide(c.g, s).saturating_add(mul_wide(phi_q16, switching));
         let force = saturate_i32(i64::from(equivalent).saturating_add(i64::from(narrow(hitting))));
 
         // Adaptation φ̂ += k_φ dt |s| (outside the dead zone), with leakage, in [0, φ_max].
         let magnitude = s.saturating_abs();
         let mut phi = self.state.phi_hat;
-        if c.leak_keep != one {
-            // φ̂ (Q31.32) × keep (Q15.16): split to stay inside 64 bits.
-            let high = (phi >> 16).saturating_mul(i64::from(c.leak_keep));
-            phi = high;
+        if c.leak_dt != 0 {
+            // φ̂ −= φ̂·σdt: Q31.32 × Q15.16, rounded back to Q31.32. φ̂ ≤ φ_max < 2⁴⁷ and
+            // σdt < 2¹⁶, so the product stays inside 64 bits (saturating regardless).
+            let leak = phi.saturating_mul(i64::from(c.leak_dt)).saturating_add(1 << 15) >> 16;
+            phi = phi.saturating_sub(leak);
         }
         if magnitude > c.dead_zone {
             let grow =
@@ -585,5 +683,92 @@ impl Pd {
         );
         self.e_prev = e;
         Kgf::from_bits(narrow(mul_wide(self.kp, e).saturating_add(mul_wide(self.kd, rate))))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `1/x` in Q8.24 by integer division, the exact reference (saturated like the
+    /// reciprocal).
+    fn exact_q24(x: i32) -> i64 {
+        ((1_i64 << 40) / i64::from(x)).min(i64::from(i32::MAX))
+    }
+
+    #[test]
+    fn reciprocal_matches_the_exact_quotient() {
+        // Every power of two and its neighbours, then a dense geometric sweep: 0.004 to
+        // 32 767 in steps of 0.1 %.
+        let mut cases = 0_u32;
+        let mut check = |x: i32| {
+            let got = i64::from(reciprocal_q24(x));
+            let exact = exact_q24(x);
+            // Within 2 LSB or 2⁻²⁰ relative (the Newton steps converge far below that).
+            let tolerance = (exact >> 20).max(2);
+            assert!((got - exact).abs() <= tolerance, "1/{x}: {got} vs {exact}");
+            cases += 1;
+        };
+        for shift in 8..31 {
+            let p = 1_i32 << shift;
+            check(p);
+            check(p - 1);
+            check(p + 1);
+        }
+        let mut x: i64 = 256;
+        while x < i64::from(i32::MAX) {
+            check(i32::try_from(x).unwrap_or(i32::MAX));
+            x += (x / 1_000).max(1);
+        }
+        assert!(cases > 10_000, "{cases}");
+        assert_eq!(reciprocal_q24(0), 0);
+        assert_eq!(reciprocal_q24(-5), 0);
+        assert_eq!(reciprocal_q24(1), i32::MAX);
+    }
+
+    #[test]
+    fn filter_gains_are_exact_to_half_an_lsb_at_every_period() {
+        // α = p / (τ + p), from the microseconds: at 0.1 ms and τ = 8 ms (524 bits =
+        // 7.995 6 ms in Q15.16), 100/8 095.6 of 2¹⁶ = 809.5 → 810 (the old route through
+        // dt in Q15.16 took dt = 7/65 536 s, 7 % long).
+        let tau = crate::units::Seconds::from_milli(8);
+        assert_eq!(filter_gain(100, tau), Some(810));
+        for period in [50_u32, 100, 250, 1_000, 2_000, 10_000] {
+            for tau_ms in [0_i32, 1, 4, 8, 16, 100] {
+                let tau = crate::units::Seconds::from_milli(tau_ms);
+                let alpha = i64::from(filter_gain(period, tau).unwrap());
+                // Exact: p·2¹⁶/(τ_µs + p) with τ_µs = τ_bits·10⁶/2¹⁶.
+                let num = i128::from(period) << 32;
+                let den = i128::from(tau.to_bits()) * 1_000_000 + (i128::from(period) << 16);
+                // |α·den − num| ≤ den/2 ⇔ α is the nearest integer.
+                let off = (i128::from(alpha) * den - num).abs();
+                assert!(off * 2 <= den, "p {period} τ {tau_ms} ms: {alpha}");
+            }
+        }
+        assert_eq!(filter_gain(0, tau), None);
+    }
+
+    #[test]
+    fn plant_scale_is_clamped_and_scales_the_equivalent_control() {
+        let plant = NominalPlant { a_bar: Q16::const_from_int(170), d_bar: Q16::lit("12.4") };
+        let gains = RsmcGains { lambda: Q16::const_from_int(85), ..RsmcGains::paper(plant) };
+        let mut law = Rsmc::new(&gains, 1_000).unwrap();
+        law.set_plant_scale(Q16::const_from_int(100));
+        assert_eq!(law.plant_scale(), PLANT_SCALE_MAX);
+        law.set_plant_scale(Q16::ZERO);
+        assert_eq!(law.plant_scale(), PLANT_SCALE_MIN);
+        assert!(law.is_valid());
+        // The equivalent control's correction doubles with ρ = 2.
+        let r = Reference::constant(Kgf::from_int(20));
+        let y = Kgf::from_int(19);
+        let mut one = Rsmc::new(&gains, 1_000).unwrap();
+        let mut two = one;
+        two.set_plant_scale(Q16::const_from_int(2));
+        one.reset(Kgf::from_int(1));
+        two.reset(Kgf::from_int(1));
+        let u1 = one.step(&r, y, Saturation::None).equivalent.saturating_sub(y);
+        let u2 = two.step(&r, y, Saturation::None).equivalent.saturating_sub(y);
+        let doubled = u1.saturating_add(u1);
+        assert!(u2.saturating_sub(doubled).abs() <= Kgf::from_bits(2), "{u1:?} {u2:?}");
     }
 }

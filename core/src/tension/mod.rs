@@ -8,25 +8,31 @@
 //! screw: with voltage (duty) drive the back-EMF makes the motor behave much like a
 //! velocity source, the rotor's inertia reflected to the carriage is hundreds of kilograms,
 //! and a stiff string gains ≈ 100 kgf/s at full speed — so precision is a question of
-//! stopping in time and of holding against creep, friction and sensor noise.
+//! stopping in time and of holding against creep, friction and sensor noise. The bridge's
+//! switched leg is complementary, so the drive brakes as well as it pulls: the controller
+//! brakes the carriage into the target rather than letting it coast.
 //!
 //! The pieces, from the operator inward:
 //!
 //! - [`settings`]: validated [`PullSettings`] (tension 5–50 kgf, speed 1–9, pre-stretch
 //!   0–30 %, knot +0–20 %), shared with the panel and the stored record.
 //! - [`controller`]: [`TensionController`] — `start`, `step` at 1 kHz, `release`, `stop` —
-//!   the pull profile (take-up at the set speed, slow approach, pre-stretch, hold) around a
-//!   control law.
+//!   the pull profile (take-up at the set speed, braking approach timed and shaped from the
+//!   identified string stiffness, pre-stretch, hold) around a control law.
+//! - [`estimator`]: [`TensionEstimator`] — median of five, spike clip, Hall-fused tension
+//!   observer, tension rate and carriage speed.
 //! - [`law`]: the paper's RSMC (eqs. 9–17, "as published"), taut's RSMC with each
 //!   improvement switchable, and the PD baseline; each maps a tension error to a force.
-//! - [`motor`]: force → duty (proportional, or with back-EMF compensation and a current
-//!   limit) and the carriage speed from Hall steps.
+//! - [`motor`]: force → duty (a voltage command, or a current command with back-EMF
+//!   compensation; both always pulling — a negative force brakes — within a current limit)
+//!   and the carriage speed from Hall steps.
 //!
 //! Everything is fixed point (Q15.16 signals, 64-bit products and sums, no division in the
 //! step), allocation-free and panic-free; gains are validated once at construction. The
 //! requirements are `REQ-TEN-*` in `docs/spec/tension.md`.
 
 pub mod controller;
+pub mod estimator;
 pub mod law;
 pub mod motor;
 pub mod settings;
@@ -35,6 +41,7 @@ pub use controller::{
     ConfigError, ControlOutput, ControllerConfig, LawConfig, Measurement, ProfileConfig, PullPhase,
     TensionController,
 };
+pub use estimator::{Estimate, EstimatorConfig, TensionEstimator};
 pub use law::{Improvements, NominalPlant, PdGains, Reference, RsmcGains};
 pub use motor::{DutyMap, MotorModel};
 pub use settings::{

@@ -7,20 +7,27 @@
 //! BLDC: with six-step drive two windings conduct in series, so
 //! `V_bus·duty = R·I + Ke·ω` and the pull at the carriage is `F = Kt·I·(2π·N/L)·η / g`
 //! (gear ratio `N` = 20, lead `L` = 25.4 mm, efficiency `η`, `g` = 9.806 65 N/kgf). Two
-//! mappings are offered ([`DutyMap`]):
+//! mappings are offered ([`DutyMap`]); both always command [`Direction::Pull`] — the switched
+//! leg is complementary (`crate::drive::commutation`), so a duty below the back-EMF ratio
+//! *brakes*: a negative force means less pull or braking, never a release, and a pull never
+//! has to reverse (or coast) the bridge:
 //!
-//! - **Proportional** — `duty = F / F_stall`, the duty that would produce `F` with the rotor
-//!   at rest. This is what a controller that treats duty as force does (the paper's firmware
-//!   applies its RSMC output to the PWM); a negative force is applied as a release command.
-//!   At speed the back-EMF eats the voltage, so the real pull falls short of `F` and the
-//!   loop sees an unmodelled, speed-dependent damping.
-//! - **Back-EMF compensated** (taut) — `duty = (R·I_cmd + Ke·ω̂)/V_bus` with
+//! - **Voltage** (`DutyMap::Proportional`; taut and the baselines) — `duty = F·c_f` with
+//!   `c_f = 1/F_stall`: the law's force is the *stall* pull the duty would give, i.e. a
+//!   voltage command, and the drive's own back-EMF damps the carriage. The law's nominal
+//!   plant includes that damping (`Ā`, see `crate::tension::law`), and its equivalent
+//!   control feeds forward the back-EMF of the *reference* speed.
+//! - **Current** (`DutyMap::BackEmf`) — `duty = (R·I_cmd + Ke·ω̂)/V_bus` with
 //!   `I_cmd = F/(kgf per ampere)`, where `ω̂` comes from the carriage speed measured by
-//!   counting Hall steps ([`SpeedEstimator`]). The force is first limited to the pull that
-//!   the current limit allows, in both directions, so neither a pull nor the braking of a
-//!   fast carriage (duty below the back-EMF) can draw more than the limit. The duty is then
-//!   clamped to `[0, DUTY_MAX]`; zero duty with the pull pattern shorts the two windings
-//!   through the low sides, which brakes, so a pull never has to reverse the bridge.
+//!   counting Hall steps ([`SpeedEstimator`]): the measured back-EMF is cancelled, so the
+//!   force is a motor force — and the drive's natural damping is gone.
+//!
+//! Both limit the winding current to `current_limit` in both directions from the measured
+//! speed: the duty stays within `v̂·c_v ± F_lim·c_f` (`F_lim` the pull the limit gives), so
+//! neither a pull nor the braking of a fast carriage (duty below the back-EMF) asks for
+//! more than the limit (a bus pumped up by regeneration only lowers the real current). The
+//! duty is then clamped to `[0, DUTY_MAX]`; zero duty with the pull pattern shorts the two
+//! windings through the low sides, the hardest braking there is.
 //!
 //! # Speed from Hall steps
 //!
@@ -38,7 +45,7 @@
 //! (construction only; the per-tick path uses 32 × 32 → 64-bit products).
 
 use crate::drive::{DUTY_MAX, Direction, DriveCommand, Duty};
-use crate::tension::law::{Coef, Saturation, mul_wide, narrow, saturate_i32};
+use crate::tension::law::{Coef, Saturation, filter_gain, mul_wide, narrow, saturate_i32};
 use crate::tension::settings::MmPerSecond;
 use crate::units::{Amps, Kgf, Q16, Seconds};
 
@@ -97,15 +104,16 @@ pub enum MotorError {
 /// How a force becomes a duty (see the module docs).
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
 pub enum DutyMap {
-    /// `duty = F / F_stall`, negative force → release; the magnitude is capped at the duty
-    /// that would drive `current_limit` at the measured speed (the drive's protection,
-    /// shared by every law: without it a step from rest asks for the stall current).
+    /// Voltage command: `duty = F / F_stall`, held within the current-limit window
+    /// `v̂·c_v ± F_lim·c_f` around the measured back-EMF and within `[0, DUTY_MAX]`, always
+    /// in the pull direction (without the window a step from rest asks for the stall
+    /// current, and a hard brake from full speed for three times the limit).
     Proportional {
         /// The largest current the mapping asks for, A.
         current_limit: Amps,
     },
-    /// `duty = F·c_f + v·c_v`, force limited by `current_limit`, duty clamped to
-    /// `[0, DUTY_MAX]` in the pull direction.
+    /// Current command: `duty = F·c_f + v̂·c_v`, force limited by `current_limit`, duty
+    /// clamped to `[0, DUTY_MAX]` in the pull direction.
     BackEmf {
         /// The largest current the mapping asks for, A.
         current_limit: Amps,
@@ -244,48 +252,41 @@ impl ForceToDuty {
         from_force.saturating_add(from_speed) >> (DUTY_COEF_FRAC)
     }
 
-    /// The drive command for `force` at carriage speed `speed`, and whether it saturated.
+    /// The drive command for `force` at carriage speed `speed`, and whether it saturated:
+    /// always [`Direction::Pull`], duty within the current-limit window and `[0, DUTY_MAX]`.
     #[must_use]
     pub fn command(&self, force: Kgf, speed: MmPerSecond) -> (DriveCommand, Saturation) {
-        let duty_bits = self.signed_duty(force.to_bits(), speed.0.to_bits());
-        let max = i64::from(DUTY_MAX.raw());
-        let limited = force.to_bits().abs_diff(0) > self.force_limit.unsigned_abs();
-        if self.compensate {
-            let saturation = if duty_bits > max {
-                Saturation::High
-            } else if duty_bits < 0 {
-                Saturation::Low
-            } else if limited {
-                if force.to_bits() > 0 { Saturation::High } else { Saturation::Low }
-            } else {
-                Saturation::None
-            };
-            let duty = Duty::from_fraction_clamped(Q16::from_bits(saturate_i32(duty_bits)));
-            (DriveCommand::Drive { direction: Direction::Pull, duty }, saturation)
+        let wanted = self.signed_duty(force.to_bits(), speed.0.to_bits());
+        // The current-limit window around the measured back-EMF duty (Q15.16 bits).
+        let back_emf = mul_wide(speed.0.to_bits(), self.duty_per_mm_s) >> DUTY_COEF_FRAC;
+        let room = mul_wide(self.force_limit, self.duty_per_kgf) >> DUTY_COEF_FRAC;
+        let high = back_emf.saturating_add(room).min(i64::from(DUTY_MAX.raw()));
+        let low = back_emf.saturating_sub(room).max(0);
+        let saturation = if wanted > high {
+            Saturation::High
+        } else if wanted < low {
+            Saturation::Low
         } else {
-            let (direction, magnitude) = if duty_bits >= 0 {
-                (Direction::Pull, duty_bits)
-            } else {
-                (Direction::Release, duty_bits.saturating_neg())
-            };
-            // The current cap: the duty that drives the limit current at this speed.
-            let moving = match direction {
-                Direction::Pull => speed.0.to_bits(),
-                Direction::Release => speed.0.to_bits().saturating_neg(),
-            };
-            let cap = mul_wide(self.force_limit, self.duty_per_kgf)
-                .saturating_add(mul_wide(moving.max(0), self.duty_per_mm_s))
-                >> DUTY_COEF_FRAC;
-            let max = max.min(cap.max(0));
-            let saturation = match (magnitude > max, direction) {
-                (false, _) => Saturation::None,
-                (true, Direction::Pull) => Saturation::High,
-                (true, Direction::Release) => Saturation::Low,
-            };
-            let duty =
-                Duty::from_fraction_clamped(Q16::from_bits(saturate_i32(magnitude.min(max))));
-            (DriveCommand::Drive { direction, duty }, saturation)
-        }
+            Saturation::None
+        };
+        // `low ≤ high` unless the measured speed is beyond the motor's reach: back-driven so
+        // fast that even zero duty draws more than the limit (→ zero duty, `high < 0`), or
+        // over-running so fast that even full duty brakes harder than the limit (→ full
+        // duty, the least braking there is). Either way the window's nearest end.
+        let bits = wanted.max(low).min(high).max(0);
+        let duty = Duty::from_fraction_clamped(Q16::from_bits(saturate_i32(bits)));
+        (DriveCommand::Drive { direction: Direction::Pull, duty }, saturation)
+    }
+
+    /// The largest duty the current limit allows at carriage speed `speed`: the measured
+    /// back-EMF duty plus the resistive drop of the limit current, clamped to
+    /// `[0, DUTY_MAX]` (full duty from rest would draw the stall current).
+    #[must_use]
+    pub fn current_limited_duty(&self, speed: MmPerSecond) -> Duty {
+        let bits = mul_wide(speed.0.to_bits(), self.duty_per_mm_s)
+            .saturating_add(mul_wide(self.force_limit, self.duty_per_kgf))
+            >> DUTY_COEF_FRAC;
+        Duty::from_fraction_clamped(Q16::from_bits(saturate_i32(bits)))
     }
 
     /// The duty that keeps the carriage moving at `speed` against `load` (velocity
@@ -337,10 +338,7 @@ impl SpeedEstimator {
             .checked_div(i64::from(period_us))
             .and_then(|v| i32::try_from(v).ok())
             .ok_or(MotorError::Parameter)?;
-        let dt = Q16::from_num(period_us).saturating_div_int(1_000_000);
-        let dt = if dt == Q16::ZERO { Q16::DELTA } else { dt };
-        let alpha =
-            dt.checked_div(tau.0.saturating_add(dt)).ok_or(MotorError::Parameter)?.to_bits().max(1);
+        let alpha = filter_gain(period_us, tau).ok_or(MotorError::Parameter)?;
         Ok(Self { mm_s_per_step: per_step, alpha, last_steps: 0, speed: 0, primed: false })
     }
 

@@ -1,0 +1,382 @@
+//! The tension the controller acts on: spike rejection, a Hall-fused tension observer, and
+//! the tension rate and carriage speed the approach is timed by.
+//!
+//! # Theory of operation
+//!
+//! The load cell is read once per tick through a 12-bit converter: one code is ≈ 0.013 kgf,
+//! white noise is 1–3 codes, and MOSFET switching throws spikes of 0.2–1 kgf into a few
+//! per cent of the samples (the paper's figure 22). The carriage position, on the other
+//! hand, is known without noise or lag to one Hall step (52.9 µm) from the drive's step
+//! counter. [`TensionEstimator::update`] combines the two, every tick:
+//!
+//! 1. **Median of five** samples removes isolated spikes (two ticks of delay on a ramp).
+//! 2. **Spike clip** (switchable): what is left of a burst is limited by physics — the
+//!    string cannot change its tension faster than the stiffest string (2 kgf/mm) times the
+//!    carriage's travel this tick, plus 0.1 kgf for noise and relaxation — so the filtered
+//!    sample `y_f` moves toward the median by at most that much per tick.
+//! 3. **Observer** (switchable): once the string's stiffness `K̂` is known (the controller
+//!    identifies it during the take-up, [`TensionEstimator::set_stiffness`]), the estimate
+//!    moves with the carriage at once, `ŷ ← ŷ + K̂·Δx`, and is pulled toward the measurement
+//!    with gain `α`, `ŷ ← ŷ + α·(y_f − ŷ)`: a complementary filter whose fast part is the
+//!    Hall position (no lag, no noise) and whose slow part (time constant `dt/α`, 20 ms for
+//!    `α` = 0.05) is the load cell. Without the observer `ŷ = y_f`.
+//! 4. **Rate and speed**: first-order low-passes with the same time constant of the
+//!    filtered sample's difference (`ẏ`, kgf/s) and of the Hall travel (`v`, mm/s). Filtered
+//!    alike, they carry the same lag, so `ẏ/v` is the string's stiffness and `ẏ·v` times a
+//!    constant is the tension a braking carriage still adds (see the controller).
+//!
+//! # Fixed point
+//!
+//! Tensions, rates and speeds are Q15.16 bits; the observer state is Q31.32 (`i64`) so a
+//! gain of 0.05 keeps moving it below Q15.16's resolution. Per tick: five comparisons'
+//! worth of median, at most five 32 × 32 → 64-bit products, no division.
+
+use crate::tension::law::{Coef, filter_gain, mul_wide, narrow, saturate_i32};
+use crate::tension::settings::MmPerSecond;
+use crate::units::{Kgf, KgfPerSecond, Q16, Seconds};
+
+/// Largest step count change one tick may contribute (as in the speed estimator).
+pub const MAX_STEPS_PER_TICK: i32 = 16;
+
+/// One Hall step of carriage travel in Q15.16 mm: 52.917 µm × 65 536 = 3 468 bits.
+pub const STEP_MM_BITS: i32 = 3_468;
+
+/// The stiffest string the spike clip allows for, 2 kgf/mm (the twin's stiffest is
+/// 1.5 kgf/mm), Q15.16.
+pub const CLIP_STIFFNESS: Q16 = Q16::const_from_int(2);
+
+/// What a still carriage's tension may do in one tick besides moving with the string:
+/// noise and relaxation, 0.1 kgf.
+pub const CLIP_ALLOWANCE: Kgf = Kgf(Q16::lit("0.1"));
+
+/// The largest stiffness the observer accepts, kgf/mm (Q15.16): 4 kgf/mm.
+pub const STIFFNESS_MAX: Q16 = Q16::const_from_int(4);
+
+/// How the estimate is formed (each part switchable, for the ablation report).
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct EstimatorConfig {
+    /// Limit each tick's change of the filtered sample by the carriage's travel.
+    pub spike_clip: bool,
+    /// The observer's correction gain `α` per tick (`None`: no observer, `ŷ = y_f`).
+    pub observer_gain: Option<Q16>,
+    /// Time constant of the rate and speed low-passes.
+    pub rate_filter: Seconds,
+}
+
+/// One tick's estimate.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
+pub struct Estimate {
+    /// The observer's tension `ŷ` (= the filtered sample without the observer): what the
+    /// law regulates and the machine displays.
+    pub tension: Kgf,
+    /// The spike-filtered sample `y_f` (median, then clip).
+    pub sample: Kgf,
+    /// The low-passed rate of `y_f`, kgf/s.
+    pub rate: KgfPerSecond,
+    /// The low-passed carriage speed from Hall steps, mm/s.
+    pub speed: MmPerSecond,
+    /// Hall steps since the previous tick (clamped to ±[`MAX_STEPS_PER_TICK`]).
+    pub steps: i32,
+}
+
+/// The estimator's memory (public for proofs and fuzzing).
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
+pub struct EstimatorState {
+    /// The last five raw samples, kgf bits, oldest first.
+    pub window: [i32; 5],
+    /// The filtered sample `y_f`, kgf bits.
+    pub filtered: i32,
+    /// The observer's tension `ŷ`, kgf in Q31.32.
+    pub fused: i64,
+    /// The rate low-pass, kgf/s bits.
+    pub rate: i32,
+    /// The speed low-pass, mm/s bits.
+    pub speed: i32,
+    /// The step count at the previous tick.
+    pub last_steps: i32,
+    /// Whether the next update continues (`true`) or restarts from its sample (`false`).
+    pub primed: bool,
+    /// The observer's stiffness `K̂`, kgf/mm bits (0: not yet known, no Hall correction).
+    pub stiffness: i32,
+}
+
+/// An unprimed, zero state.
+const STATE_ZERO: EstimatorState = EstimatorState {
+    window: [0; 5],
+    filtered: 0,
+    fused: 0,
+    rate: 0,
+    speed: 0,
+    last_steps: 0,
+    primed: false,
+    stiffness: 0,
+};
+
+/// The estimator: validated gains plus state. See the module docs.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct TensionEstimator {
+    clip: bool,
+    /// `α`, Q15.16 bits (`None` in the config → no observer).
+    alpha: Option<Coef>,
+    /// `dt/(τ + dt)` of the rate and speed low-passes, Q15.16 bits.
+    beta: Coef,
+    /// `1/dt`, Hz.
+    inv_dt: i32,
+    state: EstimatorState,
+}
+
+/// Why an estimator configuration was rejected.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub enum EstimatorError {
+    /// The period is zero or above one second.
+    Period,
+    /// `α` is not in `(0, 1]` or the rate time constant is negative.
+    Gain,
+}
+
+/// `median(e, max(min(a,b), min(c,d)), min(max(a,b), max(c,d)))`: the median of five.
+#[must_use]
+pub fn median5(a: i32, b: i32, c: i32, d: i32, e: i32) -> i32 {
+    let f = a.min(b).max(c.min(d));
+    let g = a.max(b).min(c.max(d));
+    e.min(f).max(e.max(f).min(g))
+}
+
+impl TensionEstimator {
+    /// An estimator without spike clip or observer at 1 kHz (the controller's fallback).
+    pub(crate) const FALLBACK: Self =
+        Self { clip: false, alpha: None, beta: 1 << 12, inv_dt: 1_000, state: STATE_ZERO };
+
+    /// An estimator for a tick of `period_us` µs.
+    ///
+    /// # Errors
+    /// [`EstimatorError`] for a zero period or an out-of-range gain.
+    pub fn new(config: &EstimatorConfig, period_us: u32) -> Result<Self, EstimatorError> {
+        if period_us == 0 || period_us > 1_000_000 {
+            return Err(EstimatorError::Period);
+        }
+        let alpha = match config.observer_gain {
+            None => None,
+            Some(alpha) if alpha > Q16::ZERO && alpha <= Q16::ONE => Some(alpha.to_bits()),
+            Some(_) => return Err(EstimatorError::Gain),
+        };
+        if config.rate_filter.0 < Q16::ZERO {
+            return Err(EstimatorError::Gain);
+        }
+        let beta = filter_gain(period_us, config.rate_filter).ok_or(EstimatorError::Gain)?;
+        let inv_dt = i32::try_from(1_000_000_u32.checked_div(period_us).unwrap_or(1))
+            .map_err(|_| EstimatorError::Period)?;
+        Ok(Self { clip: config.spike_clip, alpha, beta, inv_dt, state: EstimatorState::default() })
+    }
+
+    /// Forgets the history: the next update restarts from its sample, with no stiffness.
+    pub fn reset(&mut self) {
+        self.state.primed = false;
+        self.state.stiffness = 0;
+    }
+
+    /// Sets the observer's stiffness `K̂` (kgf/mm), clamped to `[0, STIFFNESS_MAX]`.
+    pub fn set_stiffness(&mut self, stiffness: Q16) {
+        self.state.stiffness = stiffness.clamp(Q16::ZERO, STIFFNESS_MAX).to_bits();
+    }
+
+    /// Moves the observer's tension to `tension` (the controller's lag-compensated value
+    /// when the braking starts).
+    pub fn set_tension(&mut self, tension: Kgf) {
+        self.state.fused = i64::from(tension.to_bits()) << 16;
+    }
+
+    /// The memory (proofs, fuzzing).
+    #[must_use]
+    pub const fn state(&self) -> EstimatorState {
+        self.state
+    }
+
+    /// Replaces the memory (proofs, fuzzing); the guarantees hold for states that satisfy
+    /// [`TensionEstimator::is_valid`].
+    pub fn set_state(&mut self, state: EstimatorState) {
+        self.state = state;
+    }
+
+    /// The invariant: the stiffness within `[0, STIFFNESS_MAX]`.
+    #[must_use]
+    pub fn is_valid(&self) -> bool {
+        self.state.stiffness >= 0 && self.state.stiffness <= STIFFNESS_MAX.to_bits()
+    }
+
+    /// The tension in Q15.16, rounded from the observer's Q31.32.
+    fn fused_kgf(&self) -> Kgf {
+        Kgf::from_bits(saturate_i32(self.state.fused.saturating_add(1 << 15) >> 16))
+    }
+
+    /// One tick: the calibrated tension sample and the drive's Hall step count in, the
+    /// estimate out (see the module docs).
+    pub fn update(&mut self, sample: Kgf, steps: i32) -> Estimate {
+        let raw = sample.to_bits();
+        let s = &mut self.state;
+        if !s.primed {
+            *s = EstimatorState {
+                window: [raw; 5],
+                filtered: raw,
+                fused: i64::from(raw) << 16,
+                rate: 0,
+                speed: 0,
+                last_steps: steps,
+                primed: true,
+                stiffness: s.stiffness,
+            };
+        }
+        let moved = steps
+            .wrapping_sub(s.last_steps)
+            .clamp(MAX_STEPS_PER_TICK.saturating_neg(), MAX_STEPS_PER_TICK);
+        s.last_steps = steps;
+        let [_, w1, w2, w3, w4] = s.window;
+        s.window = [w1, w2, w3, w4, raw];
+        let median = median5(w1, w2, w3, w4, raw);
+
+        // Spike clip: |Δy_f| ≤ 2 kgf/mm · |Δx| + 0.1 kgf.
+        let previous = s.filtered;
+        let travel = moved.saturating_abs().saturating_mul(STEP_MM_BITS);
+        s.filtered = if self.clip {
+            let limit = narrow(mul_wide(CLIP_STIFFNESS.to_bits(), travel))
+                .saturating_add(CLIP_ALLOWANCE.to_bits());
+            let change = median.saturating_sub(previous).clamp(limit.saturating_neg(), limit);
+            previous.saturating_add(change)
+        } else {
+            median
+        };
+
+        // Observer: ŷ ← ŷ + K̂·Δx, then ŷ ← ŷ + α·(y_f − ŷ).
+        s.fused = match self.alpha {
+            Some(alpha) => {
+                let dx = moved.saturating_mul(STEP_MM_BITS);
+                let predicted = s.fused.saturating_add(mul_wide(s.stiffness, dx));
+                let gap = (i64::from(s.filtered) << 16).saturating_sub(predicted);
+                // gap (Q31.32) × α (Q15.16): split to stay in 64 bits.
+                let correction = (gap >> 16).saturating_mul(i64::from(alpha));
+                predicted.saturating_add(correction)
+            }
+            None => i64::from(s.filtered) << 16,
+        };
+
+        // Rate and speed low-passes.
+        let raw_rate = saturate_i32(
+            i64::from(s.filtered)
+                .saturating_sub(i64::from(previous))
+                .saturating_mul(i64::from(self.inv_dt)),
+        );
+        let raw_speed = saturate_i32(
+            i64::from(moved.saturating_mul(STEP_MM_BITS)).saturating_mul(i64::from(self.inv_dt)),
+        );
+        let step_rate = narrow(
+            i64::from(raw_rate)
+                .saturating_sub(i64::from(s.rate))
+                .saturating_mul(i64::from(self.beta)),
+        );
+        let step_speed = narrow(
+            i64::from(raw_speed)
+                .saturating_sub(i64::from(s.speed))
+                .saturating_mul(i64::from(self.beta)),
+        );
+        s.rate = s.rate.saturating_add(step_rate);
+        s.speed = s.speed.saturating_add(step_speed);
+        let (filtered, rate, speed) = (s.filtered, s.rate, s.speed);
+        Estimate {
+            tension: self.fused_kgf(),
+            sample: Kgf::from_bits(filtered),
+            rate: KgfPerSecond::from_bits(rate),
+            speed: MmPerSecond(Q16::from_bits(speed)),
+            steps: moved,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn estimator(clip: bool, observer: bool) -> TensionEstimator {
+        TensionEstimator::new(
+            &EstimatorConfig {
+                spike_clip: clip,
+                observer_gain: observer.then_some(Q16::lit("0.05")),
+                rate_filter: Seconds::from_milli(16),
+            },
+            1_000,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn median5_is_the_median_of_every_pattern() {
+        // Every ordering pattern of five values drawn from 0..5 (3 125 cases).
+        let mut cases = 0;
+        for n in 0..3_125_i32 {
+            let v = [n % 5, n / 5 % 5, n / 25 % 5, n / 125 % 5, n / 625 % 5];
+            let mut sorted = v;
+            sorted.sort_unstable();
+            assert_eq!(median5(v[0], v[1], v[2], v[3], v[4]), sorted[2], "{v:?}");
+            cases += 1;
+        }
+        assert_eq!(cases, 3_125);
+    }
+
+    #[test]
+    fn a_still_carriage_clips_what_the_median_lets_through() {
+        let mut est = estimator(true, false);
+        let base = Kgf::from_int(20);
+        est.update(base, 0);
+        // Three spikes of +1 kgf in five samples get through the median …
+        let spiky = [0, 1, 1, 0, 1, 0, 0, 0];
+        let mut worst = Kgf::ZERO;
+        for &spike in &spiky {
+            let sample = base.saturating_add(Kgf::from_int(spike));
+            let out = est.update(sample, 0);
+            worst = worst.max(out.sample.saturating_sub(base));
+        }
+        // … but a still carriage's filtered sample moves at most 0.1 kgf per tick.
+        assert!(worst <= CLIP_ALLOWANCE.saturating_add(CLIP_ALLOWANCE), "{worst:?}");
+        let mut unclipped = estimator(false, false);
+        unclipped.update(base, 0);
+        let mut worst_unclipped = Kgf::ZERO;
+        for &spike in &spiky {
+            let out = unclipped.update(base.saturating_add(Kgf::from_int(spike)), 0);
+            worst_unclipped = worst_unclipped.max(out.sample.saturating_sub(base));
+        }
+        assert_eq!(worst_unclipped, Kgf::from_int(1));
+    }
+
+    #[test]
+    fn rate_and_speed_share_their_lag_so_their_ratio_is_the_stiffness() {
+        // A 0.7 kgf/mm string pulled at one Hall step per tick (52.9 mm/s): 37 kgf/s.
+        let mut est = estimator(true, false);
+        let mut out = Estimate::default();
+        for tick in 0..200_i32 {
+            let mm_q16 = i64::from(tick) * i64::from(STEP_MM_BITS);
+            let tension = Kgf::from_bits(i32::try_from(mm_q16 * 7 / 10).unwrap());
+            out = est.update(tension, tick);
+        }
+        let speed = out.speed.0.to_num::<i32>();
+        let rate = out.rate.0.to_num::<i32>();
+        assert!((speed - 53).abs() <= 1, "{speed}");
+        assert!((rate - 37).abs() <= 1, "{rate}");
+    }
+
+    #[test]
+    fn the_observer_follows_the_hall_travel_at_once() {
+        let mut est = estimator(true, true);
+        est.update(Kgf::from_int(10), 0);
+        est.set_stiffness(Q16::ONE);
+        // Ten steps in one tick at 1 kgf/mm: +0.529 kgf at once, before the load cell moves.
+        let out = est.update(Kgf::from_int(10), 10);
+        let gained = out.tension.saturating_sub(Kgf::from_int(10)).to_milli();
+        // 95 % of the Hall prediction survives this tick's α = 0.05 pull toward the sample.
+        assert!((gained - 503).abs() <= 2, "{gained}");
+        // With the load cell agreeing, the estimate stays there.
+        let mut last = out;
+        for _ in 0..100 {
+            last = est.update(Kgf::from_milli(10_529), 10);
+        }
+        assert!((last.tension.to_milli() - 10_529).abs() <= 1, "{:?}", last.tension);
+    }
+}

@@ -89,6 +89,18 @@ enum ReportKind {
         #[arg(long)]
         svg: Option<std::path::PathBuf>,
     },
+    /// taut with each improvement switched off in turn, on the accuracy report's scenarios.
+    Ablation {
+        /// Number of scenarios.
+        #[arg(long, default_value_t = 200)]
+        scenarios: u64,
+        /// Seed of the scenario draw.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Write the JSON summary here.
+        #[arg(long)]
+        json: Option<std::path::PathBuf>,
+    },
 }
 
 fn main() {
@@ -96,6 +108,9 @@ fn main() {
     let Some(command) = cli.command else { std::process::exit(taut::cycle::main_job(&cli.job)) };
     match command {
         Command::Panel(args) => std::process::exit(taut::panel::main(&args)),
+        Command::Report { which: ReportKind::Ablation { scenarios, seed, json } } => {
+            taut::report::ablation_main(scenarios, seed, json.as_deref());
+        }
         Command::Report { which: ReportKind::Accuracy { scenarios, seed, json, svg } } => {
             use std::io::Write as _;
             let threads = std::thread::available_parallelism().map_or(1, |n| n.get());

@@ -224,23 +224,103 @@ pub struct ScenarioResult {
     /// The calibration's largest error over 8–35 kgf against the twin's true sensor, kgf
     /// (informational; `NaN` when the calibration was rejected).
     pub calibration_ok: bool,
-    /// Metrics per controller, in [`CONTROLLERS`] order.
-    pub metrics: [Metrics; 3],
+    /// Metrics per controller, in the lineup's order ([`CONTROLLERS`] for the accuracy
+    /// report, [`ablation_lineup`] for the ablation).
+    pub metrics: Vec<Metrics>,
 }
 
-/// Runs scenario `index`.
+/// One controller of a report: its name, its configuration, and whether it pulls with the
+/// scenario's 4-point calibration (or the identity: the uncalibrated sensor).
+#[derive(Clone, Copy, Debug)]
+pub struct Entry {
+    /// The row's name.
+    pub name: &'static str,
+    /// The controller.
+    pub config: ControllerConfig,
+    /// Pull with the simulated 4-point calibration (`false`: uncorrected sensor).
+    pub calibrated: bool,
+}
+
+/// The accuracy report's lineup: [`CONTROLLERS`], all calibrated.
+#[must_use]
+pub fn accuracy_lineup() -> Vec<Entry> {
+    CONTROLLERS.iter().map(|&(name, config)| Entry { name, config, calibrated: true }).collect()
+}
+
+/// taut with each of its improvements switched off in turn (`taut report ablation`): the
+/// law's four (boundary layer, bounded adaptation, anti-windup, rate filter), the
+/// back-EMF feed-forward of the voltage-drive plant, the profile's and estimator's (braking
+/// approach, plant adaptation to the identified stiffness, observer, spike clip), and the
+/// 4-point calibration.
+#[must_use]
+pub fn ablation_lineup() -> Vec<Entry> {
+    use taut_core::tension::controller::{LawConfig, ProfileConfig, TAUT_GAINS};
+    use taut_core::tension::law::NominalPlant;
+    use taut_core::units::Q16;
+    let taut = ControllerConfig::TAUT;
+    let law = |f: &dyn Fn(&mut taut_core::tension::law::RsmcGains)| {
+        let mut gains = TAUT_GAINS;
+        f(&mut gains);
+        ControllerConfig { law: LawConfig::Rsmc(gains), ..taut }
+    };
+    let profile = |f: &dyn Fn(&mut ProfileConfig)| {
+        let mut p = ProfileConfig::TAUT;
+        f(&mut p);
+        ControllerConfig { profile: p, ..taut }
+    };
+    // Without the back-EMF in the nominal plant (Ā = 2 s⁻¹, screw friction only) the law
+    // neither feeds the reference's back-EMF forward nor expects the drive's damping.
+    let no_back_emf = |gains: &mut taut_core::tension::law::RsmcGains| {
+        gains.plant = NominalPlant { a_bar: Q16::const_from_int(2), ..gains.plant };
+    };
+    let entry = |name, config| Entry { name, config, calibrated: true };
+    vec![
+        entry("taut", taut),
+        entry("sgn instead of boundary layer", law(&|g| g.improvements.boundary_layer = None)),
+        entry("unbounded adaptation", law(&|g| g.improvements.bounded_adaptation = None)),
+        entry("no anti-windup", law(&|g| g.improvements.anti_windup = None)),
+        entry("raw error rate (no rate filter)", law(&|g| g.improvements.rate_filter = None)),
+        entry("no back-EMF in the plant", law(&no_back_emf)),
+        entry(
+            "current-command duty map",
+            ControllerConfig {
+                duty_map: DutyMap::BackEmf {
+                    current_limit: taut_core::tension::controller::CURRENT_LIMIT,
+                },
+                ..law(&no_back_emf)
+            },
+        ),
+        entry("step set point (no braking approach)", profile(&|p| p.shaped = false)),
+        entry("no plant adaptation", profile(&|p| p.adapt_plant = false)),
+        entry("no observer", profile(&|p| p.observer_gain = None)),
+        entry("no spike clip", profile(&|p| p.spike_clip = false)),
+        Entry { name: "uncalibrated sensor", config: taut, calibrated: false },
+    ]
+}
+
+/// Runs scenario `index` for every controller of the accuracy report.
 #[must_use]
 pub fn run_scenario(seed: u64, index: u64) -> ScenarioResult {
+    run_scenario_with(seed, index, &accuracy_lineup())
+}
+
+/// Runs scenario `index` for every entry of `lineup` (one calibration and one oracle run
+/// shared by all).
+#[must_use]
+pub fn run_scenario_with(seed: u64, index: u64, lineup: &[Entry]) -> ScenarioResult {
     let scenario = Scenario::new(seed, index);
     let calibration_run = calibrate(&scenario.twin);
     let calibration_ok = calibration_run.calibration.is_ok();
     let calibration = calibration_run.calibration.unwrap_or(Calibration::IDENTITY);
     let t_min = oracle_reach_time(&scenario.twin, scenario.target_kgf, 10_000);
-    let mut metrics = [Metrics::default(); 3];
-    for (slot, (_, config)) in metrics.iter_mut().zip(CONTROLLERS) {
-        let trace = pull_trace(&scenario, &config, calibration, PULL_MS);
-        *slot = self::metrics(&trace, scenario.target_kgf, t_min);
-    }
+    let metrics = lineup
+        .iter()
+        .map(|entry| {
+            let correction = if entry.calibrated { calibration } else { Calibration::IDENTITY };
+            let trace = pull_trace(&scenario, &entry.config, correction, PULL_MS);
+            metrics(&trace, scenario.target_kgf, t_min)
+        })
+        .collect();
     ScenarioResult {
         index,
         target_kgf: scenario.target_kgf,
@@ -251,12 +331,25 @@ pub fn run_scenario(seed: u64, index: u64) -> ScenarioResult {
     }
 }
 
-/// Runs `count` scenarios on `threads` threads, calling `progress(done)` after each.
+/// Runs `count` scenarios of the accuracy report on `threads` threads, calling
+/// `progress(done)` after each.
 pub fn run_all(
     seed: u64,
     count: u64,
     threads: usize,
     progress: &(dyn Fn(usize) + Sync),
+) -> Vec<ScenarioResult> {
+    run_lineup(seed, count, threads, progress, &accuracy_lineup())
+}
+
+/// Runs `count` scenarios for every entry of `lineup` on `threads` threads, calling
+/// `progress(done)` after each.
+pub fn run_lineup(
+    seed: u64,
+    count: u64,
+    threads: usize,
+    progress: &(dyn Fn(usize) + Sync),
+    lineup: &[Entry],
 ) -> Vec<ScenarioResult> {
     let next = AtomicUsize::new(0);
     let done = AtomicUsize::new(0);
@@ -270,7 +363,7 @@ pub fn run_all(
                         if index >= count {
                             break;
                         }
-                        mine.push(run_scenario(seed, index));
+                        mine.push(run_scenario_with(seed, index, lineup));
                         progress(done.fetch_add(1, Ordering::Relaxed) + 1);
                     }
                     mine
@@ -352,8 +445,14 @@ fn number(x: f64) -> Value {
 /// The report's JSON document.
 #[must_use]
 pub fn to_json(seed: u64, results: &[ScenarioResult]) -> Value {
+    to_json_for(seed, results, &accuracy_lineup())
+}
+
+/// The JSON document of a report over `lineup`.
+#[must_use]
+pub fn to_json_for(seed: u64, results: &[ScenarioResult], lineup: &[Entry]) -> Value {
     let mut controllers = serde_json::Map::new();
-    for (which, (name, _)) in CONTROLLERS.iter().enumerate() {
+    for (which, Entry { name, .. }) in lineup.iter().enumerate() {
         let s = summarize(results, which);
         controllers.insert(
             (*name).to_owned(),
@@ -377,10 +476,16 @@ pub fn to_json(seed: u64, results: &[ScenarioResult]) -> Value {
 /// The markdown table printed on stdout.
 #[must_use]
 pub fn markdown(results: &[ScenarioResult]) -> String {
+    markdown_for(results, &accuracy_lineup())
+}
+
+/// The markdown table of a report over `lineup`.
+#[must_use]
+pub fn markdown_for(results: &[ScenarioResult], lineup: &[Entry]) -> String {
     let mut out = String::from(
         "| controller | hold p50 kgf | hold p99 kgf | hold max kgf | overshoot p99 kgf | settle p50 s | pull-time ratio | chattering p50 /s | peak A | bus max V | failed |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
-    for (which, (name, _)) in CONTROLLERS.iter().enumerate() {
+    for (which, Entry { name, .. }) in lineup.iter().enumerate() {
         let s = summarize(results, which);
         out.push_str(&format!(
             "| {name} | {:.4} | {:.4} | {:.4} | {:.4} | {:.3} | {:.3} | {:.3} | {:.2} | {:.1} | {} |\n",
@@ -479,4 +584,31 @@ pub fn figures(seed: u64, results: &[ScenarioResult]) -> Vec<(String, Figure)> {
         ));
     }
     out
+}
+
+/// `taut report ablation`: runs [`ablation_lineup`] on `count` scenarios of seed `seed`
+/// with a progress bar on stderr, prints the markdown table and writes the JSON document
+/// (`{"scenarios", "seed", "controllers": {row name: {…}}}`, the accuracy report's keys).
+///
+/// # Panics
+/// When the JSON file cannot be written (a host tool's failure, reported as it happens).
+pub fn ablation_main(count: u64, seed: u64, json: Option<&std::path::Path>) {
+    use std::io::Write as _;
+    let threads = std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get);
+    let progress = |done: usize| {
+        let width = 40;
+        let filled = done * width / count.max(1) as usize;
+        eprint!("\r[{}{}] {done}/{count}", "#".repeat(filled), "-".repeat(width - filled));
+        let _ = std::io::stderr().flush();
+    };
+    let lineup = ablation_lineup();
+    let results = run_lineup(seed, count, threads, &progress, &lineup);
+    eprintln!();
+    let table = markdown_for(&results, &lineup);
+    std::io::stdout().write_all(table.as_bytes()).expect("write the table");
+    if let Some(path) = json {
+        let doc = to_json_for(seed, &results, &lineup);
+        std::fs::write(path, serde_json::to_string_pretty(&doc).expect("json"))
+            .expect("write JSON");
+    }
 }

@@ -24,7 +24,7 @@
 //! 32-bit operands into a 64-bit result (`mul_wide`) and saturating 64-bit adds and shifts —
 //! no division (the period's `1/dt` and every coefficient are computed at construction from
 //! constant gains, which CBMC's simplifier folds), no `i128`, no loop. The force → duty
-//! stage is four such products, the estimator five, the reciprocal six plus a shift by a
+//! stage is four such products, the estimator seven (and a four-step loop), the reciprocal six plus a shift by a
 //! leading-zero count and a three-iteration loop (`unwind(4)`). Each part's state is built
 //! from primitive `kani::any()` values through the real setters and constrained only by
 //! `kani::assume(is_valid())` — an over-approximation of the reachable states. The
@@ -182,6 +182,8 @@ pub struct EstimatorCase {
     pub primed: bool,
     /// State: the observer's stiffness.
     pub stiffness: i32,
+    /// State: the Hall travel of the last ticks.
+    pub recent: [i32; 4],
     /// Input: the tension sample, kgf bits.
     pub sample: i32,
     /// Input: the Hall step count.
@@ -196,6 +198,7 @@ pub fn estimator_step_bounded(case: &EstimatorCase) -> bool {
         spike_clip: case.clip,
         observer_gain: case.observer.then_some(Q16::lit("0.05")),
         rate_filter: Seconds::from_milli(16),
+        lag_ticks: 3,
     };
     let Ok(mut estimator) = TensionEstimator::new(&config, 1_000) else {
         panic!("REQ-TEN-06: the estimator configuration was rejected");
@@ -209,6 +212,7 @@ pub fn estimator_step_bounded(case: &EstimatorCase) -> bool {
         last_steps: case.last_steps,
         primed: case.primed,
         stiffness: case.stiffness,
+        recent: case.recent,
     });
     if !estimator.is_valid() {
         return false;
@@ -324,6 +328,7 @@ pub fn controller_in(case: &StepCase) -> TensionController {
         last_steps: e.last_steps,
         primed: e.primed,
         stiffness: e.stiffness,
+        recent: e.recent,
     });
     controller.speed_estimator_mut().set_state(
         case.last_steps,
@@ -398,8 +403,9 @@ mod verification {
     }
 
     /// REQ-TEN-01/03/10, the estimator: every valid state and input, clip and observer on
-    /// or off. The median is six comparisons; five products.
+    /// or off. The median is six comparisons; seven products and a four-step loop.
     #[kani::proof]
+    #[kani::unwind(5)]
     fn verify_estimator_step_bounded() {
         let case: EstimatorCase = kani::any();
         // The estimator's invariant, as `TensionEstimator::is_valid` states it.

@@ -41,13 +41,13 @@ fn estimator_case() -> impl Strategy<Value = EstimatorCase> {
     (
         (any::<bool>(), any::<bool>(), any::<[i32; 5]>(), any::<i32>(), any::<i64>()),
         (any::<i32>(), any::<i32>(), any::<i32>(), any::<bool>(), 0..=4 * KGF),
-        (any::<i32>(), any::<i32>()),
+        (any::<i32>(), any::<i32>(), any::<[i32; 4]>()),
     )
         .prop_map(
             |(
                 (clip, observer, window, filtered, fused),
                 (rate, speed, last_steps, primed, stiffness),
-                (sample, steps),
+                (sample, steps, recent),
             )| {
                 EstimatorCase {
                     clip,
@@ -60,6 +60,7 @@ fn estimator_case() -> impl Strategy<Value = EstimatorCase> {
                     last_steps,
                     primed,
                     stiffness,
+                    recent,
                     sample,
                     steps,
                 }

@@ -137,6 +137,9 @@ pub struct ProfileConfig {
     pub observer_gain: Option<Q16>,
     /// Scale the law's nominal plant to the identified string stiffness.
     pub adapt_plant: bool,
+    /// Keep fusing the Hall travel into the tension estimate once the braking is over (in
+    /// the hold, where the carriage moves by single steps, or not at all).
+    pub hall_in_hold: bool,
     /// The stiffness the law's nominal plant was written for, kgf/mm (`K̄ = D̄·M̄`).
     pub nominal_stiffness: Q16,
 }
@@ -158,6 +161,7 @@ impl ProfileConfig {
         spike_clip: true,
         observer_gain: Some(Q16::lit("0.05")),
         adapt_plant: true,
+        hall_in_hold: false,
         nominal_stiffness: Q16::lit("0.5"),
     };
 
@@ -376,6 +380,7 @@ pub struct TensionController {
     estimator: TensionEstimator,
     shaped: bool,
     adapt_plant: bool,
+    hall_in_hold: bool,
     /// `dt` in Q0.32 seconds.
     dt_q32: i64,
     /// `dt/τ_c`, Q0.32 in an `i64`.
@@ -409,6 +414,16 @@ impl Default for TensionController {
     }
 }
 
+/// The sensing lag in whole ticks of `period_us` (rounded, at most the observer's limit).
+fn lag_ticks(lag: Seconds, period_us: u32) -> u8 {
+    let lag_us = i64::from(lag.to_bits()).saturating_mul(1_000_000) >> 16;
+    let ticks = lag_us
+        .saturating_add(i64::from(period_us / 2))
+        .checked_div(i64::from(period_us))
+        .unwrap_or(0);
+    u8::try_from(ticks.clamp(0, crate::tension::estimator::LAG_TICKS_MAX as i64)).unwrap_or(0)
+}
+
 /// `a × b` of a Q15.16 value and a Q8.24 factor, rounded, as Q15.16 bits.
 fn mul_q24(a: i32, b_q24: i32) -> i32 {
     saturate_i32(mul_wide(a, b_q24).saturating_add(1 << 23) >> 24)
@@ -438,6 +453,7 @@ impl TensionController {
                 spike_clip: p.spike_clip,
                 observer_gain: p.observer_gain,
                 rate_filter: p.rate_filter,
+                lag_ticks: lag_ticks(p.sensing_lag, period),
             },
             period,
         )
@@ -479,6 +495,7 @@ impl TensionController {
             estimator,
             shaped: p.shaped,
             adapt_plant: p.adapt_plant,
+            hall_in_hold: p.hall_in_hold,
             dt_q32,
             closing_step,
             inv_tau,
@@ -519,6 +536,7 @@ impl TensionController {
             estimator: TensionEstimator::FALLBACK,
             shaped: false,
             adapt_plant: false,
+            hall_in_hold: false,
             dt_q32: 4_294_967,
             closing_step: 1 << 27,
             inv_tau: 32 << 16,

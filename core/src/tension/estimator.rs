@@ -17,9 +17,14 @@
 //! 3. **Observer** (switchable): once the string's stiffness `K̂` is known (the controller
 //!    identifies it during the take-up, [`TensionEstimator::set_stiffness`]), the estimate
 //!    moves with the carriage at once, `ŷ ← ŷ + K̂·Δx`, and is pulled toward the measurement
-//!    with gain `α`, `ŷ ← ŷ + α·(y_f − ŷ)`: a complementary filter whose fast part is the
-//!    Hall position (no lag, no noise) and whose slow part (time constant `dt/α`, 20 ms for
-//!    `α` = 0.05) is the load cell. Without the observer `ŷ = y_f`.
+//!    with gain `α`: a complementary filter whose fast part is the Hall position (no lag, no
+//!    noise) and whose slow part (time constant `dt/α`, 20 ms for `α` = 0.05) is the load
+//!    cell. The measurement is `lag` ticks old (conversion, the previous tick, the median's
+//!    two ticks on a ramp), so it is compared with what the estimate was then,
+//!    `ŷ − K̂·Δx_lag` (`Δx_lag` the Hall travel of the last `lag` ticks):
+//!    `ŷ ← ŷ + α·(y_f − (ŷ − K̂·Δx_lag))` — otherwise a ramp would drag the estimate back by
+//!    the lag. Before `K̂` is known (or when the controller withdraws it, `K̂ = 0`) the
+//!    observer is a plain low-pass of `y_f`; without the observer `ŷ = y_f`.
 //! 4. **Rate and speed**: first-order low-passes with the same time constant of the
 //!    filtered sample's difference (`ẏ`, kgf/s) and of the Hall travel (`v`, mm/s). Filtered
 //!    alike, they carry the same lag, so `ẏ/v` is the string's stiffness and `ẏ·v` times a
@@ -61,7 +66,12 @@ pub struct EstimatorConfig {
     pub observer_gain: Option<Q16>,
     /// Time constant of the rate and speed low-passes.
     pub rate_filter: Seconds,
+    /// The age of a load-cell sample when it is used, ticks (at most [`LAG_TICKS_MAX`]).
+    pub lag_ticks: u8,
 }
+
+/// The longest sensing lag the observer compensates, ticks.
+pub const LAG_TICKS_MAX: usize = 4;
 
 /// One tick's estimate.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
@@ -98,6 +108,8 @@ pub struct EstimatorState {
     pub primed: bool,
     /// The observer's stiffness `K̂`, kgf/mm bits (0: not yet known, no Hall correction).
     pub stiffness: i32,
+    /// Hall steps moved in each of the last [`LAG_TICKS_MAX`] ticks, newest last.
+    pub recent: [i32; LAG_TICKS_MAX],
 }
 
 /// An unprimed, zero state.
@@ -110,6 +122,7 @@ const STATE_ZERO: EstimatorState = EstimatorState {
     last_steps: 0,
     primed: false,
     stiffness: 0,
+    recent: [0; LAG_TICKS_MAX],
 };
 
 /// The estimator: validated gains plus state. See the module docs.
@@ -122,6 +135,8 @@ pub struct TensionEstimator {
     beta: Coef,
     /// `1/dt`, Hz.
     inv_dt: i32,
+    /// The sensing lag, ticks (≤ [`LAG_TICKS_MAX`]).
+    lag: u8,
     state: EstimatorState,
 }
 
@@ -130,7 +145,8 @@ pub struct TensionEstimator {
 pub enum EstimatorError {
     /// The period is zero or above one second.
     Period,
-    /// `α` is not in `(0, 1]` or the rate time constant is negative.
+    /// `α` is not in `(0, 1]`, the rate time constant is negative, or the lag is longer
+    /// than [`LAG_TICKS_MAX`].
     Gain,
 }
 
@@ -145,7 +161,7 @@ pub fn median5(a: i32, b: i32, c: i32, d: i32, e: i32) -> i32 {
 impl TensionEstimator {
     /// An estimator without spike clip or observer at 1 kHz (the controller's fallback).
     pub(crate) const FALLBACK: Self =
-        Self { clip: false, alpha: None, beta: 1 << 12, inv_dt: 1_000, state: STATE_ZERO };
+        Self { clip: false, alpha: None, beta: 1 << 12, inv_dt: 1_000, lag: 0, state: STATE_ZERO };
 
     /// An estimator for a tick of `period_us` µs.
     ///
@@ -160,13 +176,20 @@ impl TensionEstimator {
             Some(alpha) if alpha > Q16::ZERO && alpha <= Q16::ONE => Some(alpha.to_bits()),
             Some(_) => return Err(EstimatorError::Gain),
         };
-        if config.rate_filter.0 < Q16::ZERO {
+        if config.rate_filter.0 < Q16::ZERO || usize::from(config.lag_ticks) > LAG_TICKS_MAX {
             return Err(EstimatorError::Gain);
         }
         let beta = filter_gain(period_us, config.rate_filter).ok_or(EstimatorError::Gain)?;
         let inv_dt = i32::try_from(1_000_000_u32.checked_div(period_us).unwrap_or(1))
             .map_err(|_| EstimatorError::Period)?;
-        Ok(Self { clip: config.spike_clip, alpha, beta, inv_dt, state: EstimatorState::default() })
+        Ok(Self {
+            clip: config.spike_clip,
+            alpha,
+            beta,
+            inv_dt,
+            lag: config.lag_ticks,
+            state: EstimatorState::default(),
+        })
     }
 
     /// Forgets the history: the next update restarts from its sample, with no stiffness.
@@ -224,12 +247,15 @@ impl TensionEstimator {
                 last_steps: steps,
                 primed: true,
                 stiffness: s.stiffness,
+                recent: [0; LAG_TICKS_MAX],
             };
         }
         let moved = steps
             .wrapping_sub(s.last_steps)
             .clamp(MAX_STEPS_PER_TICK.saturating_neg(), MAX_STEPS_PER_TICK);
         s.last_steps = steps;
+        let [_, r1, r2, r3] = s.recent;
+        s.recent = [r1, r2, r3, moved];
         let [_, w1, w2, w3, w4] = s.window;
         s.window = [w1, w2, w3, w4, raw];
         let median = median5(w1, w2, w3, w4, raw);
@@ -246,12 +272,21 @@ impl TensionEstimator {
             median
         };
 
-        // Observer: ŷ ← ŷ + K̂·Δx, then ŷ ← ŷ + α·(y_f − ŷ).
+        // Observer: ŷ ← ŷ + K̂·Δx, then ŷ ← ŷ + α·(y_f − (ŷ − K̂·Δx_lag)).
         s.fused = match self.alpha {
             Some(alpha) => {
                 let dx = moved.saturating_mul(STEP_MM_BITS);
                 let predicted = s.fused.saturating_add(mul_wide(s.stiffness, dx));
-                let gap = (i64::from(s.filtered) << 16).saturating_sub(predicted);
+                // The travel of the last `lag` ticks (constant bound: LAG_TICKS_MAX).
+                let mut lag_steps = 0_i32;
+                for (age, steps) in s.recent.iter().rev().enumerate() {
+                    if age < usize::from(self.lag) {
+                        lag_steps = lag_steps.saturating_add(*steps);
+                    }
+                }
+                let lag_travel = lag_steps.saturating_mul(STEP_MM_BITS);
+                let then = predicted.saturating_sub(mul_wide(s.stiffness, lag_travel));
+                let gap = (i64::from(s.filtered) << 16).saturating_sub(then);
                 // gap (Q31.32) × α (Q15.16): split to stay in 64 bits.
                 let correction = (gap >> 16).saturating_mul(i64::from(alpha));
                 predicted.saturating_add(correction)
@@ -301,6 +336,7 @@ mod tests {
                 spike_clip: clip,
                 observer_gain: observer.then_some(Q16::lit("0.05")),
                 rate_filter: Seconds::from_milli(16),
+                lag_ticks: 3,
             },
             1_000,
         )
@@ -363,16 +399,36 @@ mod tests {
     }
 
     #[test]
+    fn the_observer_is_not_dragged_back_by_the_sensing_lag_on_a_ramp() {
+        // A 1 kgf/mm string pulled at one step per tick, the load-cell sample one tick late
+        // and the median two more on a ramp — three in all: the estimate follows the true
+        // tension, not the late sample.
+        let mut est = estimator(true, true);
+        est.update(Kgf::from_int(10), 0);
+        est.set_stiffness(Q16::ONE);
+        let step_kgf = i64::from(STEP_MM_BITS); // 1 kgf/mm × one step, in kgf bits
+        let mut out = Estimate::default();
+        for tick in 1..300_i64 {
+            let late = (tick - 1).max(0) * step_kgf;
+            let sample = Kgf::from_bits(i32::try_from((10 << 16) + late).unwrap());
+            out = est.update(sample, i32::try_from(tick).unwrap());
+        }
+        let truth = (10_i64 << 16) + 299 * step_kgf;
+        let off = i64::from(out.tension.to_bits()) - truth;
+        assert!(off.abs() <= 70, "{off} bits"); // within 1 mkgf
+    }
+
+    #[test]
     fn the_observer_follows_the_hall_travel_at_once() {
         let mut est = estimator(true, true);
         est.update(Kgf::from_int(10), 0);
         est.set_stiffness(Q16::ONE);
-        // Ten steps in one tick at 1 kgf/mm: +0.529 kgf at once, before the load cell moves.
+        // Ten steps in one tick at 1 kgf/mm: +0.529 kgf at once, before the load cell moves
+        // (and the load cell is not expected to show it for another three ticks).
         let out = est.update(Kgf::from_int(10), 10);
         let gained = out.tension.saturating_sub(Kgf::from_int(10)).to_milli();
-        // 95 % of the Hall prediction survives this tick's α = 0.05 pull toward the sample.
-        assert!((gained - 503).abs() <= 2, "{gained}");
-        // With the load cell agreeing, the estimate stays there.
+        assert!((gained - 529).abs() <= 1, "{gained}");
+        // With the load cell catching up three ticks later, the estimate stays there.
         let mut last = out;
         for _ in 0..100 {
             last = est.update(Kgf::from_milli(10_529), 10);

@@ -142,7 +142,12 @@ fn main() {
                 for r in &results {
                     println!(
                         "{:4} {:16} T={:5.1} tmin={:?} cal={} {:?}",
-                        r.index, r.string, r.target_kgf, r.t_min, r.calibration_ok, r.metrics[0]
+                        r.index,
+                        r.string,
+                        r.target_kgf,
+                        r.t_min,
+                        r.calibration_ok,
+                        r.metrics.first()
                     );
                 }
             }

@@ -421,7 +421,8 @@ fn lag_ticks(lag: Seconds, period_us: u32) -> u8 {
         .saturating_add(i64::from(period_us / 2))
         .checked_div(i64::from(period_us))
         .unwrap_or(0);
-    u8::try_from(ticks.clamp(0, crate::tension::estimator::LAG_TICKS_MAX as i64)).unwrap_or(0)
+    let max = i64::try_from(crate::tension::estimator::LAG_TICKS_MAX).unwrap_or(0);
+    u8::try_from(ticks.clamp(0, max)).unwrap_or(0)
 }
 
 /// `a × b` of a Q15.16 value and a Q8.24 factor, rounded, as Q15.16 bits.

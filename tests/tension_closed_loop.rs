@@ -1,35 +1,74 @@
-//! Closed-loop tests of taut's tension controller on the digital twin (REQ-TEN-07, REQ-CAL-*):
-//! a representative subset of Monte-Carlo scenarios (soft badminton to stiff polyester,
-//! low and high targets), each calibrated with the simulated 4-point calibration, asserting
-//! the accuracy with a margin above what the report measures.
-#![allow(clippy::float_arithmetic, clippy::print_stdout, reason = "test figures in f64")]
+//! Closed-loop tests of taut's tension controller on the digital twin (REQ-TEN-07,
+//! REQ-CAL-05): a representative subset of Monte-Carlo scenarios (soft badminton to stiff
+//! polyester, low and high targets), each calibrated with the simulated 4-point
+//! calibration, asserting the accuracy with a margin above what the report measures, and
+//! that taut beats the paper's two laws on the same scenarios.
+#![allow(
+    clippy::float_arithmetic,
+    clippy::print_stdout,
+    clippy::indexing_slicing,
+    clippy::expect_used,
+    reason = "test figures in f64 over recorded traces"
+)]
 
-use taut::report::{CONTROLLERS, Scenario, metrics, oracle_reach_time, pull_trace};
+use taut::report::{CONTROLLERS, Metrics, Scenario, metrics, oracle_reach_time, pull_trace};
 use taut::sil::calibrate;
 use taut_core::sense::calibration::Calibration;
 
-/// Scenarios of `report accuracy --seed 1` covering every string family.
+/// Scenarios of `report accuracy --seed 1` covering every string family and the target
+/// range (8.2 to 34.4 kgf).
 const SUBSET: [u64; 6] = [0, 1, 4, 5, 13, 14];
+
+/// Every controller's figures on every scenario of the subset.
+fn run_subset() -> Vec<[Metrics; 3]> {
+    SUBSET
+        .iter()
+        .map(|&index| {
+            let scenario = Scenario::new(1, index);
+            let calibration = calibrate(&scenario.twin).calibration.expect("calibration accepted");
+            let t_min = oracle_reach_time(&scenario.twin, scenario.target_kgf, 10_000);
+            let mut out = [Metrics::default(); 3];
+            for (slot, (name, config)) in out.iter_mut().zip(CONTROLLERS) {
+                let trace = pull_trace(&scenario, &config, calibration, taut::report::PULL_MS);
+                *slot = metrics(&trace, scenario.target_kgf, t_min);
+                println!(
+                    "scenario {index} ({} kgf, {}), {name}: {slot:?}",
+                    scenario.target_kgf,
+                    scenario.twin.string.kind.name()
+                );
+            }
+            out
+        })
+        .collect()
+}
 
 #[test]
 fn taut_holds_tension_on_representative_scenarios() {
-    for index in SUBSET {
-        let scenario = Scenario::new(1, index);
-        let calibration = calibrate(&scenario.twin);
-        let calibration = calibration.calibration.expect("calibration accepted");
-        let t_min = oracle_reach_time(&scenario.twin, scenario.target_kgf, 10_000);
-        let trace = pull_trace(&scenario, &CONTROLLERS[0].1, calibration, taut::report::PULL_MS);
-        let m = metrics(&trace, scenario.target_kgf, t_min);
-        println!(
-            "scenario {index} ({} kgf, {}): {m:?}",
-            scenario.target_kgf,
-            scenario.twin.string.kind.name()
-        );
-        assert!(!m.failed, "scenario {index}: failed");
-        assert!(m.hold_error_kgf <= 0.3, "scenario {index}: hold error {}", m.hold_error_kgf);
-        assert!(m.overshoot_kgf <= 0.5, "scenario {index}: overshoot {}", m.overshoot_kgf);
-        assert!(m.pull_time_ratio <= 5.0, "scenario {index}: ratio {}", m.pull_time_ratio);
-        assert!(m.peak_current_a <= 12.0, "scenario {index}: current {}", m.peak_current_a);
+    let runs = run_subset();
+    for (index, m) in SUBSET.iter().zip(&runs) {
+        let taut = &m[0];
+        assert!(!taut.failed, "scenario {index}: failed");
+        assert!(taut.hold_error_kgf <= 0.1, "scenario {index}: hold error {}", taut.hold_error_kgf);
+        assert!(taut.overshoot_kgf <= 0.15, "scenario {index}: overshoot {}", taut.overshoot_kgf);
+        assert!(taut.pull_time_ratio <= 1.3, "scenario {index}: ratio {}", taut.pull_time_ratio);
+        assert!(taut.peak_current_a <= 12.0, "scenario {index}: current {}", taut.peak_current_a);
+        assert!(taut.bus_peak_v <= 40.0, "scenario {index}: bus {} V", taut.bus_peak_v);
+    }
+    // Better than both of the paper's laws on the same scenarios, in the worst case over
+    // the subset: hold error, overshoot, chattering.
+    let worst = |which: usize, f: fn(&Metrics) -> f64| {
+        runs.iter().map(|m| f(&m[which])).fold(0.0_f64, f64::max)
+    };
+    for (figure, f) in [
+        ("hold error", (|m: &Metrics| m.hold_error_kgf) as fn(&Metrics) -> f64),
+        ("overshoot", |m: &Metrics| m.overshoot_kgf),
+        ("chattering", |m: &Metrics| m.chattering),
+    ] {
+        let taut = worst(0, f);
+        for (which, (name, _)) in CONTROLLERS.iter().enumerate().skip(1) {
+            let baseline = worst(which, f);
+            assert!(taut < baseline, "{figure}: taut {taut} not better than {name} {baseline}");
+        }
     }
 }
 
@@ -50,5 +89,5 @@ fn calibration_removes_the_sensor_offset() {
         "mean error over the last second: identity {raw:.3} kgf, calibrated {corrected:.3} kgf"
     );
     assert!(raw.abs() > 0.3, "the uncorrected sensor should be visibly off ({raw})");
-    assert!(corrected.abs() < 0.1, "calibrated error {corrected}");
+    assert!(corrected.abs() < 0.05, "calibrated error {corrected}");
 }

@@ -140,6 +140,8 @@ pub struct ProfileConfig {
     /// Keep fusing the Hall travel into the tension estimate once the braking is over (in
     /// the hold, where the carriage moves by single steps, or not at all).
     pub hall_in_hold: bool,
+    /// The observer's gain once the braking is over (`None`: keep `observer_gain`).
+    pub observer_gain_hold: Option<Q16>,
     /// The stiffness the law's nominal plant was written for, kgf/mm (`K̄ = D̄·M̄`).
     pub nominal_stiffness: Q16,
 }
@@ -161,7 +163,8 @@ impl ProfileConfig {
         spike_clip: true,
         observer_gain: Some(Q16::lit("0.05")),
         adapt_plant: true,
-        hall_in_hold: false,
+        hall_in_hold: true,
+        observer_gain_hold: None,
         nominal_stiffness: Q16::lit("0.5"),
     };
 
@@ -381,6 +384,8 @@ pub struct TensionController {
     shaped: bool,
     adapt_plant: bool,
     hall_in_hold: bool,
+    /// The observer's gain after the braking.
+    hold_gain: Option<Q16>,
     /// `dt` in Q0.32 seconds.
     dt_q32: i64,
     /// `dt/τ_c`, Q0.32 in an `i64`.
@@ -497,6 +502,7 @@ impl TensionController {
             shaped: p.shaped,
             adapt_plant: p.adapt_plant,
             hall_in_hold: p.hall_in_hold,
+            hold_gain: p.observer_gain_hold,
             dt_q32,
             closing_step,
             inv_tau,
@@ -538,6 +544,7 @@ impl TensionController {
             shaped: false,
             adapt_plant: false,
             hall_in_hold: false,
+            hold_gain: None,
             dt_q32: 4_294_967,
             closing_step: 1 << 27,
             inv_tau: 32 << 16,
@@ -745,11 +752,24 @@ impl TensionController {
             let next =
                 if p.peak > p.final_target { PullPhase::PreStretch } else { PullPhase::Hold };
             self.enter(next);
+            self.end_braking();
             (0, 0)
         } else {
             self.set_reference(advanced);
             self.profile.reference_rate = next_rate;
             (next_rate, p.reference_accel)
+        }
+    }
+
+    /// The braking is over: from here the carriage moves by single Hall steps at most.
+    /// Unless [`ProfileConfig::hall_in_hold`], the estimate follows the load cell alone; the
+    /// observer takes its hold gain.
+    fn end_braking(&mut self) {
+        if !self.hall_in_hold {
+            self.estimator.set_stiffness(Q16::ZERO);
+        }
+        if let Some(alpha) = self.hold_gain {
+            self.estimator.set_observer_gain(alpha);
         }
     }
 

@@ -131,6 +131,8 @@ pub struct TensionEstimator {
     clip: bool,
     /// `α`, Q15.16 bits (`None` in the config → no observer).
     alpha: Option<Coef>,
+    /// The configured `α`, restored by [`TensionEstimator::reset`].
+    alpha_config: Option<Coef>,
     /// `dt/(τ + dt)` of the rate and speed low-passes, Q15.16 bits.
     beta: Coef,
     /// `1/dt`, Hz.
@@ -160,8 +162,15 @@ pub fn median5(a: i32, b: i32, c: i32, d: i32, e: i32) -> i32 {
 
 impl TensionEstimator {
     /// An estimator without spike clip or observer at 1 kHz (the controller's fallback).
-    pub(crate) const FALLBACK: Self =
-        Self { clip: false, alpha: None, beta: 1 << 12, inv_dt: 1_000, lag: 0, state: STATE_ZERO };
+    pub(crate) const FALLBACK: Self = Self {
+        clip: false,
+        alpha: None,
+        alpha_config: None,
+        beta: 1 << 12,
+        inv_dt: 1_000,
+        lag: 0,
+        state: STATE_ZERO,
+    };
 
     /// An estimator for a tick of `period_us` µs.
     ///
@@ -185,6 +194,7 @@ impl TensionEstimator {
         Ok(Self {
             clip: config.spike_clip,
             alpha,
+            alpha_config: alpha,
             beta,
             inv_dt,
             lag: config.lag_ticks,
@@ -192,15 +202,25 @@ impl TensionEstimator {
         })
     }
 
-    /// Forgets the history: the next update restarts from its sample, with no stiffness.
+    /// Forgets the history: the next update restarts from its sample, with no stiffness and
+    /// the configured observer gain.
     pub fn reset(&mut self) {
         self.state.primed = false;
         self.state.stiffness = 0;
+        self.alpha = self.alpha_config;
     }
 
     /// Sets the observer's stiffness `K̂` (kgf/mm), clamped to `[0, STIFFNESS_MAX]`.
     pub fn set_stiffness(&mut self, stiffness: Q16) {
         self.state.stiffness = stiffness.clamp(Q16::ZERO, STIFFNESS_MAX).to_bits();
+    }
+
+    /// Changes the observer's gain `α` (clamped to `(0, 1]`); no effect without the
+    /// observer.
+    pub fn set_observer_gain(&mut self, alpha: Q16) {
+        if self.alpha.is_some() {
+            self.alpha = Some(alpha.clamp(Q16::DELTA, Q16::ONE).to_bits());
+        }
     }
 
     /// Moves the observer's tension to `tension` (the controller's lag-compensated value

@@ -250,8 +250,8 @@ pub fn accuracy_lineup() -> Vec<Entry> {
 /// taut with each of its improvements switched off in turn (`taut report ablation`): the
 /// law's four (boundary layer, bounded adaptation, anti-windup, rate filter), the
 /// back-EMF feed-forward of the voltage-drive plant, the profile's and estimator's (braking
-/// approach, plant adaptation to the identified stiffness, observer, spike clip), and the
-/// 4-point calibration.
+/// approach, plant adaptation to the identified stiffness, observer, spike clip, slip
+/// damping in the hold), and the 4-point calibration.
 #[must_use]
 pub fn ablation_lineup() -> Vec<Entry> {
     use taut_core::tension::controller::{LawConfig, ProfileConfig, TAUT_GAINS};
@@ -294,6 +294,7 @@ pub fn ablation_lineup() -> Vec<Entry> {
         entry("no plant adaptation", profile(&|p| p.adapt_plant = false)),
         entry("no observer", profile(&|p| p.observer_gain = None)),
         entry("no spike clip", profile(&|p| p.spike_clip = false)),
+        entry("no slip damping (friction-aware hold)", profile(&|p| p.slip_damping = None)),
         Entry { name: "uncalibrated sensor", config: taut, calibrated: false },
     ]
 }

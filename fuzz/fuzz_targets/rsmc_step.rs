@@ -7,8 +7,8 @@
 use arbitrary::Arbitrary;
 use libfuzzer_sys::fuzz_target;
 use taut_proofs::tension::{
-    EstimatorCase, LawCase, StepCase, controller_step_bounded, estimator_step_bounded,
-    force_to_duty_bounded, reciprocal_accurate, rsmc_step_bounded,
+    EstimatorCase, LawCase, SlipCase, StepCase, controller_step_bounded, estimator_step_bounded,
+    force_to_duty_bounded, reciprocal_accurate, rsmc_step_bounded, slip_damper_bounded,
 };
 use taut_proofs::tension_reference::{TrackStep, law_tracks_reference};
 
@@ -17,6 +17,7 @@ struct Input {
     steps: Vec<StepCase>,
     laws: Vec<LawCase>,
     estimators: Vec<EstimatorCase>,
+    slips: Vec<SlipCase>,
     maps: Vec<(bool, i32, i32)>,
     reciprocals: Vec<i32>,
     track_paper: bool,
@@ -34,6 +35,9 @@ fuzz_target!(|input: Input| {
     }
     for case in input.estimators.iter().take(64) {
         estimator_step_bounded(case);
+    }
+    for case in input.slips.iter().take(64) {
+        slip_damper_bounded(case);
     }
     for &(current_map, force, speed) in input.maps.iter().take(64) {
         force_to_duty_bounded(current_map, force, speed);

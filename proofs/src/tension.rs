@@ -15,6 +15,7 @@
 //! | [`rsmc_step_bounded`] | `verify_rsmc_step_bounded` | the law: no panic or overflow, `φ̂ ∈ [0, φ_max]`, `\|z\| ≤ z_max`, plant scale kept |
 //! | [`force_to_duty_bounded`] | `verify_force_to_duty_bounded` | always `Pull`, duty ≤ `DUTY_MAX` and within the current-limit window |
 //! | [`estimator_step_bounded`] | `verify_estimator_step_bounded` | no panic, stiffness kept, the spike clip's per-tick limit |
+//! | [`slip_damper_bounded`] | `verify_slip_damper_bounded` | no panic, a braking force ≥ 0 only for a forward residual, learning within bounds |
 //! | [`reciprocal_accurate`] | `verify_reciprocal_accurate` | `1/x` within 2⁻²⁰ relative for `x ≥ 2⁻⁷`, no division |
 //! | [`controller_step_bounded`] | `verify_controller_step_bounded` | the composition: duty ≤ `DUTY_MAX`, `is_valid()` kept, every phase |
 //!
@@ -24,7 +25,8 @@
 //! 32-bit operands into a 64-bit result (`mul_wide`) and saturating 64-bit adds and shifts —
 //! no division (the period's `1/dt` and every coefficient are computed at construction from
 //! constant gains, which CBMC's simplifier folds), no `i128`, no loop. The force → duty
-//! stage is four such products, the estimator seven (and a four-step loop), the reciprocal six plus a shift by a
+//! stage is four such products, the estimator seven (and a four-step loop), the slip
+//! damper three, the reciprocal six plus a shift by a
 //! leading-zero count and a three-iteration loop (`unwind(4)`). Each part's state is built
 //! from primitive `kani::any()` values through the real setters and constrained only by
 //! `kani::assume(is_valid())` — an over-approximation of the reachable states. The
@@ -38,7 +40,8 @@ use taut_core::drive::{DUTY_MAX, Direction, DriveStatus};
 use taut_core::io::LimitSwitches;
 use taut_core::tension::controller::{ProfileState, TAUT_GAINS, TAUT_PLANT, TensionController};
 use taut_core::tension::estimator::{
-    CLIP_ALLOWANCE, CLIP_STIFFNESS, EstimatorConfig, EstimatorState, STEP_MM_BITS, TensionEstimator,
+    CLIP_ALLOWANCE, CLIP_STIFFNESS, EstimatorConfig, EstimatorState, LEARN_TICKS, STEP_MM_BITS,
+    SlipDamper, SlipState, TensionEstimator,
 };
 use taut_core::tension::law::{
     Reference, Rsmc, RsmcGains, RsmcState, Saturation, mul_wide, narrow, reciprocal_q24,
@@ -249,6 +252,55 @@ pub fn reciprocal_accurate(x: i32) -> bool {
     true
 }
 
+/// The slip damper's inputs, as primitives.
+#[derive(Clone, Copy, Debug, Default)]
+#[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
+#[cfg_attr(kani, derive(kani::Arbitrary))]
+pub struct SlipCase {
+    /// State: the stall relation, duty per ampere (Q8.24).
+    pub duty_per_amp: i32,
+    /// State: the previous duty (Q15.16).
+    pub last_duty: i32,
+    /// State: ticks since the last Hall step.
+    pub quiet: u16,
+    /// State: ticks learned.
+    pub learned: u16,
+    /// Input: the winding current, A bits.
+    pub current: i32,
+    /// Input: Hall steps moved.
+    pub moved: i32,
+    /// Input: the hold is on.
+    pub active: bool,
+}
+
+/// REQ-TEN-15: the slip damper never panics, returns a braking force that is never
+/// negative and is zero outside the hold, while the model is still learning, and whenever
+/// the motion residual does not exceed the dead zone; its model stays non-negative and its
+/// learning count within [`LEARN_TICKS`].
+pub fn slip_damper_bounded(case: &SlipCase) {
+    let mut damper = SlipDamper::new(
+        Q16::const_from_int(550),
+        Q16::lit("0.002"),
+        Q16::lit("0.005"),
+        Q16::lit("0.035"),
+    );
+    damper.set_state(SlipState {
+        duty_per_amp: case.duty_per_amp.max(0),
+        last_duty: case.last_duty,
+        quiet: case.quiet,
+        learned: case.learned.min(LEARN_TICKS),
+    });
+    let before = damper.state();
+    let brake = damper.update(Amps::from_bits(case.current), case.moved, case.active);
+    let after = damper.state();
+    assert!(brake >= Kgf::ZERO, "REQ-TEN-15: the damper pushed ({brake:?})");
+    if !case.active || (before.learned < LEARN_TICKS && after.learned < LEARN_TICKS) {
+        assert_eq!(brake, Kgf::ZERO, "REQ-TEN-15: braked outside the hold or while learning");
+    }
+    assert!(after.duty_per_amp >= 0, "REQ-TEN-15: the stall relation went negative");
+    assert!(after.learned <= LEARN_TICKS, "REQ-TEN-15: learning count out of range");
+}
+
 /// Everything one controller step depends on, as primitives.
 #[derive(Clone, Copy, Debug, Default)]
 #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -260,6 +312,8 @@ pub struct StepCase {
     pub law: LawCase,
     /// The tension estimator's state and configuration switches (its inputs unused).
     pub estimator: EstimatorCase,
+    /// The slip damper's state (its inputs unused).
+    pub slip: SlipCase,
     /// Speed filter: last step count.
     pub last_steps: i32,
     /// Speed filter: speed (bits).
@@ -330,6 +384,14 @@ pub fn controller_in(case: &StepCase) -> TensionController {
         stiffness: e.stiffness,
         recent: e.recent,
     });
+    if let Some(damper) = controller.slip_damper_mut() {
+        damper.set_state(SlipState {
+            duty_per_amp: case.slip.duty_per_amp.max(0),
+            last_duty: case.slip.last_duty,
+            quiet: case.slip.quiet,
+            learned: case.slip.learned.min(LEARN_TICKS),
+        });
+    }
     controller.speed_estimator_mut().set_state(
         case.last_steps,
         MmPerSecond(Q16::from_bits(case.speed)),
@@ -411,6 +473,12 @@ mod verification {
         // The estimator's invariant, as `TensionEstimator::is_valid` states it.
         kani::assume(case.stiffness >= 0 && case.stiffness <= 4 << 16);
         assert!(estimator_step_bounded(&case));
+    }
+
+    /// REQ-TEN-15, the slip damper: every state and input. Three products.
+    #[kani::proof]
+    fn verify_slip_damper_bounded() {
+        slip_damper_bounded(&kani::any());
     }
 
     /// REQ-TEN-01, the reciprocal: every `x ≥ 2⁻⁷` (three Newton steps, `unwind(4)`).

@@ -17,8 +17,8 @@ use proptest::prelude::*;
 use taut_core::tension::controller::{TAUT_GAINS, TAUT_PLANT};
 use taut_core::tension::law::RsmcGains;
 use taut_proofs::tension::{
-    EstimatorCase, LawCase, StepCase, controller_step_bounded, estimator_step_bounded,
-    force_to_duty_bounded, reciprocal_accurate, rsmc_step_bounded,
+    EstimatorCase, LawCase, SlipCase, StepCase, controller_step_bounded, estimator_step_bounded,
+    force_to_duty_bounded, reciprocal_accurate, rsmc_step_bounded, slip_damper_bounded,
 };
 use taut_proofs::tension_reference::{TrackStep, coefficient_errors, law_tracks_reference};
 
@@ -68,9 +68,19 @@ fn estimator_case() -> impl Strategy<Value = EstimatorCase> {
         )
 }
 
+fn slip_case() -> impl Strategy<Value = SlipCase> {
+    (
+        (any::<i32>(), any::<i32>(), any::<u16>(), any::<u16>()),
+        (any::<i32>(), any::<i32>(), any::<bool>()),
+    )
+        .prop_map(|((duty_per_amp, last_duty, quiet, learned), (current, moved, active))| {
+            SlipCase { duty_per_amp, last_duty, quiet, learned, current, moved, active }
+        })
+}
+
 fn step_case() -> impl Strategy<Value = StepCase> {
     (
-        (any::<bool>(), law_case(), estimator_case()),
+        (any::<bool>(), law_case(), estimator_case(), slip_case()),
         (any::<i32>(), any::<i32>(), any::<bool>(), 0_u8..7),
         (0..=50 * KGF, 0..=50 * KGF, 0..=50 * KGF, any::<i32>()),
         (0_i64..=(50_i64 << 32), any::<i32>(), any::<i32>(), any::<u32>()),
@@ -83,6 +93,7 @@ fn step_case() -> impl Strategy<Value = StepCase> {
                 paper: a.0,
                 law: a.1,
                 estimator: a.2,
+                slip: a.3,
                 last_steps: b.0,
                 speed: b.1,
                 primed: b.2,
@@ -142,6 +153,12 @@ proptest! {
         if estimator_step_bounded(&case) {
             ESTIMATOR_CASES.fetch_add(1, Ordering::Relaxed);
         }
+    }
+
+    /// Mirror of `verify_slip_damper_bounded` (Kani).
+    #[test]
+    fn slip_damper_bounded_sampled(case in slip_case()) {
+        slip_damper_bounded(&case);
     }
 
     /// Mirror of `verify_controller_step_bounded` (Kani), steered into the valid domain.

@@ -37,9 +37,11 @@
 //!    [`ProfileConfig::pre_stretch_dwell_ms`], then
 //! 4. [`PullPhase::Settle`] — the reference closes on the final target.
 //! 5. [`PullPhase::Hold`] — constant pull at the final target (the reference closing on it
-//!    first): the law keeps feeding string as it creeps. "At tension" latches the first
-//!    time the estimated tension is within [`ProfileConfig::at_tension_band`] of the final
-//!    target in this phase.
+//!    first): the law keeps feeding string as it creeps, the carriage moving in short
+//!    stick-slip steps; the **slip damper** ([`SlipDamper`], friction-aware hold) sees each
+//!    slip in the motor current within a tick or two and brakes it before it runs to the
+//!    next cogging detent. "At tension" latches the first time the estimated tension is
+//!    within [`ProfileConfig::at_tension_band`] of the final target in this phase.
 //!
 //! With the **step** profile (the paper's simulation, used for the `paper_rsmc` and `pd`
 //! baselines) the reference is the target from the first tick and the law acts at once;
@@ -68,7 +70,9 @@
 
 use crate::drive::{DUTY_MAX, Direction, DriveCommand, Duty};
 use crate::io::LimitSwitches;
-use crate::tension::estimator::{Estimate, EstimatorConfig, EstimatorError, TensionEstimator};
+use crate::tension::estimator::{
+    Estimate, EstimatorConfig, EstimatorError, SlipDamper, TensionEstimator,
+};
 use crate::tension::law::{
     BoundedAdaptation, GainError, Improvements, NominalPlant, Pd, PdGains, Reference, Rsmc,
     RsmcGains, Saturation, mul_q16, mul_wide, narrow, reciprocal_q24, saturate_i32,
@@ -142,6 +146,9 @@ pub struct ProfileConfig {
     pub hall_in_hold: bool,
     /// The observer's gain once the braking is over (`None`: keep `observer_gain`).
     pub observer_gain_hold: Option<Q16>,
+    /// Friction-aware hold: damp the carriage's slips, seen in the motor current, with
+    /// this many times the stall pull per unit of back-EMF duty (`None`: off).
+    pub slip_damping: Option<Q16>,
     /// The stiffness the law's nominal plant was written for, kgf/mm (`K̄ = D̄·M̄`).
     pub nominal_stiffness: Q16,
 }
@@ -165,6 +172,7 @@ impl ProfileConfig {
         adapt_plant: true,
         hall_in_hold: true,
         observer_gain_hold: None,
+        slip_damping: Some(Q16::ONE),
         nominal_stiffness: Q16::lit("0.5"),
     };
 
@@ -175,6 +183,7 @@ impl ProfileConfig {
         spike_clip: false,
         observer_gain: None,
         adapt_plant: false,
+        slip_damping: None,
         ..Self::TAUT
     };
 }
@@ -381,6 +390,8 @@ pub struct TensionController {
     map: ForceToDuty,
     speed: SpeedEstimator,
     estimator: TensionEstimator,
+    /// The slip damper (`None`: off).
+    slip: Option<SlipDamper>,
     shaped: bool,
     adapt_plant: bool,
     hall_in_hold: bool,
@@ -464,6 +475,25 @@ impl TensionController {
             period,
         )
         .map_err(ConfigError::Estimator)?;
+        let slip = match p.slip_damping {
+            None => None,
+            Some(k) => {
+                if k < Q16::ZERO || k > Q16::const_from_int(10) {
+                    return Err(ConfigError::Profile);
+                }
+                // k·F_stall with F_stall = 1/c_f (kgf per unit duty); the stall relation
+                // starts from the model's R/V (duty per ampere).
+                let stall = (1_i64 << 40)
+                    .checked_div(i64::from(map.duty_per_kgf_q24()))
+                    .and_then(|v| i32::try_from(v).ok())
+                    .ok_or(ConfigError::Profile)?;
+                let gain = Q16::from_bits(stall).saturating_mul(k);
+                let per_amp = Q16::from_num(config.motor.resistance_mohm)
+                    .checked_div(Q16::from_num(config.motor.bus_mv))
+                    .ok_or(ConfigError::Profile)?;
+                Some(SlipDamper::new(gain, Q16::lit("0.002"), Q16::lit("0.005"), per_amp))
+            }
+        };
         let tau = p.closing_time_constant.0;
         let decel = p.braking_deceleration;
         if tau <= Q16::ZERO
@@ -499,6 +529,7 @@ impl TensionController {
             map,
             speed,
             estimator,
+            slip,
             shaped: p.shaped,
             adapt_plant: p.adapt_plant,
             hall_in_hold: p.hall_in_hold,
@@ -541,6 +572,7 @@ impl TensionController {
             map: ForceToDuty::ZERO,
             speed: SpeedEstimator::ZERO,
             estimator: TensionEstimator::FALLBACK,
+            slip: None,
             shaped: false,
             adapt_plant: false,
             hall_in_hold: false,
@@ -569,6 +601,9 @@ impl TensionController {
         let final_target = settings.final_target(kind);
         self.speed.reset();
         self.estimator.reset();
+        if let Some(slip) = &mut self.slip {
+            slip.reset();
+        }
         if let Law::Rsmc(rsmc) = &mut self.law {
             rsmc.set_plant_scale(Q16::ONE);
         }
@@ -637,6 +672,11 @@ impl TensionController {
     /// The tension estimator (for proofs and fuzzing).
     pub fn estimator_mut(&mut self) -> &mut TensionEstimator {
         &mut self.estimator
+    }
+
+    /// The slip damper, if configured (for proofs and fuzzing).
+    pub fn slip_damper_mut(&mut self) -> Option<&mut SlipDamper> {
+        self.slip.as_mut()
     }
 
     /// The invariant every reachable state satisfies: the law's and the estimator's own
@@ -794,6 +834,11 @@ impl TensionController {
         let speed = self.speed.update(m.drive.steps);
         let est = self.estimator.update(m.tension, m.drive.steps);
         self.shown = est.tension;
+        let holding = self.profile.phase == PullPhase::Hold;
+        let slip_brake = match &mut self.slip {
+            Some(slip) => slip.update(m.current, est.steps, holding),
+            None => Kgf::ZERO,
+        };
         self.profile.ticks = self.profile.ticks.saturating_add(1);
 
         let mut force = Kgf::ZERO;
@@ -813,7 +858,7 @@ impl TensionController {
             PullPhase::TakeUp => {
                 if self.braking_due(&est) {
                     self.begin_braking(&est);
-                    self.closed_loop(&est, speed, &mut force)
+                    self.closed_loop(&est, speed, Kgf::ZERO, &mut force)
                 } else {
                     // Run at the speed limit, accelerating no harder than the current
                     // limit allows.
@@ -825,9 +870,12 @@ impl TensionController {
                 }
             }
             PullPhase::Approach | PullPhase::PreStretch | PullPhase::Settle | PullPhase::Hold => {
-                self.closed_loop(&est, speed, &mut force)
+                self.closed_loop(&est, speed, slip_brake, &mut force)
             }
         };
+        if let Some(slip) = &mut self.slip {
+            slip.note_duty(command.duty());
+        }
         ControlOutput {
             command,
             phase: self.profile.phase,
@@ -843,6 +891,7 @@ impl TensionController {
         &mut self,
         est: &Estimate,
         speed: MmPerSecond,
+        slip_brake: Kgf,
         force_out: &mut Kgf,
     ) -> DriveCommand {
         let y = est.tension;
@@ -879,7 +928,8 @@ impl TensionController {
         let force = match &mut self.law {
             Law::Rsmc(rsmc) => rsmc.step(&reference, y, self.profile.saturated).force,
             Law::Pd(pd) => pd.step(&reference, y),
-        };
+        }
+        .saturating_sub(slip_brake);
         let (command, saturated) = self.map.command(force, speed);
         self.profile.saturated = saturated;
         *force_out = force;

@@ -20,7 +20,8 @@
 //!   the pull profile (take-up at the set speed, braking approach timed and shaped from the
 //!   identified string stiffness, pre-stretch, hold) around a control law.
 //! - [`estimator`]: [`TensionEstimator`] — median of five, spike clip, Hall-fused tension
-//!   observer, tension rate and carriage speed.
+//!   observer, tension rate and carriage speed — and the hold's slip damper, which sees the
+//!   carriage's stick-slip in the motor current.
 //! - [`law`]: the paper's RSMC (eqs. 9–17, "as published"), taut's RSMC with each
 //!   improvement switchable, and the PD baseline; each maps a tension error to a force.
 //! - [`motor`]: force → duty (a voltage command, or a current command with back-EMF

@@ -28,7 +28,11 @@
 //! - **peak current**: the largest phase current of the run;
 //! - **peak bus voltage**: the highest DC bus voltage of the run (braking regenerates into
 //!   the bus capacitance; see `taut_sim::twin`);
-//! - **failed**: never settled, or a drive fault latched.
+//! - **failed**: never settled, or a drive fault latched. Scenarios whose target the
+//!   bang-bang oracle itself cannot reach (the carriage meets the end of travel first: a
+//!   soft badminton string with long slack pulled to 35 kgf) are counted as failed for every
+//!   controller and reported separately as **unreachable** (table footnote, JSON key
+//!   `unreachable`).
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -471,7 +475,12 @@ pub fn to_json_for(seed: u64, results: &[ScenarioResult], lineup: &[Entry]) -> V
             }),
         );
     }
-    json!({ "scenarios": results.len(), "seed": seed, "controllers": controllers })
+    json!({
+        "scenarios": results.len(),
+        "seed": seed,
+        "unreachable": unreachable(results),
+        "controllers": controllers,
+    })
 }
 
 /// The markdown table printed on stdout.
@@ -502,7 +511,22 @@ pub fn markdown_for(results: &[ScenarioResult], lineup: &[Entry]) -> String {
             s.failed
         ));
     }
+    let beyond = unreachable(results);
+    if beyond > 0 {
+        out.push_str(&format!(
+            "\n{beyond} of {} scenarios are beyond the machine's reach — the bang-bang oracle runs \
+             into the end of travel before the target — and count as failed for every controller.\n",
+            results.len()
+        ));
+    }
     out
+}
+
+/// Scenarios no controller can settle: the bang-bang oracle does not reach the target (the
+/// carriage meets the end of travel first — a soft string with long slack at a high target).
+#[must_use]
+pub fn unreachable(results: &[ScenarioResult]) -> usize {
+    results.iter().filter(|r| r.t_min.is_none()).count()
 }
 
 /// The time series of one pull: tension (true, measured, reference), carriage, duty,

@@ -94,6 +94,16 @@ pub const TAUT_TENSION: Kgf = Kgf::from_int(2);
 /// The softest and stiffest string the identification accepts, kgf/mm: 0.05 and 4.
 pub const STIFFNESS_RANGE: (Q16, Q16) = (Q16::lit("0.05"), Q16::const_from_int(4));
 
+/// The slip damper's dead zone: residuals below 0.002 duty (≈ 0.16 mm/s of carriage) are
+/// not braked.
+pub const SLIP_DEAD_ZONE: Q16 = Q16::lit("0.002");
+
+/// The slip damper's learning rate `μ` per tick, 0.005 (per ampere of winding current).
+pub const SLIP_LEARNING_RATE: Q16 = Q16::lit("0.005");
+
+/// The longest sensing lag a profile may declare, 0.1 s.
+pub const SENSING_LAG_MAX: Q16 = Q16::lit("0.1");
+
 /// The fastest reference rate, kgf/s (a 4 kgf/mm string at 250 mm/s).
 pub const REFERENCE_RATE_MAX: KgfPerSecond = KgfPerSecond::from_int(1_000);
 
@@ -491,7 +501,7 @@ impl TensionController {
                 let per_amp = Q16::from_num(config.motor.resistance_mohm)
                     .checked_div(Q16::from_num(config.motor.bus_mv))
                     .ok_or(ConfigError::Profile)?;
-                Some(SlipDamper::new(gain, Q16::lit("0.002"), Q16::lit("0.005"), per_amp))
+                Some(SlipDamper::new(gain, SLIP_DEAD_ZONE, SLIP_LEARNING_RATE, per_amp))
             }
         };
         let tau = p.closing_time_constant.0;
@@ -505,7 +515,7 @@ impl TensionController {
             || p.at_tension_band.0 <= Q16::ZERO
             || p.release_speed.0 <= Q16::ZERO
             || p.sensing_lag.0 < Q16::ZERO
-            || p.sensing_lag.0 > Q16::lit("0.1")
+            || p.sensing_lag.0 > SENSING_LAG_MAX
             || p.nominal_stiffness < STIFFNESS_RANGE.0
             || p.nominal_stiffness > STIFFNESS_RANGE.1
         {

@@ -23,7 +23,9 @@
 //!   ([`oracle_reach_time`]: full duty on the same scenario) needs to first reach the target.
 //!   Full duty from rest would draw the stall current (≈ 28 A) and trip the drive's 12 A
 //!   overcurrent latch, so the oracle's duty is capped at what drives
-//!   [`ORACLE_CURRENT_LIMIT`] at the measured speed — the fastest pull the drive permits;
+//!   [`ORACLE_CURRENT_LIMIT`] at the measured speed — the fastest pull the drive permits
+//!   (on a machine whose low winding resistance trips the latch even so, the next lower
+//!   cap of [`ORACLE_FALLBACK_LIMITS`]);
 //! - **chattering**: total variation of the signed duty per second over the hold window;
 //! - **peak current**: the largest phase current of the run;
 //! - **peak bus voltage**: the highest DC bus voltage of the run (braking regenerates into
@@ -109,16 +111,36 @@ impl Scenario {
 /// The oracle's current cap: 11 A, just under the drive's 12 A latch.
 pub const ORACLE_CURRENT_LIMIT: Amps = Amps::from_int(11);
 
+/// The caps the oracle falls back to, in turn, when a machine whose winding resistance is
+/// below the nominal model's trips the 12 A latch at 11 A: 10 A, then 9 A.
+pub const ORACLE_FALLBACK_LIMITS: [Amps; 2] = [Amps::from_int(10), Amps::from_int(9)];
+
 /// The bang-bang oracle: full duty (current-capped, see the module docs) from Start until
 /// the true tension first reaches `target_kgf`; the time in s, or `None` within `limit_ms`.
+/// The cap is computed from the nominal motor model, so on a machine whose resistance is at
+/// the low end of its spread the 11 A cap can reach the drive's 12 A latch: the oracle then
+/// pulls again with the next lower cap ([`ORACLE_FALLBACK_LIMITS`]) — the fastest pull the
+/// drive permits on that machine. `None` means the target is out of reach (the end of
+/// travel first) or every cap tripped.
 #[must_use]
 pub fn oracle_reach_time(config: &TwinConfig, target_kgf: f64, limit_ms: u32) -> Option<f64> {
+    core::iter::once(ORACLE_CURRENT_LIMIT)
+        .chain(ORACLE_FALLBACK_LIMITS)
+        .find_map(|cap| oracle_pull(config, target_kgf, limit_ms, cap).ok())
+        .flatten()
+}
+
+/// One oracle pull with current cap `cap`: `Ok(time)` (or `Ok(None)`, not reached within
+/// `limit_ms`), `Err(())` if the drive tripped.
+fn oracle_pull(
+    config: &TwinConfig,
+    target_kgf: f64,
+    limit_ms: u32,
+    cap: Amps,
+) -> Result<Option<f64>, ()> {
     let mut twin = Twin::new(config);
-    let map = ForceToDuty::new(
-        &MotorModel::PAPER,
-        DutyMap::BackEmf { current_limit: ORACLE_CURRENT_LIMIT },
-    )
-    .expect("oracle map");
+    let map = ForceToDuty::new(&MotorModel::PAPER, DutyMap::BackEmf { current_limit: cap })
+        .expect("oracle map");
     let mut speed = SpeedEstimator::new(1_000, Seconds::from_milli(2)).expect("speed estimator");
     for tick in 1..=limit_ms {
         let inputs = twin.inputs();
@@ -134,13 +156,13 @@ pub fn oracle_reach_time(config: &TwinConfig, target_kgf: f64, limit_ms: u32) ->
         twin.advance_tick();
         let truth = twin.truth();
         if truth.drive_fault.is_some() {
-            return None;
+            return Err(());
         }
         if truth.tension_kgf >= target_kgf {
-            return Some(f64::from(tick) / 1000.0);
+            return Ok(Some(f64::from(tick) / 1000.0));
         }
     }
-    None
+    Ok(None)
 }
 
 /// Runs one pull with `config` and `calibration`; returns the trace.

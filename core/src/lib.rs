@@ -6,16 +6,19 @@
 //! code runs on the motor-control MCU, inside the digital twin, under `cargo test`, under the
 //! fuzzer and under Kani.
 //!
-//! Rules held throughout: `no_std`, no allocation, no `unsafe`, no floating point, no panic
-//! paths (no `unwrap`/`expect`, no unchecked indexing, no overflowing arithmetic — the
-//! workspace's clippy table denies them), loops with constant bounds, physical units as
-//! types ([`units`]).
+//! Rules held throughout: `no_std`, no allocation, memory safety by the compiler alone
+//! (`forbid` below), no floating point, no panic paths (no unchecked unwrapping or indexing,
+//! no overflowing arithmetic — the workspace's clippy table denies them), loops with
+//! constant bounds, physical units as types ([`units`]).
 //!
 //! Map:
 //! - [`units`]: kgf, volts, amps, … as Q15.16 fixed-point newtypes; ADC codes.
 //! - [`io`]: the per-tick [`io::Inputs`] / [`io::Outputs`] boundary to hardware.
 //! - [`drive`]: Hall decoding, six-step table, dead time, duty bound, reversal, overcurrent.
-//! - [`sense`]: ADC codes → amperes and kilograms-force.
+//! - [`sense`]: ADC codes → amperes and kilograms-force; the 4-point calibration.
+//! - [`tension`]: the tension controller (RSMC as published, taut's RSMC, PD) and pull profile.
+//! - [`machine`]: the operator's statig machine, panel, safety rules and fault codes.
+//! - [`store`]: the persisted record.
 #![no_std]
 #![forbid(unsafe_code)]
 #![cfg_attr(
@@ -35,3 +38,15 @@ pub mod sense;
 pub mod store;
 pub mod tension;
 pub mod units;
+
+/// Helpers for the unit tests.
+#[cfg(test)]
+mod test_support {
+    /// The value of a result a test expects to be valid; a failure names the error.
+    pub fn valid<T, E: core::fmt::Debug>(result: Result<T, E>) -> T {
+        match result {
+            Ok(value) => value,
+            Err(error) => panic!("expected a valid value, got {error:?}"),
+        }
+    }
+}

@@ -322,6 +322,7 @@ fn saturate_i32(value: i64) -> i32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_support::valid;
 
     /// Thousandths of a kgf (`Kgf::from_milli` only takes ±32 767).
     fn milli(value: i32) -> Kgf {
@@ -349,7 +350,7 @@ mod tests {
     fn recovers_an_exact_line() {
         // raw = (true − 0.4) / 1.05 → true = 1.05·raw + 0.4.
         let raw_of = |t: i32| (t - 400) * 100 / 105;
-        let cal = Calibration::new(&points(
+        let cal = valid(Calibration::new(&points(
             -200,
             [
                 (raw_of(10_000), 10_000),
@@ -357,8 +358,7 @@ mod tests {
                 (raw_of(30_000), 30_000),
                 (raw_of(40_000), 40_000),
             ],
-        ))
-        .unwrap();
+        )));
         for t in (6_000..=50_000).step_by(100) {
             let got = ((i64::from(cal.correct(milli(raw_of(t))).to_bits()) * 1000) >> 16) as i32;
             assert!((got - t).abs() <= 2, "{t}: {got}");
@@ -387,11 +387,10 @@ mod tests {
 
     #[test]
     fn correction_is_continuous_and_increasing() {
-        let cal = Calibration::new(&points(
+        let cal = valid(Calibration::new(&points(
             300,
             [(9_800, 10_010), (19_700, 19_990), (29_650, 30_020), (39_600, 40_000)],
-        ))
-        .unwrap();
+        )));
         let mut previous = cal.correct(milli(-5_000));
         for m in -4_999..=55_000 {
             let now = cal.correct(milli(m));

@@ -21,7 +21,7 @@
 //! Code → volts is exact (one code is 80 Q15.16 bits). The subtraction is exact. The single
 //! multiplication rounds once, so `|to_kgf(code) − (V(code) − V₀)·k| ≤ 2⁻¹⁶ kgf` against the
 //! exact real-number result for the same `V₀` and `k`; `proofs/tests/fixed_point.rs` checks
-//! this against an `f64` reference over every code and a proptest sweep of scales.
+//! this against a double-precision reference over every code and a proptest sweep of scales.
 
 use crate::units::{AdcCode, Kgf, Q16, Volts};
 

@@ -498,8 +498,12 @@ impl TensionController {
                     .and_then(|v| i32::try_from(v).ok())
                     .ok_or(ConfigError::Profile)?;
                 let gain = Q16::from_bits(stall).saturating_mul(k);
-                let per_amp = Q16::from_num(config.motor.resistance_mohm)
-                    .checked_div(Q16::from_num(config.motor.bus_mv))
+                // R / V as Q15.16, in 64 bits: mΩ and mV are each validated up to 60 000, beyond
+                // Q15.16's integer range, so they must not be converted on their own.
+                let per_amp = (i64::from(config.motor.resistance_mohm) << 16)
+                    .checked_div(i64::from(config.motor.bus_mv))
+                    .and_then(|bits| i32::try_from(bits).ok())
+                    .map(Q16::from_bits)
                     .ok_or(ConfigError::Profile)?;
                 Some(SlipDamper::new(gain, SLIP_DEAD_ZONE, SLIP_LEARNING_RATE, per_amp))
             }
@@ -533,7 +537,8 @@ impl TensionController {
         let two_decel = i64::from(decel.to_bits()).saturating_mul(2);
         let inv_two_decel = i32::try_from((1_i64 << 40).checked_div(two_decel).unwrap_or(0))
             .map_err(|_| ConfigError::Profile)?;
-        let margin_fraction = Q16::from_num(p.braking_margin_percent).saturating_div_int(100);
+        let margin_fraction =
+            Q16::const_from_int(i32::from(p.braking_margin_percent)).saturating_div_int(100);
         Ok(Self {
             law,
             map,
@@ -999,15 +1004,34 @@ mod tests {
     use super::*;
     use crate::drive::DriveStatus;
     use crate::tension::settings::{KnotBoost, PreStretch, Speed};
+    use crate::test_support::valid;
 
     #[test]
     fn built_in_configurations_are_valid() {
         for config in [ControllerConfig::TAUT, ControllerConfig::PAPER_RSMC, ControllerConfig::PD] {
-            let controller = TensionController::new(&config).unwrap();
+            let controller = valid(TensionController::new(&config));
             assert!(controller.is_valid());
         }
         assert_ne!(TensionController::taut(), TensionController::fallback());
         assert!(TensionController::fallback().is_valid());
+    }
+
+    #[test]
+    fn any_validated_motor_builds_without_panicking() {
+        // Bus voltages and resistances up to the validated 60 V / 60 Ω lie beyond Q15.16's
+        // integer range in millivolts and milliohms; construction must still be total.
+        for bus_mv in [5_000, 24_000, 32_768, 48_000, 60_000] {
+            for resistance_mohm in [1, 846, 60_000] {
+                let motor = MotorModel { bus_mv, resistance_mohm, ..ControllerConfig::TAUT.motor };
+                let config = ControllerConfig { motor, ..ControllerConfig::TAUT };
+                if let Ok(controller) = TensionController::new(&config) {
+                    assert!(controller.is_valid(), "{bus_mv} mV, {resistance_mohm} mΩ");
+                }
+            }
+        }
+        let motor = MotorModel { bus_mv: 48_000, ..ControllerConfig::TAUT.motor };
+        let config = ControllerConfig { motor, ..ControllerConfig::TAUT };
+        assert!(TensionController::new(&config).is_ok(), "a 48 V bus is a valid machine");
     }
 
     #[test]
@@ -1024,9 +1048,12 @@ mod tests {
         let mut controller = TensionController::taut();
         let idle = controller.step(&Measurement::default());
         assert_eq!(idle.command, DriveCommand::Coast);
-        let settings =
-            PullSettings::new(Kgf::from_int(20), Speed::MAX, PreStretch::NONE, KnotBoost::NONE)
-                .unwrap();
+        let settings = valid(PullSettings::new(
+            Kgf::from_int(20),
+            Speed::MAX,
+            PreStretch::NONE,
+            KnotBoost::NONE,
+        ));
         controller.start(&settings, PullKind::Main);
         let out = controller.step(&Measurement::default());
         assert_eq!(out.phase, PullPhase::TakeUp);
@@ -1050,13 +1077,12 @@ mod tests {
     /// whose slack ends at `slack_steps` (an ideal plant: the controller only decides when).
     fn braking_onset(stiffness_milli: i64, target: i32) -> (i32, Kgf) {
         let mut controller = TensionController::taut();
-        let settings = PullSettings::new(
-            Kgf::from_int(i16::try_from(target).unwrap()),
+        let settings = valid(PullSettings::new(
+            Kgf::from_int(valid(i16::try_from(target))),
             Speed::MAX,
             PreStretch::NONE,
             KnotBoost::NONE,
-        )
-        .unwrap();
+        ));
         controller.start(&settings, PullKind::Main);
         let slack_steps = 100_i64;
         for tick in 0..4_000_i32 {
@@ -1064,7 +1090,7 @@ mod tests {
             let stretch_nm = (steps - slack_steps).max(0) * 52_917;
             let tension_bits = stretch_nm * stiffness_milli * 65_536 / 1_000_000_000;
             let m = Measurement {
-                tension: Kgf::from_bits(i32::try_from(tension_bits).unwrap()),
+                tension: Kgf::from_bits(valid(i32::try_from(tension_bits))),
                 drive: DriveStatus { steps: tick, ..DriveStatus::default() },
                 ..Measurement::default()
             };

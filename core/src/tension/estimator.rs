@@ -352,9 +352,10 @@ impl TensionEstimator {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_support::valid;
 
     fn estimator(clip: bool, observer: bool) -> TensionEstimator {
-        TensionEstimator::new(
+        valid(TensionEstimator::new(
             &EstimatorConfig {
                 spike_clip: clip,
                 observer_gain: observer.then_some(Q16::lit("0.05")),
@@ -362,8 +363,7 @@ mod tests {
                 lag_ticks: 3,
             },
             1_000,
-        )
-        .unwrap()
+        ))
     }
 
     /// A stuck carriage at 2 A and duty 0.02 + 0.046·2 (the twin's stall relation).
@@ -448,7 +448,7 @@ mod tests {
         let mut out = Estimate::default();
         for tick in 0..200_i32 {
             let mm_q16 = i64::from(tick) * i64::from(STEP_MM_BITS);
-            let tension = Kgf::from_bits(i32::try_from(mm_q16 * 7 / 10).unwrap());
+            let tension = Kgf::from_bits(valid(i32::try_from(mm_q16 * 7 / 10)));
             out = est.update(tension, tick);
         }
         let speed = out.speed.0.to_num::<i32>();
@@ -469,8 +469,8 @@ mod tests {
         let mut out = Estimate::default();
         for tick in 1..300_i64 {
             let late = (tick - 1).max(0) * step_kgf;
-            let sample = Kgf::from_bits(i32::try_from((10 << 16) + late).unwrap());
-            out = est.update(sample, i32::try_from(tick).unwrap());
+            let sample = Kgf::from_bits(valid(i32::try_from((10 << 16) + late)));
+            out = est.update(sample, valid(i32::try_from(tick)));
         }
         let truth = (10_i64 << 16) + 299 * step_kgf;
         let off = i64::from(out.tension.to_bits()) - truth;

@@ -689,6 +689,7 @@ impl Pd {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_support::valid;
 
     /// `1/x` in Q8.24 by integer division, the exact reference (saturated like the
     /// reciprocal).
@@ -736,7 +737,7 @@ mod tests {
         for period in [50_u32, 100, 250, 1_000, 2_000, 10_000] {
             for tau_ms in [0_i32, 1, 4, 8, 16, 100] {
                 let tau = crate::units::Seconds::from_milli(tau_ms);
-                let alpha = i64::from(filter_gain(period, tau).unwrap());
+                let alpha = i64::from(valid(filter_gain(period, tau).ok_or("no gain")));
                 // Exact: p·2¹⁶/(τ_µs + p) with τ_µs = τ_bits·10⁶/2¹⁶.
                 let num = i128::from(period) << 32;
                 let den = i128::from(tau.to_bits()) * 1_000_000 + (i128::from(period) << 16);
@@ -752,7 +753,7 @@ mod tests {
     fn plant_scale_is_clamped_and_scales_the_equivalent_control() {
         let plant = NominalPlant { a_bar: Q16::const_from_int(170), d_bar: Q16::lit("12.4") };
         let gains = RsmcGains { lambda: Q16::const_from_int(85), ..RsmcGains::paper(plant) };
-        let mut law = Rsmc::new(&gains, 1_000).unwrap();
+        let mut law = valid(Rsmc::new(&gains, 1_000));
         law.set_plant_scale(Q16::const_from_int(100));
         assert_eq!(law.plant_scale(), PLANT_SCALE_MAX);
         law.set_plant_scale(Q16::ZERO);
@@ -761,7 +762,7 @@ mod tests {
         // The equivalent control's correction doubles with ρ = 2.
         let r = Reference::constant(Kgf::from_int(20));
         let y = Kgf::from_int(19);
-        let mut one = Rsmc::new(&gains, 1_000).unwrap();
+        let mut one = valid(Rsmc::new(&gains, 1_000));
         let mut two = one;
         two.set_plant_scale(Q16::const_from_int(2));
         one.reset(Kgf::from_int(1));

@@ -382,14 +382,14 @@ impl SpeedEstimator {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_support::valid;
 
     #[test]
     fn paper_motor_coefficients() {
-        let map = ForceToDuty::new(
+        let map = valid(ForceToDuty::new(
             &MotorModel::PAPER,
             DutyMap::Proportional { current_limit: Amps::from_int(8) },
-        )
-        .unwrap();
+        ));
         // duty per mm/s = 0.0601 · 2π·20/25.4 / 24 = 0.012 389 → 80.7 mm/s at 100 %.
         let per_mm_s = f_q24(map.duty_per_mm_s_q24());
         assert!((per_mm_s - 12_389).abs() < 10, "{per_mm_s}");
@@ -406,11 +406,10 @@ mod tests {
 
     #[test]
     fn back_emf_map_limits_and_brakes() {
-        let map = ForceToDuty::new(
+        let map = valid(ForceToDuty::new(
             &MotorModel::PAPER,
             DutyMap::BackEmf { current_limit: Amps::from_int(8) },
-        )
-        .unwrap();
+        ));
         // 8 A × 19.404 kgf/A = 155.2 kgf.
         let limit_milli = (i64::from(map.force_limit().to_bits()) * 1000) >> 16;
         assert!((limit_milli - 155_230).abs() < 200, "{limit_milli}");
@@ -426,7 +425,7 @@ mod tests {
 
     #[test]
     fn speed_from_steps() {
-        let mut est = SpeedEstimator::new(1_000, Seconds::from_milli(5)).unwrap();
+        let mut est = valid(SpeedEstimator::new(1_000, Seconds::from_milli(5)));
         let mut steps = 0_i32;
         let mut speed = MmPerSecond::default();
         // 1 step per tick = 52.9 mm/s.

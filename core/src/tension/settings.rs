@@ -271,6 +271,7 @@ impl PullSettings {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_support::valid;
 
     #[test]
     fn ranges_are_enforced() {
@@ -296,25 +297,24 @@ mod tests {
 
     #[test]
     fn targets_boost_and_clip() {
-        let settings = PullSettings::new(
+        let settings = valid(PullSettings::new(
             Kgf::from_int(20),
             Speed::MAX,
-            PreStretch::new(10).unwrap(),
-            KnotBoost::new(15).unwrap(),
-        )
-        .unwrap();
+            valid(PreStretch::new(10)),
+            valid(KnotBoost::new(15)),
+        ));
         assert_eq!(settings.final_target(PullKind::Main).to_tenths_rounded(), 200);
         assert_eq!(settings.peak_target(PullKind::Main).to_tenths_rounded(), 220);
         assert_eq!(settings.final_target(PullKind::Knot).to_tenths_rounded(), 230);
         assert_eq!(settings.peak_target(PullKind::Knot).to_tenths_rounded(), 253);
-        let heavy = settings.with_tension(Kgf::from_int(48)).unwrap();
+        let heavy = valid(settings.with_tension(Kgf::from_int(48)));
         assert_eq!(heavy.peak_target(PullKind::Knot), TENSION_MAX);
         assert_eq!(heavy.final_target(PullKind::Knot), TENSION_MAX);
     }
 
     #[test]
     fn speed_limits_scale() {
-        assert_eq!(Speed::new(1).unwrap().carriage_limit(), MmPerSecond::from_int(9));
+        assert_eq!(valid(Speed::new(1)).carriage_limit(), MmPerSecond::from_int(9));
         assert_eq!(Speed::MAX.carriage_limit(), MmPerSecond::from_int(81));
     }
 }

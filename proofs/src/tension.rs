@@ -465,9 +465,10 @@ mod verification {
     }
 
     /// REQ-TEN-01/03/10, the estimator: every valid state and input, clip and observer on
-    /// or off. The median is six comparisons; seven products and a four-step loop.
+    /// or off. The median is six comparisons; seven products and a four-step loop (unwound
+    /// once more than its count, so CBMC's unwinding assertion can show the loop ends).
     #[kani::proof]
-    #[kani::unwind(5)]
+    #[kani::unwind(6)]
     fn verify_estimator_step_bounded() {
         let case: EstimatorCase = kani::any();
         // The estimator's invariant, as `TensionEstimator::is_valid` states it.
@@ -492,9 +493,10 @@ mod verification {
 
     /// REQ-TEN-01/02/03, the composition: every valid controller state (law, estimator,
     /// Hall filter, profile in every phase), every measurement. The sum of the parts plus
-    /// the profile's arithmetic; run on its own (`--harness`).
+    /// the profile's arithmetic; run on its own (`--harness`). Its longest loop is the
+    /// estimator's four-step one, hence `unwind(6)`.
     #[kani::proof]
-    #[kani::unwind(4)]
+    #[kani::unwind(6)]
     fn verify_controller_step_bounded() {
         let case: StepCase = kani::any();
         kani::assume(controller_in(&case).is_valid());

@@ -12,7 +12,7 @@
 use core::cell::RefCell;
 use critical_section::Mutex;
 use embassy_stm32::Peri;
-use embassy_stm32::adc::{Adc, AdcChannel, AdcConfig, Rovsm, SampleTime, Trovs};
+use embassy_stm32::adc::{Adc, AdcChannel, AdcConfig, Presc, Rovsm, SampleTime, Trovs};
 use embassy_stm32::gpio::{Input, Level, Output, Pull, Speed};
 use embassy_stm32::pac;
 use embassy_stm32::pac::adc::vals::{Exten, Ovrmod};
@@ -126,6 +126,11 @@ impl Analog {
         adc1.cr().modify(|w| w.set_jadstart(true));
         slow_regular_group(adc1, BUS_VOLTAGE_CHANNEL);
         slow_regular_group(pac::ADC2, LOAD_CELL_CHANNEL);
+        // The sampling instants assume a 42.5 MHz ADC clock (SYSCLK / 4, which embassy-stm32
+        // chooses for a 170 MHz kernel clock): say so if it ever chose otherwise.
+        if pac::ADC12_COMMON.ccr().read().presc() != Presc::DIV4 {
+            taut_firmware::error!("ADC clock is not SYSCLK / 4: sampling instants are off");
+        }
         Self { _private: () }
     }
 

@@ -35,12 +35,13 @@ static DRIVE: Mutex<RefCell<Option<Drive>>> = Mutex::new(RefCell::new(None));
 /// DWT cycle count at the previous fast-loop call.
 static LAST_CALL: AtomicU32 = AtomicU32::new(0);
 
-/// The current samples since the tick last took them: their sum in bits 31..8, their count in
-/// bits 7..0 (one atomic add per PWM period; 20 periods of 12-bit codes need 17 + 5 bits).
+/// The current samples since the tick last took them: their sum in bits 31..10, their count in
+/// bits 9..0 (one atomic add per PWM period). A tick takes 20; up to 1 024 samples of 12-bit
+/// codes (51 ms without a tick) fit both fields without carrying.
 static CURRENT_SUM: AtomicU32 = AtomicU32::new(0);
 
 /// Bits of [`CURRENT_SUM`] that count samples.
-const COUNT_BITS: u32 = 8;
+const COUNT_BITS: u32 = 10;
 
 /// `TIMx_SR.CC1IF`.
 const SR_CC1IF: u32 = 1 << 1;

@@ -155,6 +155,9 @@ pub struct Inputs {
     pub load_cell: AdcCode,
     /// The motor (bus) current converter code, averaged over the tick.
     pub motor_current: AdcCode,
+    /// The DC bus voltage's converter code, through the power board's divider (averaged over
+    /// the tick; its scale is part of the board's configuration).
+    pub bus_voltage: AdcCode,
     /// The fast loop's report: fault, Hall step count, rotation.
     pub drive: DriveStatus,
     /// The string-length counter: the quadrature timer's count (wraps at 65 536).

@@ -86,6 +86,7 @@ impl TickInput {
             now_ms: self.now_ms,
             load_cell: AdcCode::new(self.load_cell),
             motor_current: AdcCode::new(self.motor_current),
+            bus_voltage: AdcCode::MIN,
             drive: DriveStatus {
                 fault,
                 steps: self.steps,

@@ -571,6 +571,7 @@ impl Twin {
             hall: hall_read,
             current: self.current_code,
             overcurrent_trip: self.comparator_flag,
+            bus_voltage: self.sampled.bus_voltage,
             limits: self.wired_limits(),
             elapsed: PwmTicks(u32::from(PWM_PERIOD_TICKS)),
         };
@@ -728,6 +729,9 @@ impl Twin {
             now_ms: (self.ticks & u64::from(u32::MAX)) as u32,
             load_cell,
             motor_current: self.current_sense.code(mean_measured),
+            // Through a 1:12 divider (60 V full scale at the 5 V reference): a placeholder
+            // until the board's divider is a parameter of its own.
+            bus_voltage: crate::sensors::adc(self.bus_volts / 12.0),
             drive: self.drive.status(),
             string_counter: (counts.rem_euclid(65_536)) as u16,
             limits: self.wired_limits(),

@@ -207,13 +207,12 @@ impl Tick {
             now_ms: self.now_ms,
             load_cell: self.analog.load_cell(),
             motor_current: self.analog.motor_current(),
+            bus_voltage: self.analog.bus_voltage(),
             drive: fast_loop::status(),
             string_counter: self.encoder.count(),
             limits: fast_loop::limits(),
             keys: self.keys(),
         };
-        // BUS VOLTAGE → `Inputs`: when core's `Inputs` has the field, assign it in the literal.
-        let _bus_voltage: AdcCode = self.analog.bus_voltage();
         let outputs = self.machine.tick(&inputs);
         fast_loop::with_drive(|drive| {
             drive.set_command(outputs.drive);

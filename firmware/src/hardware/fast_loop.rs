@@ -175,6 +175,8 @@ fn step(period: bool) {
         current: AdcCode::new(current),
         // The break fired since the last call, or the comparator (active low) still trips.
         overcurrent_trip: bridge::take_break_flag() | !level(pins::OVERCURRENT),
+        // The bus voltage ADC1 converts (hardware-averaged) at the period's quiet window.
+        bus_voltage: AdcCode::new(pac::ADC1.dr().read().rdata()),
         limits: limits(),
         elapsed: PwmTicks(elapsed),
     };

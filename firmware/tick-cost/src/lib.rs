@@ -62,7 +62,7 @@ use taut_core::units::AdcCode;
 pub const MAGIC: [u8; 8] = *b"TAUTSES1";
 
 /// Bytes of one tick's [`Inputs`] in the session.
-pub const INPUTS_LEN: usize = 23;
+pub const INPUTS_LEN: usize = 25;
 
 /// Bytes of the session header: magic (8), per-tick length (u16) and a reserved u16, tick
 /// count (u32), fingerprint (u32), store count (u32), the boot record ([`RECORD_LEN`]).
@@ -175,13 +175,15 @@ const fn fault_from(code: u8) -> Option<DriveFault> {
 /// `Inputs` does not compile until it is written here (and read in [`decode_inputs`]).
 #[must_use]
 pub fn encode_inputs(inputs: &Inputs) -> [u8; INPUTS_LEN] {
-    let Inputs { now_ms, load_cell, motor_current, drive, string_counter, limits, keys } = *inputs;
+    let Inputs { now_ms, load_cell, motor_current, bus_voltage, drive, string_counter, limits, keys } =
+        *inputs;
     let DriveStatus { fault, steps, rotation, quiet_for, energized } = drive;
     let mut bytes = [0; INPUTS_LEN];
     let mut out = Writer { bytes: &mut bytes, at: 0 };
     out.u32(now_ms);
     out.u16(load_cell.get());
     out.u16(motor_current.get());
+    out.u16(bus_voltage.get());
     out.u8(fault_code(fault));
     out.i32(steps);
     out.u8(direction_code(rotation));
@@ -200,6 +202,7 @@ pub fn decode_inputs(bytes: &[u8]) -> Inputs {
     let now_ms = input.u32();
     let load_cell = AdcCode::new(input.u16());
     let motor_current = AdcCode::new(input.u16());
+    let bus_voltage = AdcCode::new(input.u16());
     let fault = fault_from(input.u8());
     let steps = input.i32();
     let rotation = direction_from(input.u8());
@@ -212,6 +215,7 @@ pub fn decode_inputs(bytes: &[u8]) -> Inputs {
         now_ms,
         load_cell,
         motor_current,
+        bus_voltage,
         drive: DriveStatus { fault, steps, rotation, quiet_for, energized },
         string_counter,
         limits: LimitSwitches { home: limit_bits & 1 != 0, end: limit_bits & 2 != 0 },
@@ -530,6 +534,7 @@ pub fn replay(session: &Session<'_>, machine: &mut Machine, meter: &mut impl Met
                 hall: hall_after(rotor.wrapping_add(done)),
                 current: now.motor_current,
                 overcurrent_trip: false,
+                bus_voltage: now.bus_voltage,
                 limits: now.limits,
                 elapsed: PwmTicks(u32::from(PWM_PERIOD_TICKS)),
             };
@@ -555,6 +560,7 @@ mod tests {
             now_ms: 0xDEAD_BEEF,
             load_cell: AdcCode::new(4095),
             motor_current: AdcCode::new(1234),
+            bus_voltage: AdcCode::new(1638),
             drive: DriveStatus {
                 fault: Some(DriveFault::SectorSkipped),
                 steps: -123_456,

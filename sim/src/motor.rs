@@ -623,6 +623,25 @@ mod tests {
     }
 
     #[test]
+    fn each_hall_sensor_switches_its_own_placement_late() {
+        let perfect = |theta: f64| hall_code(theta);
+        // A 3° late, B 2° early, C exact; all 1° late in common.
+        let placed = |theta: f64| hall_code_placed(theta, 1.0, [3.0, -2.0, 0.0]);
+        assert_eq!(hall_code_placed(47.0, 2.0, [0.0; 3]), perfect(45.0));
+        for k in 0..3600 {
+            let theta = f64::from(k) * 0.1;
+            let q = placed(theta).raw();
+            // A (bit 2) rises at 30° + 4°, B (bit 1) at 150° − 1°, C (bit 0) at 270° + 1°.
+            let a = |t: f64| (perfect(t).raw() >> 2) & 1;
+            let b = |t: f64| (perfect(t).raw() >> 1) & 1;
+            let c = |t: f64| perfect(t).raw() & 1;
+            assert_eq!((q >> 2) & 1, a(theta - 4.0), "A at {theta}");
+            assert_eq!((q >> 1) & 1, b(theta + 1.0), "B at {theta}");
+            assert_eq!(q & 1, c(theta - 1.0), "C at {theta}");
+        }
+    }
+
+    #[test]
     fn six_step_pull_gives_positive_torque_release_negative() {
         for sector in Sector::ALL {
             for step in 0..60 {

@@ -236,10 +236,11 @@ pub struct Truth {
     pub bus_peak_volts: f64,
     /// The bus clamp conducted during the tick (the bus reached `clamp_volts`).
     pub bus_clamped: bool,
-    /// Winding current of the driven pair, signed (positive in the commanded direction:
-    /// into the pattern's high leg, out of its low leg; negative while braking), mean over
-    /// the tick, A; zero in periods with no driven pair (coast), where [`Truth::current_a`]
-    /// still shows any current decaying through the body diodes.
+    /// Winding current of the driven pair, signed: the current out of the motor through
+    /// the pattern's low leg (positive in the commanded direction, negative while braking;
+    /// outside the commutation transients the current through both driven windings), mean
+    /// over the tick, A; zero in periods with no driven pair (coast), where
+    /// [`Truth::current_a`] still shows any current decaying through the body diodes.
     pub winding_current_a: f64,
     /// The force on the load cell's spring: the string tension plus the gripper's inertial
     /// force and ringing (equal to the tension with no gripper mass), kgf.
@@ -566,6 +567,27 @@ impl Twin {
         &self.drive
     }
 
+    /// The current code of the last PWM period: what the drive got as
+    /// `DriveSample::current` (the tick's `Inputs::motor_current` is the mean of twenty).
+    #[must_use]
+    pub const fn current_sample(&self) -> AdcCode {
+        self.current_code
+    }
+
+    /// The current-sensing chain (design gain and offset: decode codes with
+    /// [`CurrentSense::amps_of`]).
+    #[must_use]
+    pub const fn current_sense(&self) -> &CurrentSense {
+        &self.current_sense
+    }
+
+    /// The bus-voltage divider and oversampler (decode codes with
+    /// [`BusVoltageSense::volts_of`]).
+    #[must_use]
+    pub const fn bus_sense(&self) -> &BusVoltageSense {
+        &self.bus_sense
+    }
+
     /// Milliseconds since power-up (the value `Inputs::now_ms` carries, unwrapped).
     #[must_use]
     pub const fn now_ms(&self) -> u64 {
@@ -823,15 +845,13 @@ impl Twin {
         self.last_duty = if driving { duty } else { 0.0 };
         let winding = result.mean_current.iter().map(|i| i.abs()).sum::<f64>() * 0.5;
         self.last_amps = winding;
-        let signed_winding = if driving && out.pattern.count(LegState::Low) > 0 {
+        // The current out of the motor through the pattern's low leg.
+        let signed_winding = if driving {
             Phase::ALL
                 .iter()
                 .zip(result.mean_current)
-                .map(|(&phase, i)| match out.pattern.leg(phase) {
-                    LegState::High => 0.5 * i,
-                    LegState::Low => -0.5 * i,
-                    LegState::Off => 0.0,
-                })
+                .filter(|(phase, _)| out.pattern.leg(**phase) == LegState::Low)
+                .map(|(_, i)| -i)
                 .sum::<f64>()
         } else {
             0.0
@@ -920,17 +940,45 @@ impl Twin {
             self.carriage_stuck = true;
             return;
         }
-        if self.backlash_m > 0.0 && self.flank == Flank::Free {
-            self.free_bodies(torque_em, dt);
-        } else {
-            let omega_before = self.omega;
+        if self.backlash_m <= 0.0 {
             self.rigid_body(torque_em, dt);
             self.carriage_v = self.omega * self.metres_per_rad;
             self.carriage_stuck = self.stuck;
-            if self.backlash_m > 0.0 {
-                self.check_flank((self.omega - omega_before) / dt * self.metres_per_rad);
-            }
+            return;
         }
+        if self.flank != Flank::Free {
+            // Try the step as one body; if the flank would have to pull, take it back and
+            // let the bodies part instead.
+            let before = (self.theta, self.omega, self.stuck);
+            self.rigid_body(torque_em, dt);
+            let accel = (self.omega - before.1) / dt * self.metres_per_rad;
+            // Held as one body by static friction, the motor side alone may still break
+            // away from the flank: it only has its own friction to overcome.
+            let breaks_away = self.stuck && {
+                let applied = torque_em + self.cogging_torque();
+                let own = self.motor_side_coulomb * self.config.mechanics.stiction_ratio;
+                match self.flank {
+                    Flank::Pull => applied < -own,
+                    Flank::Release => applied > own,
+                    Flank::Free => false,
+                }
+            };
+            if !breaks_away && self.flank_holds(accel) {
+                self.carriage_v = self.omega * self.metres_per_rad;
+                self.carriage_stuck = self.stuck;
+                return;
+            }
+            (self.theta, self.omega, self.stuck) = before;
+            self.flank = Flank::Free;
+        }
+        self.free_bodies(torque_em, dt);
+    }
+
+    /// The cogging torque at the present rotor angle, N·m.
+    fn cogging_torque(&self) -> f64 {
+        let m = &self.config.motor;
+        m.cogging_torque_nm
+            * (f64::from(m.cogging_periods_per_turn) * self.theta + self.cogging_phase).sin()
     }
 
     /// The rigid drivetrain (no backlash, or a flank engaged): one step.
@@ -974,9 +1022,10 @@ impl Twin {
         }
     }
 
-    /// With a flank engaged after a rigid step at carriage acceleration `accel`: lets go when
-    /// the flank would have to pull (the force it passes to the carriage changes sign).
-    fn check_flank(&mut self, accel: f64) {
+    /// Whether the engaged flank can pass the force a rigid step at carriage acceleration
+    /// `accel` needs: the screw can only push the carriage away from the flank (toward the
+    /// pull on the pull flank, toward home on the release flank).
+    fn flank_holds(&self, accel: f64) -> bool {
         let slide = if self.carriage_v == 0.0 {
             0.0
         } else {
@@ -984,23 +1033,18 @@ impl Twin {
         };
         // What the screw must push the carriage with (toward the pull).
         let push = self.carriage_mass * accel + self.string.tension_n() + slide;
-        let lets_go = match self.flank {
-            Flank::Pull => push < 0.0,
-            Flank::Release => push > 0.0,
+        match self.flank {
+            Flank::Pull => push >= 0.0,
+            Flank::Release => push <= 0.0,
             Flank::Free => false,
-        };
-        if lets_go {
-            self.flank = Flank::Free;
         }
     }
 
     /// In the dead band: the motor side and the carriage each take one step on their own;
     /// reaching a flank merges them in an inelastic impact.
     fn free_bodies(&mut self, torque_em: f64, dt: f64) {
-        let m = &self.config.motor;
         let stiction = self.config.mechanics.stiction_ratio;
-        let cogging = m.cogging_torque_nm
-            * (f64::from(m.cogging_periods_per_turn) * self.theta + self.cogging_phase).sin();
+        let cogging = self.cogging_torque();
         // Motor side: the motor's torque against its own friction.
         let (omega, stuck) = karnopp(
             self.omega,

@@ -180,6 +180,7 @@
     )
 )]
 
+pub mod family;
 pub mod motor;
 pub mod params;
 pub mod rng;
@@ -188,9 +189,10 @@ pub mod string;
 pub mod trace;
 pub mod twin;
 
-pub use params::{StringKind, TwinConfig};
+pub use family::{Axis, AxisSpan, Span};
+pub use params::{CurrentSenseParams, CurrentSensing, DcLinkSampling, StringKind, TwinConfig};
 pub use rng::SimRng;
-pub use sensors::LoadCellFault;
+pub use sensors::{CurrentSense, LoadCellFault};
 pub use string::StringState;
 pub use trace::{Trace, TraceRow, bang_bang_reach_time, run, run_until};
 pub use twin::{Fault, LimitSwitch, Truth, Twin, drive_at};

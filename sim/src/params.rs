@@ -777,6 +777,62 @@ impl CurrentSenseParams {
         }
     }
 
+    /// Design gain of a bidirectional board: 0.1 V/A, so mid-rail ± 2.5 V spans ± 25 A, the
+    /// same 25 A a unidirectional board at 0.2 V/A spans from zero.
+    pub const BIDIRECTIONAL_VOLTS_PER_AMP: f64 = 0.1;
+
+    /// A board with per-phase low-side shunts and bidirectional amplifiers (they must read
+    /// the braking current, which flows up through the low side), otherwise nominal errors.
+    #[must_use]
+    pub fn per_phase_low_side() -> Self {
+        Self {
+            sensing: CurrentSensing::PerPhaseLowSide,
+            ..Self::nominal().bidirectional_amplifier()
+        }
+    }
+
+    /// A board with one DC-link shunt sampled mid on-time; `bidirectional`: amplifier biased
+    /// at mid-rail (0.1 V/A), else taut's own board (from 0 V, 0.2 V/A).
+    #[must_use]
+    pub fn dc_link_mid_on_time(bidirectional: bool) -> Self {
+        let board = Self::nominal();
+        if bidirectional { board.bidirectional_amplifier() } else { board }
+    }
+
+    /// A board with one DC-link shunt behind an RC filter of `time_constant_s`, converted at
+    /// `sample_phase` of every PWM period; amplifier as for [`Self::dc_link_mid_on_time`].
+    #[must_use]
+    pub fn dc_link_filtered(bidirectional: bool, time_constant_s: f64, sample_phase: f64) -> Self {
+        Self {
+            sensing: CurrentSensing::DcLink(DcLinkSampling::Filtered {
+                time_constant_s,
+                sample_phase,
+            }),
+            ..Self::dc_link_mid_on_time(bidirectional)
+        }
+    }
+
+    /// This board with a bidirectional amplifier: offset at mid-rail, 0.1 V/A.
+    #[must_use]
+    pub const fn bidirectional_amplifier(mut self) -> Self {
+        self.offset_volts = Self::MID_RAIL_VOLTS;
+        self.volts_per_amp = Self::BIDIRECTIONAL_VOLTS_PER_AMP;
+        self
+    }
+
+    /// A short name of the board's sensing, for reports: `per-phase`, `dc-link-mid-on`,
+    /// `dc-link-rc`, with `/bidirectional` or `/unidirectional`.
+    #[must_use]
+    pub fn name(&self) -> String {
+        let kind = match self.sensing {
+            CurrentSensing::PerPhaseLowSide => "per-phase",
+            CurrentSensing::DcLink(DcLinkSampling::MidOnTime) => "dc-link-mid-on",
+            CurrentSensing::DcLink(DcLinkSampling::Filtered { .. }) => "dc-link-rc",
+        };
+        let amplifier = if self.bidirectional() { "bidirectional" } else { "unidirectional" };
+        format!("{kind}/{amplifier}")
+    }
+
     /// Whether the amplifier is biased at mid-rail (reads negative currents).
     #[must_use]
     pub fn bidirectional(&self) -> bool {

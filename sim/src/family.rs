@@ -229,11 +229,15 @@ pub mod ranges {
 
     // Hall sensors and encoder.
 
+    /// The bound on every Hall edge's error, electrical degrees (issue 8: ± 5°): the
+    /// [`Axis::HallError`](super::Axis::HallError) sweep moves all three sensors across it.
+    pub const HALL_EDGE_DEG: Span = Span::linear(-5.0, 5.0);
     /// Common Hall mounting error, electrical degrees: the sensor board's rotation against
-    /// the stator (± 1.25° mechanical at 4 pole pairs), the dominant error.
-    pub const HALL_COMMON_DEG: Span = Span::linear(-5.0, 5.0);
+    /// the stator (± 0.9° mechanical at 4 pole pairs), the dominant error.
+    pub const HALL_COMMON_DEG: Span = Span::linear(-3.5, 3.5);
     /// Each sensor's own error on top, electrical degrees: ± 0.1 mm placement at a 20 mm
-    /// radius (± 1.1°) and the switching threshold's spread.
+    /// radius (± 1.1°) and the switching threshold's spread. Common + own stays within
+    /// [`HALL_EDGE_DEG`].
     pub const HALL_SENSOR_DEG: Span = Span::linear(-1.5, 1.5);
     /// Per-read, per-line flip probability (voted out by the firmware).
     pub const HALL_FLIP: Span = Span::linear(0.0, 0.01);
@@ -341,7 +345,7 @@ pub enum Axis {
     Spikes,
     /// Gripper mass outboard of the load cell, 0.2–1.5 kg.
     GripperMass,
-    /// Hall mounting error, −5° to +5° electrical (common).
+    /// Hall mounting error, −5° to +5° electrical, all three sensors together.
     HallError,
     /// Supply voltage 20–30 V (the clamp stays ≥ 1.1× the supply).
     BusSupply,
@@ -540,7 +544,7 @@ impl Axis {
                 at_high_end: largest_spike_kgf(1.0, 3.0),
             },
             Self::GripperMass => s("gripper mass", "kg", r::GRIPPER_KG),
-            Self::HallError => s("Hall mounting error", "° el.", r::HALL_COMMON_DEG),
+            Self::HallError => s("Hall mounting error", "° el.", r::HALL_EDGE_DEG),
             Self::BusSupply => s("supply voltage", "V", r::SUPPLY_VOLTS),
             Self::BusClamp => s("bus clamp", "V", r::CLAMP_VOLTS),
             Self::BusCapacitance => AxisSpan {
@@ -869,7 +873,7 @@ impl TwinConfig {
                 spikes.volts_per_amp = r::SPIKE_VOLTS_PER_AMP.at(p);
             }
             Axis::GripperMass => c.mechanics.gripper.mass_kg = r::GRIPPER_KG.at(p),
-            Axis::HallError => c.hall.offset_deg = r::HALL_COMMON_DEG.at(p),
+            Axis::HallError => c.hall.offset_deg = r::HALL_EDGE_DEG.at(p),
             Axis::BusSupply => {
                 let supply = r::SUPPLY_VOLTS.at(p);
                 c.bridge.bus_volts = supply;

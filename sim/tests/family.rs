@@ -149,6 +149,7 @@ fn family_parameters_stay_in_their_documented_ranges_over_10000_seeds() {
         assert_in(r::HALL_COMMON_DEG, h.offset_deg, "Hall common", seed);
         for offset in h.sensor_offsets_deg {
             assert_in(r::HALL_SENSOR_DEG, offset, "Hall sensor", seed);
+            assert_in(r::HALL_EDGE_DEG, h.offset_deg + offset, "Hall edge", seed);
         }
         assert_in(r::HALL_FLIP, h.read_flip_probability, "Hall flips", seed);
         assert_in(r::HALL_BURST, h.burst_probability, "Hall bursts", seed);

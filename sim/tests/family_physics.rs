@@ -594,6 +594,21 @@ fn scheduled_faults_start_at_their_tick() {
     again.inject_at(1_500, Fault::StringBreak);
     let trace_again = run(&mut again, 2_000, ramped(Direction::Pull, 0.5, 100));
     assert_eq!(trace, trace_again);
+
+    // A stalled rotor and a shorted phase, scheduled the same way.
+    let mut config = quiet(StringKind::NoString);
+    config.current_sense = CurrentSenseParams { noise_amps: 0.0, ..CurrentSenseParams::nominal() };
+    let mut twin = Twin::new(&config);
+    twin.inject_at(600, Fault::CarriageJam);
+    twin.inject_at(700, Fault::ShortedPhase { phase: Phase::A, shorted_percent: 90 });
+    let trace = run(&mut twin, 800, ramped(Direction::Pull, 0.3, 100));
+    assert!(trace.rows[599].truth.motor_rpm > 100.0);
+    assert!(trace.rows[600..].iter().all(|r| r.truth.motor_rpm == 0.0 && r.truth.stuck));
+    assert!(trace.rows[..700].iter().all(|r| r.truth.drive_fault.is_none()));
+    let tripped = trace.rows[700..].iter().position(|r| r.truth.drive_fault.is_some());
+    println!("jam at 600 ms, phase A 90 % shorted at 700 ms: drive fault after {tripped:?} ms");
+    // (This rotor stalled in a sector that drives phase A.)
+    assert!(tripped.is_some_and(|ms| ms <= 3), "{tripped:?}");
 }
 
 #[test]

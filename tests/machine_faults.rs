@@ -213,14 +213,32 @@ fn machine_fault_e09_stall_scripted() {
 fn machine_fault_e10_e11_overcurrent() {
     let mut rig = ready(StringKind::TennisPolyester);
     pull_to_hold(&mut rig);
-    // The current sense shows 14 A: the machine latches at once, the drive too.
+    // A shorted winding during a pull: the drive's duty window (I_lim·R with the lowest
+    // healthy resistance) keeps even the shorted pair's current below the trip — contained,
+    // not detected (a shorted turn is caught only once it draws more than the window allows:
+    // the fold-back then latches E-10 within 2 ms, `core::drive` tests). Pinned here: the
+    // current stays under 80 % of the 12 A trip.
+    let mut shorted = ready(StringKind::TennisPolyester);
+    shorted.press(Key::Start);
+    shorted.run(300);
+    shorted.twin.inject(Fault::ShortedPhase { phase: Phase::A, shorted_percent: 90 });
+    let mut peak = 0.0f64;
+    shorted.run_until(500, |rig| {
+        peak = peak.max(rig.twin.truth().winding_current_a.abs());
+        rig.machine.fault().is_some()
+    });
+    println!(
+        "shorted phase: peak winding current {peak:.2} A, fault {:?}",
+        shorted.machine.fault()
+    );
+    assert!(peak < 0.8 * 12.0, "{peak} A");
+    // The tick's mean current code alone is not the machine's to judge (the drive sees
+    // every period): a high mean with no drive fault does not fault the machine.
     let mut machine = rig.machine.clone();
     let mut inputs = rig.twin.inputs();
-    inputs.motor_current =
-        taut_core::sense::current::threshold_code(taut_core::units::Amps::from_int(14)).unwrap();
+    inputs.motor_current = taut_core::units::AdcCode::MAX;
     let out = machine.tick(&inputs);
-    assert_eq!(out.drive, DriveCommand::Coast);
-    assert_eq!(machine.fault(), Some(FaultCode::Overcurrent));
+    assert_ne!(machine.fault(), Some(FaultCode::Overcurrent), "{out:?}");
     // The drive's own latch (here: a jam at full current) shows as E-10 or E-11.
     let mut rig = ready(StringKind::TennisPolyester);
     rig.twin.inject(Fault::CurrentSenseOpen);
@@ -411,6 +429,8 @@ fn machine_fault_drive_latches_map_to_their_codes() {
         (DriveFault::OvercurrentTrip, FaultCode::OvercurrentTrip),
         (DriveFault::HallInvalid, FaultCode::HallInvalid),
         (DriveFault::SectorSkipped, FaultCode::HallSequence),
+        (DriveFault::BusOvervoltage, FaultCode::BusOvervoltage),
+        (DriveFault::CurrentSenseZero, FaultCode::CurrentSenseZero),
     ] {
         let mut machine = Machine::new(Record::default());
         let mut now = 0u32;

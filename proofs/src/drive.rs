@@ -23,17 +23,19 @@
 //! # Independence
 //!
 //! The properties do not reuse the drive's own bookkeeping. Overcurrent is judged by
-//! converting the code with [`current::amps`] and comparing it with [`OVERCURRENT_LIMIT`]
-//! (the drive compares codes against a precomputed threshold); dead time and reversal are
-//! judged from the emitted patterns and the elapsed ticks alone (the drive keeps its own
+//! converting the code's distance from the drive's tared zero with [`current::amps`] and
+//! comparing it with [`OVERCURRENT_LIMIT`] (the drive compares codes against a precomputed
+//! threshold); the bus by converting its code to millivolts; dead time, reversal and the
+//! current window are judged from the emitted patterns, the Hall states and the elapsed ticks
+//! alone, with the back-EMF recomputed from the motor's constant (the drive keeps its own
 //! timers); the table is judged against the exhaustive facts "one high, one low, different
 //! legs" and "every on-leg matches [`six_step`] for the accepted sector and the commanded
 //! direction".
 
 use taut_core::drive::{
     ClearRefused, DEAD_TIME, DUTY_MAX, Direction, Drive, DriveCommand, DriveOutput, DriveSample,
-    Duty, HallCode, HallState, LegState, OVERCURRENT_LIMIT, Phase, PwmTicks, REVERSAL_QUIET,
-    Sector, SectorStep, SwitchPattern, six_step,
+    Duty, HallCode, HallState, LegState, OVERCURRENT_LIMIT, Phase, PwmTicks, Sector, SectorStep,
+    SwitchPattern, six_step,
 };
 use taut_core::io::LimitSwitches;
 use taut_core::sense::current;
@@ -91,6 +93,8 @@ pub struct StepInput {
     pub end: bool,
     /// PWM-timer ticks since the previous call.
     pub elapsed: u32,
+    /// Raw bus-voltage code (saturated to 12 bits).
+    pub bus: u16,
 }
 
 impl StepInput {
@@ -101,7 +105,7 @@ impl StepInput {
             hall: HallCode::from_raw(self.hall),
             current: AdcCode::new(self.current),
             overcurrent_trip: self.trip,
-            bus_voltage: AdcCode::MIN,
+            bus_voltage: AdcCode::new(self.bus.min(4_095)),
             limits: LimitSwitches { home: self.home, end: self.end },
             elapsed: PwmTicks(self.elapsed),
         }
@@ -257,6 +261,8 @@ pub struct Observer {
     quiet_for: u32,
     /// The direction the accepted sector last moved.
     rotation: Option<Direction>,
+    /// Ticks between the last two moves of the accepted sector the same way (0: none yet).
+    interval: u32,
     /// The comparator flag in the previous call.
     last_trip: bool,
 }
@@ -292,26 +298,14 @@ impl Observer {
             self.last_direction = record.input.command.command().direction();
             self.off_since = false;
         }
-        self.quiet_for = self.quiet_for.saturating_add(elapsed);
+        let (quiet_for, rotation, interval) = rotor_after(self, record);
         if let HallState::Invalid(_) = record.after.hall() {
             // A confirmed invalid code ends the run of valid sectors: the next valid sector
             // is a fresh start, not a step from the one before the sensors failed.
             self.last_sector = None;
         }
+        (self.quiet_for, self.rotation, self.interval) = (quiet_for, rotation, interval);
         if let HallState::Sector(sector) = record.after.hall() {
-            if let Some(previous) = self.last_sector {
-                match SectorStep::between(previous, sector) {
-                    SectorStep::Forward => {
-                        self.rotation = Some(Direction::Pull);
-                        self.quiet_for = 0;
-                    }
-                    SectorStep::Backward => {
-                        self.rotation = Some(Direction::Release);
-                        self.quiet_for = 0;
-                    }
-                    SectorStep::Stay | SectorStep::Skipped => {}
-                }
-            }
             self.last_sector = Some(sector);
         }
     }
@@ -360,11 +354,25 @@ pub fn hall_fault_turns_off(observer: &Observer, record: &StepRecord) {
     }
 }
 
-/// REQ-DRV-05, overcurrent: a current sample at or above [`OVERCURRENT_LIMIT`], or the
-/// comparator flag, switches everything off and latches a fault in the same call.
+/// The bus voltage of a code, mV, by the board's divider (60 V full scale).
+#[allow(
+    clippy::arithmetic_side_effects,
+    reason = "specification arithmetic on bounded values: codes ≤ 4 095, mV ≤ 120 000, duty ≤ 65 535, divisors ≥ 1, all in i64/u64"
+)]
+fn bus_mv(code: AdcCode) -> u32 {
+    u32::from(code.get()) * 60_000 / 4_096
+}
+
+/// REQ-DRV-05, overcurrent and bus overvoltage: a current sample whose distance from the
+/// tared zero is at or above [`OVERCURRENT_LIMIT`], the comparator flag, or a bus at or above
+/// its configured maximum switches everything off and latches a fault in the same call.
 pub fn overcurrent_turns_off(record: &StepRecord) {
     let sample = record.input.sample();
-    if sample.overcurrent_trip || current::amps(sample.current) >= OVERCURRENT_LIMIT {
+    let zero = record.before.current_zero().get();
+    let from_zero = AdcCode::new(sample.current.get().abs_diff(zero));
+    let over = current::amps(from_zero) >= OVERCURRENT_LIMIT
+        || bus_mv(sample.bus_voltage) >= record.before.config().bus().max_mv;
+    if sample.overcurrent_trip || over {
         assert_eq!(record.output, DriveOutput::OFF, "REQ-DRV-05: bridge on during overcurrent");
         assert!(record.after.fault().is_some(), "REQ-DRV-05: overcurrent not latched");
     }
@@ -406,9 +414,14 @@ pub fn never_toward_active_limit(record: &StepRecord) {
 }
 
 /// REQ-DRV-08, safe reversal: the bridge goes from all-off to energised only in a call where
-/// the rotor has made no accepted Hall step for [`REVERSAL_QUIET`] or its last step was in the
-/// commanded direction (so it is never driven hard against its own back-EMF), and it is never
-/// energised one way in the call right after being energised the other way.
+/// the rotor does not turn against the commanded torque with a back-EMF of `I_lim·R` or more
+/// (so no duty, not even zero, could keep the current within the limit) — the back-EMF bound
+/// recomputed from the Hall steps the observer saw — and it is never energised one way in the
+/// call right after being energised the other way.
+#[allow(
+    clippy::arithmetic_side_effects,
+    reason = "specification arithmetic on bounded values: codes ≤ 4 095, mV ≤ 120 000, duty ≤ 65 535, divisors ≥ 1, all in i64/u64"
+)]
 pub fn safe_reversal(observer: &Observer, record: &StepRecord) {
     if record.output.pattern.is_all_off() {
         return;
@@ -425,26 +438,86 @@ pub fn safe_reversal(observer: &Observer, record: &StepRecord) {
     if !observer.previous.is_all_off() {
         return;
     }
-    let (quiet_for, rotation) = rotor_after(observer, record);
+    let emf = emf_toward(observer, record, direction);
+    let ir = i64::from(record.before.config().ir_mv());
     assert!(
-        quiet_for >= REVERSAL_QUIET.0 || rotation == Some(direction),
-        "REQ-DRV-08: energised {direction:?} while the rotor turns {rotation:?}, quiet {quiet_for} ticks"
+        emf > -ir,
+        "REQ-DRV-08: energised {direction:?} against a back-EMF of {emf} mV (limit {ir} mV)"
     );
 }
 
+/// The back-EMF bound, mV, toward `direction` at the end of `record`'s call: from the
+/// observer's own Hall bookkeeping and the motor's constant (`K / max(interval, quiet)`,
+/// `K / max(quiet, 1)` against the torque after a single step or with no step seen since
+/// power-up, 0 along it after a single step).
+#[allow(
+    clippy::arithmetic_side_effects,
+    reason = "specification arithmetic on bounded values: codes ≤ 4 095, mV ≤ 120 000, duty ≤ 65 535, divisors ≥ 1, all in i64/u64"
+)]
+fn emf_toward(observer: &Observer, record: &StepRecord, direction: Direction) -> i64 {
+    let (quiet_for, rotation, interval) = rotor_after(observer, record);
+    let k = u64::from(record.before.config().limit().emf_mv_ticks);
+    let Some(rotation) = rotation else {
+        let e = i64::try_from((k / u64::from(quiet_for.max(1))).min(60_000)).unwrap_or(60_000);
+        return -e;
+    };
+    let ticks = if interval == 0 {
+        if rotation == direction {
+            return 0;
+        }
+        u64::from(quiet_for.max(1))
+    } else {
+        u64::from(interval.max(quiet_for))
+    };
+    let e = i64::try_from((k / ticks).min(60_000)).unwrap_or(60_000);
+    if rotation == direction { e } else { -e }
+}
+
+/// REQ-DRV-09, current window: whenever a high side conducts, the duty keeps the winding
+/// current within the limit for the back-EMF bound and the bus (floored at the lockout):
+/// `duty·V − e ≤ I_lim·R`, and, unless the duty is at its cap, `duty·V − e ≥ −I_lim·R`, or
+/// `≥ 0` above the regeneration threshold (no braking current pumps the bus). Rounding: the
+/// window is computed to 2.4 × 10⁻⁴ of the bus, so the check allows 10 mV.
+#[allow(
+    clippy::arithmetic_side_effects,
+    reason = "specification arithmetic on bounded values: codes ≤ 4 095, mV ≤ 120 000, duty ≤ 65 535, divisors ≥ 1, all in i64/u64"
+)]
+pub fn duty_within_window(observer: &Observer, record: &StepRecord) {
+    let out = record.output;
+    if out.pattern.count(LegState::High) == 0 {
+        return;
+    }
+    let Some(direction) = record.input.command.command().direction() else { return };
+    let config = record.before.config();
+    let bus = record.input.sample().bus_voltage;
+    let v = i64::from(bus_mv(bus).max(config.bus().floor_mv));
+    let applied = i64::from(out.duty.raw()) * v / 65_536;
+    let e = emf_toward(observer, record, direction);
+    let ir = i64::from(config.ir_mv());
+    assert!(applied - e <= ir + 10, "REQ-DRV-09: motoring {applied} mV against {e} mV");
+    if out.duty < DUTY_MAX {
+        let floor = if bus_mv(bus) >= config.bus().regen_mv { 0 } else { -ir };
+        assert!(applied - e >= floor - 10, "REQ-DRV-09: braking {applied} mV against {e} mV");
+    }
+}
+
 /// The rotor as seen at the end of `record`'s call: ticks since the accepted sector last
-/// moved, and the way it last moved.
-fn rotor_after(observer: &Observer, record: &StepRecord) -> (u32, Option<Direction>) {
+/// moved, the way it last moved, and the ticks between its last two steps the same way (0:
+/// none yet).
+fn rotor_after(observer: &Observer, record: &StepRecord) -> (u32, Option<Direction>, u32) {
     let step = match (observer.last_sector, record.after.hall()) {
         (Some(previous), HallState::Sector(now)) => SectorStep::between(previous, now),
         _ => SectorStep::Stay,
     };
+    let quiet = observer.quiet_for.saturating_add(record.input.elapsed);
+    let stepped = |direction: Direction| {
+        let interval = if observer.rotation == Some(direction) { quiet } else { 0 };
+        (0, Some(direction), interval)
+    };
     match step {
-        SectorStep::Forward => (0, Some(Direction::Pull)),
-        SectorStep::Backward => (0, Some(Direction::Release)),
-        SectorStep::Stay | SectorStep::Skipped => {
-            (observer.quiet_for.saturating_add(record.input.elapsed), observer.rotation)
-        }
+        SectorStep::Forward => stepped(Direction::Pull),
+        SectorStep::Backward => stepped(Direction::Release),
+        SectorStep::Stay | SectorStep::Skipped => (quiet, observer.rotation, observer.interval),
     }
 }
 
@@ -464,7 +537,7 @@ impl CheckedDrive {
         Self::default()
     }
 
-    /// Applies one input and checks REQ-DRV-01 … 08 on the call.
+    /// Applies one input and checks REQ-DRV-01 … 09 on the call.
     pub fn step(&mut self, input: &StepInput) -> StepRecord {
         let record = apply(&mut self.drive, input);
         check_all(&self.observer, &record);
@@ -483,6 +556,7 @@ pub fn check_all(observer: &Observer, record: &StepRecord) {
     fault_latched_until_cleared(observer, record);
     never_toward_active_limit(record);
     safe_reversal(observer, record);
+    duty_within_window(observer, record);
 }
 
 /// REQ-DRV-03, inductively: from *any* valid sequencer state (any legs, any off-times), one
@@ -624,5 +698,49 @@ mod verification {
     #[kani::unwind(8)]
     fn verify_safe_reversal() {
         three_calls(safe_reversal);
+    }
+
+    #[kani::proof]
+    #[kani::unwind(8)]
+    fn verify_duty_within_window() {
+        three_calls(duty_within_window);
+    }
+
+    /// REQ-DRV-09 at the window itself: for every bus code and every back-EMF, each edge of
+    /// the window keeps the current within the limit (one call of the pure function).
+    #[kani::proof]
+    fn verify_window_bounds_current() {
+        window_bounds_current(kani::any(), kani::any());
+    }
+}
+
+/// REQ-DRV-09 on [`taut_core::drive::DriveConfig::window`] alone, for a bus code and a
+/// back-EMF (mV, positive along the torque): the upper edge motors with at most `I_lim·R`,
+/// the lower edge brakes with at most `I_lim·R` (0 above the regeneration threshold) unless
+/// it is the cap, and the window is empty exactly when the rotor turns against the torque
+/// with `|e| ≥ I_lim·R`.
+#[allow(
+    clippy::arithmetic_side_effects,
+    reason = "specification arithmetic on bounded values: codes ≤ 4 095, mV ≤ 120 000, duty ≤ 65 535, divisors ≥ 1, all in i64/u64"
+)]
+pub fn window_bounds_current(bus: u16, emf_mv: i32) {
+    let config = taut_core::drive::DriveConfig::PAPER;
+    let bus = AdcCode::new(bus.min(4_095));
+    let e = i64::from(emf_mv.clamp(-60_000, 60_000));
+    let ir = i64::from(config.ir_mv());
+    let v = i64::from(bus_mv(bus).max(config.bus().floor_mv));
+    match config.window(bus, emf_mv) {
+        None => assert!(e <= -ir, "REQ-DRV-09: no window at {e} mV"),
+        Some(window) => {
+            assert!(e > -ir, "REQ-DRV-09: a window against {e} mV");
+            assert!(window.low <= window.high, "REQ-DRV-09: empty window");
+            let high = i64::from(window.high.raw()) * v / 65_536;
+            assert!(high - e <= ir + 10, "REQ-DRV-09: upper edge {high} mV at {e} mV");
+            if window.low < DUTY_MAX {
+                let low = i64::from(window.low.raw()) * v / 65_536;
+                let floor = if bus_mv(bus) >= config.bus().regen_mv { 0 } else { -ir };
+                assert!(low - e >= floor - 10, "REQ-DRV-09: lower edge {low} mV at {e} mV");
+            }
+        }
     }
 }

@@ -37,18 +37,16 @@
 //! # Independence
 //!
 //! The properties look only at the inputs, the outputs and the public state. Overcurrent is
-//! judged by converting the current code with [`current::amps`] and comparing with
-//! [`OVERCURRENT_LIMIT`], not with the machine's threshold code.
+//! the drive's to judge (every PWM period, from the tared zero: `proofs::drive`); at the
+//! machine it arrives as a latched drive fault, and the tick's mean current code alone
+//! never faults the machine.
 
-use taut_core::drive::{
-    DUTY_MAX, Direction, DriveCommand, DriveFault, DriveStatus, OVERCURRENT_LIMIT, PwmTicks,
-};
+use taut_core::drive::{DUTY_MAX, Direction, DriveCommand, DriveFault, DriveStatus, PwmTicks};
 use taut_core::io::{Inputs, Keys, LimitSwitches, Outputs};
 use taut_core::machine::{
     AfterRelease, Checkpoint, FaultCode, KeyPad, Machine, MachineState, Recovery, View, panel,
     safety::TensionWatch,
 };
-use taut_core::sense::current;
 use taut_core::store::Record;
 use taut_core::units::{AdcCode, Kgf};
 
@@ -89,6 +87,8 @@ impl TickInput {
             2 => Some(DriveFault::OvercurrentTrip),
             3 => Some(DriveFault::HallInvalid),
             4 => Some(DriveFault::SectorSkipped),
+            5 => Some(DriveFault::BusOvervoltage),
+            6 => Some(DriveFault::CurrentSenseZero),
             _ => None,
         };
         Inputs {
@@ -249,13 +249,6 @@ pub fn apply<const LOG: usize>(machine: &mut Machine<LOG>, inputs: &Inputs) -> T
     TickRecord { before, inputs: *inputs, outputs, after: machine.state() }
 }
 
-/// Whether the motor current of `inputs` is at or above the overcurrent limit, judged by the
-/// conversion (not by the machine's threshold code).
-#[must_use]
-pub fn overcurrent(inputs: &Inputs) -> bool {
-    current::amps(inputs.motor_current) >= OVERCURRENT_LIMIT
-}
-
 /// REQ-SAFE-01: the drive command never points toward an active limit switch.
 pub fn never_toward_active_limit(record: &TickRecord) {
     if let Some(direction) = record.outputs.drive.direction() {
@@ -286,10 +279,10 @@ pub fn both_limits_fault_and_coast(record: &TickRecord) {
     }
 }
 
-/// REQ-SAFE-03: overcurrent (or any latched drive fault) → the bridge off in the same tick,
-/// and a latched fault.
+/// REQ-SAFE-03: a latched drive fault (overcurrent, bus overvoltage, current-sense zero,
+/// Hall) → the bridge off in the same tick, and a latched fault.
 pub fn overcurrent_coasts(record: &TickRecord) {
-    if overcurrent(&record.inputs) || record.inputs.drive.fault.is_some() {
+    if record.inputs.drive.fault.is_some() {
         assert_eq!(
             record.outputs.drive,
             DriveCommand::Coast,
@@ -380,7 +373,7 @@ pub fn fault_latches(record: &TickRecord) {
         );
         let inputs = &record.inputs;
         assert!(
-            !inputs.limits.both() && inputs.drive.fault.is_none() && !overcurrent(inputs),
+            !inputs.limits.both() && inputs.drive.fault.is_none(),
             "REQ-SAFE-08: fault cleared while its cause is present: {inputs:?}"
         );
     }
@@ -418,17 +411,17 @@ pub fn limit_guard_is_sound(command: DriveCommand, limits: LimitSwitches) {
     assert_eq!(guarded, expected, "REQ-SAFE-01: guard changed an allowed command");
 }
 
-/// REQ-SAFE-02/03 at the rule every state applies: both limits, a latched drive fault and a
-/// current at or above the limit (judged by [`current::amps`]) each raise a global fault.
+/// REQ-SAFE-02/03 at the rule every state applies: both limits and a latched drive fault
+/// each raise a global fault; nothing else does.
 pub fn global_fault_is_sound(inputs: &Inputs) {
     let fault = taut_core::machine::safety::global_fault(inputs);
     if inputs.limits.both() {
         assert_eq!(fault, Some(FaultCode::LimitsBoth), "REQ-SAFE-02: both limits missed");
     }
-    if inputs.drive.fault.is_some() || overcurrent(inputs) {
-        assert!(fault.is_some(), "REQ-SAFE-03: drive fault or overcurrent missed");
+    if inputs.drive.fault.is_some() {
+        assert!(fault.is_some(), "REQ-SAFE-03: drive fault missed");
     }
-    if !inputs.limits.both() && inputs.drive.fault.is_none() && !overcurrent(inputs) {
+    if !inputs.limits.both() && inputs.drive.fault.is_none() {
         assert_eq!(fault, None, "REQ-SAFE-03: a global fault without a cause");
     }
 }

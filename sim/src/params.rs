@@ -833,6 +833,34 @@ impl CurrentSenseParams {
         format!("{kind}/{amplifier}")
     }
 
+    /// The drive configuration a core on this board is given: what the code stands for
+    /// (winding current, or the link average of an RC-filtered DC-link shunt), the design
+    /// zero and gain, taut's bus divider and current limit, the 12 A trip. (Design values:
+    /// the board's errors are the twin's hidden parameters, and the drive tares the zero.)
+    #[must_use]
+    pub fn drive_config(&self) -> taut_core::drive::DriveConfig {
+        use taut_core::drive::limit::{BusSense, CurrentLimit, CurrentReading, CurrentSense};
+        let reading = match self.sensing {
+            CurrentSensing::PerPhaseLowSide | CurrentSensing::DcLink(DcLinkSampling::MidOnTime) => {
+                CurrentReading::Winding
+            }
+            CurrentSensing::DcLink(DcLinkSampling::Filtered { .. }) => CurrentReading::LinkAverage,
+        };
+        let volts_per_code = 5.0 / 4096.0;
+        let na_per_code = (volts_per_code / self.volts_per_amp * 1e9).round() as u32;
+        let design_zero = (self.offset_volts / volts_per_code).round().clamp(0.0, 4095.0) as u16;
+        // ± 0.5 A of amplifier offset is plausible; more is a fault.
+        let zero_tolerance = (0.5e9 / f64::from(na_per_code.max(1))).ceil() as u16;
+        let sense = CurrentSense {
+            reading,
+            design_zero: taut_core::units::AdcCode::new(design_zero),
+            na_per_code,
+            zero_tolerance,
+        };
+        taut_core::drive::DriveConfig::new(sense, BusSense::PAPER, CurrentLimit::PAPER, 12_000)
+            .unwrap_or(taut_core::drive::DriveConfig::PAPER)
+    }
+
     /// Whether the amplifier is biased at mid-rail (reads negative currents).
     #[must_use]
     pub fn bidirectional(&self) -> bool {

@@ -392,6 +392,29 @@ pub struct Twin {
 }
 
 impl Twin {
+    /// This twin with its drive in plain voltage mode: the current window opened to just
+    /// below the trip with a resistance far above the motor's, so the duty passes unchanged.
+    /// For the physics tests that must drive currents taut's current-limited drive never asks
+    /// for (a stall at high duty, a shorted phase past the trip); never for taut's figures.
+    #[must_use]
+    pub fn with_voltage_mode_drive(mut self) -> Self {
+        use taut_core::drive::limit::{BusSense, CurrentLimit};
+        let sense = self.config.current_sense.drive_config().sense();
+        let open = CurrentLimit {
+            limit_ma: 11_000,
+            resistance_mohm: 5_000,
+            fold_back_ma: 11_999,
+            ..CurrentLimit::PAPER
+        };
+        if let Ok(config) = taut_core::drive::DriveConfig::new(sense, BusSense::PAPER, open, 12_000)
+        {
+            self.drive = Drive::with_config(config);
+        }
+        self
+    }
+}
+
+impl Twin {
     /// A machine at power-up: carriage resting on the home switch, rotor at a random
     /// (seeded) angle, drive coasting, string (if any) slack.
     #[must_use]
@@ -430,7 +453,7 @@ impl Twin {
         });
         let mut twin = Self {
             config: c,
-            drive: Drive::new(),
+            drive: Drive::with_config(c.current_sense.drive_config()),
             circuit: Circuit {
                 resistance: m.phase_resistance_ohm,
                 inductance: m.phase_inductance_h,

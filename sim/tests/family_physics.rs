@@ -70,7 +70,7 @@ fn backlash_the_load_cell_reads_nothing_until_the_dead_band_is_crossed() {
     // The string is straight at power-up: any carriage travel loads it.
     config.string.slack_mm = 0.0;
     config.string.toe_mm = 0.5;
-    let mut twin = Twin::new(&config);
+    let mut twin = Twin::new(&config).with_voltage_mode_drive();
     let start = twin.truth();
     // Power-up: the carriage rests on the release flank (homing drove it there).
     assert!((start.backlash_mm - 0.1).abs() < 1e-9, "{start:?}");
@@ -98,7 +98,7 @@ fn backlash_the_load_cell_reads_nothing_until_the_dead_band_is_crossed() {
     // The string loads only once the motor side has turned b/r past the rigid machine's.
     let mut rigid = config;
     rigid.mechanics.backlash_mm = 0.0;
-    let mut rigid = Twin::new(&rigid);
+    let mut rigid = Twin::new(&rigid).with_voltage_mode_drive();
     let rigid_trace = run(&mut rigid, 400, ramped(Direction::Pull, 0.15, 100));
     let loads = |t: &Trace| t.rows.iter().position(|r| r.truth.tension_kgf > 0.0).expect("loads");
     assert!(loads(&trace) > loads(&rigid_trace), "{} vs {}", loads(&trace), loads(&rigid_trace));
@@ -108,7 +108,7 @@ fn backlash_the_load_cell_reads_nothing_until_the_dead_band_is_crossed() {
 fn backlash_a_reversal_turns_the_motor_through_the_dead_band_before_the_carriage_moves() {
     let mut config = quiet(StringKind::NoString);
     config.mechanics.backlash_mm = 0.2;
-    let mut twin = Twin::new(&config);
+    let mut twin = Twin::new(&config).with_voltage_mode_drive();
     run(&mut twin, 300, ramped(Direction::Pull, 0.2, 50));
     run(&mut twin, 100, coast());
     let rest = twin.truth();
@@ -139,7 +139,7 @@ fn gripper_the_load_cell_reads_tension_plus_mass_times_acceleration() {
     // Damped, so the comparison is tick by tick; the family's 2–10 % rings around the same.
     config.mechanics.gripper.damping_ratio = 0.7;
     let m = config.mechanics.gripper.mass_kg;
-    let mut twin = Twin::new(&config);
+    let mut twin = Twin::new(&config).with_voltage_mode_drive();
     // Accelerate, run into the string, brake hard on it.
     let mut tick = 0_u32;
     let trace = run(&mut twin, 900, |_| {
@@ -177,7 +177,7 @@ fn gripper_the_load_cell_reads_tension_plus_mass_times_acceleration() {
     assert!(worst < 0.03, "{worst}");
     // Without a gripper the load cell reads the tension exactly.
     config.mechanics.gripper.mass_kg = 0.0;
-    let mut bare = Twin::new(&config);
+    let mut bare = Twin::new(&config).with_voltage_mode_drive();
     let bare_trace = run(&mut bare, 300, ramped(Direction::Pull, 0.9, 60));
     assert!(bare_trace.rows.iter().all(|r| r.truth.load_cell_force_kgf == r.truth.tension_kgf));
 }
@@ -188,7 +188,7 @@ fn gripper_an_end_stop_rings_the_load_cell_at_its_natural_frequency() {
     config.mechanics.backlash_mm = 0.0;
     config.mechanics.gripper.mass_kg = 1.0;
     let f_n = config.mechanics.gripper.natural_frequency_hz();
-    let mut twin = Twin::new(&config);
+    let mut twin = Twin::new(&config).with_voltage_mode_drive();
     // The home switch's wiring reads open, so the drive releases into the hard stop.
     twin.inject(Fault::LimitSwitchStuck { switch: taut_sim::LimitSwitch::Home, closed: false });
     let trace = run(&mut twin, 1_500, ramped(Direction::Release, 0.5, 50));
@@ -223,7 +223,7 @@ fn clamp_the_bus_rises_to_the_clamp_under_hard_braking_and_never_beyond() {
         let mut config = quiet(StringKind::NoString);
         config.bridge.clamp_volts = Some(clamp);
         config.bridge.bus_capacitance_f = capacitance;
-        let mut twin = Twin::new(&config);
+        let mut twin = Twin::new(&config).with_voltage_mode_drive();
         run(&mut twin, 600, ramped(Direction::Pull, 0.9, 200));
         let before = twin.truth();
         // Brake at half the back-EMF ratio (≈ 76 mm/s at full bus): ≈ 10 A flows back.
@@ -247,7 +247,7 @@ fn clamp_the_bus_rises_to_the_clamp_under_hard_braking_and_never_beyond() {
     let mut config = quiet(StringKind::NoString);
     config.bridge.clamp_volts = None;
     config.bridge.bus_capacitance_f = 470e-6;
-    let mut twin = Twin::new(&config);
+    let mut twin = Twin::new(&config).with_voltage_mode_drive();
     run(&mut twin, 600, ramped(Direction::Pull, 0.9, 200));
     let ratio = twin.truth().carriage_mm_per_s / 76.0;
     let trace = run(&mut twin, 60, at(0.5 * ratio, Direction::Pull));
@@ -273,7 +273,7 @@ fn decoded(twin: &Twin, trace: &Trace) -> Vec<(f64, f64)> {
 fn per_phase_shunts_read_the_signed_winding_current_and_zero_when_coasting() {
     let mut config = quiet(StringKind::NoString);
     config.current_sense = signed_test_board(CurrentSenseParams::per_phase_low_side());
-    let mut twin = Twin::new(&config);
+    let mut twin = Twin::new(&config).with_voltage_mode_drive();
     // Motoring: the reading is the winding current, in both parts of every period.
     let motoring = run(&mut twin, 400, ramped(Direction::Pull, 0.6, 150));
     let v0 = twin.truth().carriage_mm_per_s;
@@ -311,7 +311,7 @@ fn dc_link_mid_on_time_reads_the_winding_current_while_motoring() {
         if bidirectional {
             config.current_sense = signed_test_board(CurrentSenseParams::dc_link_mid_on_time(true));
         }
-        let mut twin = Twin::new(&config);
+        let mut twin = Twin::new(&config).with_voltage_mode_drive();
         let motoring = run(&mut twin, 400, ramped(Direction::Pull, 0.6, 150));
         let worst = decoded(&twin, &motoring)
             .into_iter()
@@ -345,7 +345,7 @@ fn dc_link_filtered_reads_duty_times_the_winding_current_on_average() {
             let mut config = quiet(StringKind::NoString);
             config.current_sense =
                 signed_test_board(CurrentSenseParams::dc_link_filtered(true, tau, phase));
-            let mut twin = Twin::new(&config);
+            let mut twin = Twin::new(&config).with_voltage_mode_drive();
             // A stalled rotor: steady duty and current.
             twin.inject(Fault::CarriageJam);
             let trace = run(&mut twin, 60, at(0.3, Direction::Pull));
@@ -374,7 +374,7 @@ fn dc_link_filtered_reads_duty_times_the_winding_current_on_average() {
     // Mid on-time on the same stall reads the winding current itself.
     let mut config = quiet(StringKind::NoString);
     config.current_sense = signed_test_board(CurrentSenseParams::dc_link_mid_on_time(true));
-    let mut twin = Twin::new(&config);
+    let mut twin = Twin::new(&config).with_voltage_mode_drive();
     twin.inject(Fault::CarriageJam);
     run(&mut twin, 60, at(0.3, Direction::Pull));
     let read = twin.current_sense().amps_of(twin.inputs().motor_current);
@@ -394,7 +394,7 @@ fn amplifier_zero_reads_code_2048_bidirectional_and_0_unidirectional() {
         assert_eq!(board.ideal_code(0.0).get(), zero, "{}", board.name());
         let mut config = quiet(StringKind::NoString);
         config.current_sense = CurrentSenseParams { noise_amps: 0.0, ..board };
-        let mut twin = Twin::new(&config);
+        let mut twin = Twin::new(&config).with_voltage_mode_drive();
         let trace = run(&mut twin, 50, coast());
         // (Row 0's inputs come before the first PWM period: the firmware's tick mean of no
         // samples is code 0.)
@@ -414,7 +414,7 @@ fn bus_voltage_code_follows_the_divider_through_the_oversampler() {
         let mut config = quiet(StringKind::NoString);
         config.bus_sense.divider_ratio = ratio;
         config.bridge.clamp_volts = None;
-        let mut twin = Twin::new(&config);
+        let mut twin = Twin::new(&config).with_voltage_mode_drive();
         let bus = twin.truth().bus_volts;
         let code = twin.inputs().bus_voltage;
         let expected = (bus / ratio * 4096.0 / 5.0).round() as u16;
@@ -452,7 +452,7 @@ fn mains_hum_shows_at_its_frequency_in_the_load_cell_codes() {
         config.load_cell.hum.volts = 8e-3;
         config.load_cell.hum.frequency_hz = mains;
         config.load_cell.hum.phase_deg = 30.0;
-        let mut twin = Twin::new(&config);
+        let mut twin = Twin::new(&config).with_voltage_mode_drive();
         let trace = run(&mut twin, 2_000, coast());
         let codes: Vec<f64> =
             trace.rows.iter().map(|r| f64::from(r.inputs.load_cell.get())).collect();
@@ -473,7 +473,7 @@ fn mains_hum_shows_at_its_frequency_in_the_load_cell_codes() {
 #[test]
 fn spikes_at_the_top_of_the_range_reach_5_kgf_in_one_sample() {
     let config = TwinConfig::on_axis(Axis::Spikes, 1.0, StringKind::TennisSynthetic);
-    let mut twin = Twin::new(&config);
+    let mut twin = Twin::new(&config).with_voltage_mode_drive();
     // Pull into the string and hold about 3 A.
     let trace = run(&mut twin, 4_000, ramped(Direction::Pull, 0.35, 200));
     let sensitivity = config.load_cell.volts_per_kgf;
@@ -501,7 +501,7 @@ fn spikes_at_the_top_of_the_range_reach_5_kgf_in_one_sample() {
 
 /// How far the carriage coasts from its speed at `duty`.
 fn coast_distance(config: &TwinConfig) -> (f64, f64) {
-    let mut twin = Twin::new(config);
+    let mut twin = Twin::new(config).with_voltage_mode_drive();
     run(&mut twin, 700, ramped(Direction::Pull, 0.6, 200));
     let from = twin.truth();
     let trace = run(&mut twin, 2_000, coast());
@@ -532,7 +532,7 @@ fn the_ball_screw_end_of_the_friction_axis_coasts_far() {
 fn a_shorted_phase_drives_the_current_past_the_trip() {
     let mut config = TwinConfig::nominal(StringKind::NoString);
     config.current_sense.noise_amps = 0.0;
-    let mut healthy = Twin::new(&config);
+    let mut healthy = Twin::new(&config).with_voltage_mode_drive();
     healthy.inject(Fault::CarriageJam);
     let duty = 0.35;
     run(&mut healthy, 100, at(duty, Direction::Pull));
@@ -572,7 +572,7 @@ fn a_shorted_phase_drives_the_current_past_the_trip() {
 #[test]
 fn scheduled_faults_start_at_their_tick() {
     let config = quiet(StringKind::TennisSynthetic);
-    let mut twin = Twin::new(&config);
+    let mut twin = Twin::new(&config).with_voltage_mode_drive();
     twin.inject_at(1_500, Fault::StringBreak);
     twin.inject_at(1_700, Fault::LoadCell(LoadCellFault::Short));
     twin.inject_at(1_800, Fault::HallLineStuck { phase: Phase::B, level: true });
@@ -588,7 +588,7 @@ fn scheduled_faults_start_at_their_tick() {
     let faulted = trace.rows[1_800..].iter().position(|r| r.truth.drive_fault.is_some());
     assert!(faulted.is_some(), "{:?}", trace.last().map(|r| r.truth));
     // Deterministic: the same schedule gives the same run.
-    let mut again = Twin::new(&config);
+    let mut again = Twin::new(&config).with_voltage_mode_drive();
     again.inject_at(1_800, Fault::HallLineStuck { phase: Phase::B, level: true });
     again.inject_at(1_700, Fault::LoadCell(LoadCellFault::Short));
     again.inject_at(1_500, Fault::StringBreak);
@@ -598,7 +598,7 @@ fn scheduled_faults_start_at_their_tick() {
     // A stalled rotor and a shorted phase, scheduled the same way.
     let mut config = quiet(StringKind::NoString);
     config.current_sense = CurrentSenseParams { noise_amps: 0.0, ..CurrentSenseParams::nominal() };
-    let mut twin = Twin::new(&config);
+    let mut twin = Twin::new(&config).with_voltage_mode_drive();
     twin.inject_at(600, Fault::CarriageJam);
     twin.inject_at(700, Fault::ShortedPhase { phase: Phase::A, shorted_percent: 90 });
     let trace = run(&mut twin, 800, ramped(Direction::Pull, 0.3, 100));
@@ -618,7 +618,7 @@ fn every_machine_of_the_family_runs() {
     // mid-rail zero), nothing else may go wrong.
     for seed in 0..20 {
         let config = TwinConfig::family(seed);
-        let mut twin = Twin::new(&config);
+        let mut twin = Twin::new(&config).with_voltage_mode_drive();
         let trace = run(&mut twin, 300, ramped(Direction::Pull, 0.3, 100));
         for row in &trace.rows {
             let t = row.truth;

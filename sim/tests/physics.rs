@@ -404,8 +404,18 @@ fn encoder_counts_eight_per_millimetre_of_string() {
 
 #[test]
 fn overcurrent_protection_stops_a_stall_at_high_duty() {
-    // The software limit (12 A, sampled every PWM period) catches a stall first …
+    // taut's drive limits the current by its duty window: a stall commanded at full duty
+    // stays under the limit (8 A; the machine's stall rule, E-09, then stops it) …
     let mut twin = Twin::new(&quiet(StringKind::NoString));
+    twin.inject(Fault::CarriageJam);
+    let trace = run(&mut twin, 40, ramped(Direction::Pull, 0.95, 0));
+    let peak = trace.rows.iter().map(|r| r.truth.peak_current_a).fold(0.0, f64::max);
+    println!("stall, current-limited drive: {:?}, peak {peak:.2} A", twin.truth().drive_fault);
+    assert_eq!(twin.truth().drive_fault, None);
+    assert!(peak < 0.8 * 12.0, "{peak}");
+
+    // … in plain voltage mode the software limit (12 A, sampled every PWM period) catches it …
+    let mut twin = Twin::new(&quiet(StringKind::NoString)).with_voltage_mode_drive();
     twin.inject(Fault::CarriageJam);
     // (The drive first waits REVERSAL_QUIET = 20 ms for a quiet rotor after power-up.)
     let trace = run(&mut twin, 40, ramped(Direction::Pull, 0.95, 0));
@@ -415,7 +425,7 @@ fn overcurrent_protection_stops_a_stall_at_high_duty() {
     assert!(peak < 13.0, "{peak}");
 
     // … and with the current sense lost, the hardware comparator trips at its level.
-    let mut twin = Twin::new(&quiet(StringKind::NoString));
+    let mut twin = Twin::new(&quiet(StringKind::NoString)).with_voltage_mode_drive();
     twin.inject(Fault::CarriageJam);
     twin.inject(Fault::CurrentSenseOpen);
     let trace = run(&mut twin, 40, ramped(Direction::Pull, 0.95, 0));

@@ -12,8 +12,10 @@
 //!
 //! Every call goes through the same fixed sequence, whose order is the safety argument:
 //!
-//! 1. **Overcurrent first.** A current code at or above [`OVERCURRENT_LIMIT`] or a set
-//!    comparator flag latches a fault *in this call*, before anything else is decided.
+//! 1. **Overcurrent and bus first.** A current sample at or above [`OVERCURRENT_LIMIT`] of
+//!    winding current (read through the board's [`limit::CurrentSense`], from its tared
+//!    zero), a set comparator flag, or a bus at its configured maximum latches a fault *in
+//!    this call*, before anything else is decided.
 //! 2. **Hall.** The voted code goes through the [`HallFilter`]; an accepted `000`/`111` or a
 //!    jump of two or more sectors latches a fault.
 //! 3. **Faulted → all off.** While a fault is latched the held command is dropped (set to
@@ -22,17 +24,26 @@
 //!    [`Drive::clear_fault`] is called while the held command is coast and the overcurrent
 //!    comparator is no longer tripped.
 //! 4. **What to drive.** Coast, a command toward an active limit switch, or an unknown rotor
-//!    position request all-off. The bridge is **energised** (from all-off) only when the rotor
-//!    is **quiet** — no Hall step for [`REVERSAL_QUIET`], so its back-EMF is below ≈ 0.8 V —
-//!    or its last step was already in the commanded direction, and only in a call where the
-//!    whole table entry clears the dead time; a change of direction first de-energises.
+//!    position request all-off. So does a rotor turning against the commanded torque so fast
+//!    that no duty keeps the winding current within the limit (the duty window of
+//!    [`limit`] is empty: `|e| ≥ I_lim·R`, from the Hall timing). The bridge is
+//!    **energised** (from all-off) only in a call where the window exists and the whole
+//!    table entry clears the dead time; a change of direction first de-energises.
 //!    Once energised, the request is [`six_step`] for the accepted sector. (Within a pull the
 //!    controller therefore holds the direction with a low or zero duty rather than coasting:
 //!    a coast would make a string-back-driven rotor wait to be quiet before pulling again.)
 //! 5. **Dead time.** The request goes through the [`DeadTimeSequencer`], which keeps any leg
 //!    that must change sides off for [`DEAD_TIME`].
-//! 6. **Duty.** The held command's duty, already bounded by [`DUTY_MAX`] by its type, is
-//!    emitted only while some high side is on; otherwise zero.
+//! 6. **Duty.** Emitted only while some high side is on (otherwise zero): the held command's
+//!    duty (bounded by [`DUTY_MAX`] by its type), slewed by at most
+//!    [`DUTY_SLEW_PER_PERIOD`] per PWM period from the last applied duty, folded back halfway
+//!    to the zero-current duty in a period whose sampled winding current is at the fold-back
+//!    threshold, and always clamped into the **duty window** — so the winding current stays
+//!    within the limit whatever the command, the rotor speed or the bus voltage (`limit`).
+//!
+//! While the bridge has been all-off for [`TARE_SETTLE`] the drive tares the current sense
+//! (no current can flow), so an amplifier's offset — mid-rail on a bidirectional board — is
+//! subtracted before the overcurrent comparison; a zero outside its tolerance is a fault.
 //!
 //! The requirements this module meets are `REQ-DRV-*` in `docs/SPEC.md`; each is proven by a
 //! Kani harness in `proofs/`, checked exhaustively under `cargo test` and fuzzed.
@@ -41,14 +52,15 @@ pub mod commutation;
 pub mod dead_time;
 pub mod duty;
 pub mod hall;
+pub mod limit;
 
 pub use commutation::{Gates, LegState, Phase, SwitchPattern, six_step};
 pub use dead_time::{DEAD_TIME, DeadTimeSequencer};
 pub use duty::{DUTY_MAX, Duty};
 pub use hall::{HallCode, HallFilter, HallState, Sector, SectorStep};
+pub use limit::{DriveConfig, DutyWindow, TARE_SETTLE};
 
 use crate::io::LimitSwitches;
-use crate::sense::current;
 use crate::units::{AdcCode, Amps};
 
 /// Clock of the PWM timer: the STM32G431's TIM1 at 170 MHz.
@@ -72,10 +84,22 @@ impl PwmTicks {
     }
 }
 
-/// How long the rotor must go without a Hall step before the drive may energise it the
-/// other way: 20 ms. With four pole pairs that is a speed below 125 rpm (3.4 % of no-load),
-/// a back-EMF below 0.8 V, so reversing at low duty cannot drive a current surge.
+/// Time without a Hall step after which the drive counts the rotor as at rest and tares the
+/// current sense once the bridge is off: 20 ms (a speed below 125 rpm, a back-EMF below
+/// 0.8 V). Reversal no longer waits for it: see [`limit`].
 pub const REVERSAL_QUIET: PwmTicks = PwmTicks::from_micros(20_000);
+
+/// The largest change of the applied duty per PWM period (8 500 ticks): 5 % of the period,
+/// so the duty goes from zero to [`DUTY_MAX`] in 1 ms — one control tick — and a step in the
+/// command cannot outrun the Hall-based back-EMF estimate.
+pub const DUTY_SLEW_PER_PERIOD: u16 = 3_277;
+
+/// Consecutive PWM periods of fold-back (sampled winding current at or above the fold-back
+/// threshold despite the duty window) after which the drive latches an overcurrent: 40, 2 ms.
+/// A healthy motor cannot stay there — the window already bounds its current below the
+/// threshold — so this is a real fault (a shorted winding, a lower resistance than the board
+/// is configured for), caught before it heats anything.
+pub const FOLD_BACK_TRIP_PERIODS: u8 = 40;
 
 /// Bus current that trips the drive: 12 A (motor rated 5.5 A; 50 kgf needs ≈ 3.5 A; stall
 /// at 24 V would be ≈ 29 A).
@@ -156,6 +180,11 @@ pub enum DriveFault {
     Overcurrent,
     /// The hardware overcurrent comparator (break input) fired.
     OvercurrentTrip,
+    /// The DC bus reached the configured maximum (regenerated energy with nowhere to go, or
+    /// a supply above the rating).
+    BusOvervoltage,
+    /// The current sense's tared zero is outside its tolerance (amplifier offset or a fault).
+    CurrentSenseZero,
     /// The Hall sensors read `000` or `111` (confirmed): sensor supply lost or a line broken.
     HallInvalid,
     /// The rotor position jumped two or more sectors: Hall edges lost or misread.
@@ -232,7 +261,25 @@ pub struct Drive {
     steps: i32,
     fault: Option<DriveFault>,
     trip_active: bool,
-    overcurrent_code: AdcCode,
+    config: DriveConfig,
+    /// The current sense's zero, tared while the bridge is off, in 1/16 codes.
+    zero16: u16,
+    /// Ticks the bridge has been all-off (saturating).
+    off_for: PwmTicks,
+    /// Ticks between the last two accepted Hall steps in the same direction (0: unknown).
+    interval: PwmTicks,
+    /// The duty applied in the previous call (zero while no high side conducted).
+    applied: Duty,
+    /// Consecutive calls with the duty folded back.
+    folded: u8,
+}
+
+/// The slew allowance for a call `elapsed` ticks after the previous one, duty raw units.
+fn slew_for(elapsed: PwmTicks) -> u16 {
+    // Twenty periods slew the whole range; capping there keeps the product in a u32.
+    let ticks = elapsed.0.min(170_000);
+    let allowance = ticks.saturating_mul(u32::from(DUTY_SLEW_PER_PERIOD)) / 8_500;
+    u16::try_from(allowance).unwrap_or(u16::MAX)
 }
 
 impl Default for Drive {
@@ -242,9 +289,16 @@ impl Default for Drive {
 }
 
 impl Drive {
-    /// A drive at power-up: coasting, rotor position unknown, no fault.
+    /// A drive at power-up on taut's own board ([`DriveConfig::PAPER`]).
     #[must_use]
     pub fn new() -> Self {
+        Self::with_config(DriveConfig::PAPER)
+    }
+
+    /// A drive at power-up on the board `config` describes: coasting, rotor position
+    /// unknown, no fault, the current sense's zero at its design value until tared.
+    #[must_use]
+    pub fn with_config(config: DriveConfig) -> Self {
         Self {
             filter: HallFilter::new(),
             last_sector: None,
@@ -256,8 +310,61 @@ impl Drive {
             steps: 0,
             fault: None,
             trip_active: false,
-            overcurrent_code: current::threshold_code(OVERCURRENT_LIMIT).unwrap_or(AdcCode::MAX),
+            config,
+            zero16: config.sense().design_zero.get().saturating_mul(16),
+            off_for: PwmTicks(0),
+            interval: PwmTicks(0),
+            applied: Duty::ZERO,
+            folded: 0,
         }
+    }
+
+    /// The board configuration.
+    #[must_use]
+    pub const fn config(&self) -> DriveConfig {
+        self.config
+    }
+
+    /// The current sense's tared zero code.
+    #[must_use]
+    pub const fn current_zero(&self) -> AdcCode {
+        AdcCode::new(self.zero16 / 16)
+    }
+
+    /// The duty applied in the last call.
+    #[must_use]
+    pub const fn applied(&self) -> Duty {
+        self.applied
+    }
+
+    /// The rotor's back-EMF estimate, mV, positive when it turns the way `direction` points:
+    /// from `max(last step interval, time since the last step)` — exact at constant speed,
+    /// an upper bound of the speed while the rotor slows. With one step seen, none toward
+    /// its direction and one step per quiet time against it; with none seen since power-up,
+    /// one step per quiet time against the torque.
+    #[must_use]
+    pub fn emf_toward(&self, direction: Direction) -> i32 {
+        let Some(rotation) = self.rotation else {
+            // No step seen since power-up: the rotor may turn either way, at most one step
+            // per quiet time — counted against the torque.
+            let e = i32::try_from(self.config.emf_mv(self.quiet_for.0.max(1))).unwrap_or(0);
+            return e.saturating_neg();
+        };
+        let ticks = self.interval.0.max(self.quiet_for.0);
+        if self.interval.0 == 0 {
+            // One step seen, no interval yet: the speed is at most one step since then.
+            let e = i32::try_from(self.config.emf_mv(self.quiet_for.0.max(1))).unwrap_or(0);
+            return if rotation == direction { 0 } else { e.saturating_neg() };
+        }
+        let e = i32::try_from(self.config.emf_mv(ticks)).unwrap_or(i32::MAX);
+        if rotation == direction { e } else { e.saturating_neg() }
+    }
+
+    /// The duty window for torque in `direction` on the bus `bus` with the rotor as the drive
+    /// last saw it (`None`: no duty keeps the current within the limit).
+    #[must_use]
+    pub fn window(&self, direction: Direction, bus: AdcCode) -> Option<DutyWindow> {
+        self.config.window(bus, self.emf_toward(direction))
     }
 
     /// Holds `command` until the next one. Latching a fault drops the held command to coast;
@@ -329,12 +436,14 @@ impl Drive {
     pub fn step(&mut self, sample: DriveSample) -> DriveOutput {
         self.quiet_for = PwmTicks(self.quiet_for.0.saturating_add(sample.elapsed.0));
 
-        // 1. Overcurrent, before anything else.
+        // 1. Overcurrent and bus overvoltage, before anything else.
         self.trip_active = sample.overcurrent_trip;
         if sample.overcurrent_trip {
             self.latch(DriveFault::OvercurrentTrip);
-        } else if sample.current >= self.overcurrent_code {
+        } else if self.config.overcurrent(sample.current, self.current_zero(), self.applied) {
             self.latch(DriveFault::Overcurrent);
+        } else if self.config.bus_over(sample.bus_voltage) {
+            self.latch(DriveFault::BusOvervoltage);
         }
 
         // 2. Hall.
@@ -347,17 +456,24 @@ impl Drive {
 
         // 3. Faulted: all off (the command was dropped when the fault latched).
         if self.fault.is_some() {
-            self.energized = None;
-            self.sequencer.all_off();
-            return DriveOutput::OFF;
+            return self.off(sample);
         }
 
-        // 4. What to drive.
+        // 4. What to drive, and the duty window that keeps the current within the limit.
+        let mut window = None;
         let requested = match (self.command, hall) {
             (DriveCommand::Drive { direction, .. }, HallState::Sector(sector))
                 if !direction.blocked_by(sample.limits) =>
             {
-                self.engage(direction, sector, sample.elapsed)
+                window = self.window(direction, sample.bus_voltage);
+                match window {
+                    Some(_) => self.engage(direction, sector, sample.elapsed),
+                    None => {
+                        // The rotor turns against the torque too fast: coast until it slows.
+                        self.energized = None;
+                        SwitchPattern::ALL_OFF
+                    }
+                }
             }
             _ => {
                 self.energized = None;
@@ -368,9 +484,78 @@ impl Drive {
         // 5. Dead time.
         let pattern = self.sequencer.step(requested, sample.elapsed);
 
-        // 6. Duty only while a high side conducts.
-        let duty = if pattern.count(LegState::High) > 0 { self.command.duty() } else { Duty::ZERO };
+        // 6. Duty only while a high side conducts: the command's, slewed from the last applied
+        //    duty, folded back toward zero current if the sampled current is high, and always
+        //    inside the window.
+        let (Some(window), true) = (window, pattern.count(LegState::High) > 0) else {
+            return self.off_with(pattern, sample);
+        };
+        self.off_for = PwmTicks(0);
+        let slew = slew_for(sample.elapsed);
+        let target = window.clamp(self.command.duty());
+        let slewed = if target > self.applied {
+            target.min(Duty::from_raw_clamped(self.applied.raw().saturating_add(slew)))
+        } else {
+            target.max(Duty::from_raw_clamped(self.applied.raw().saturating_sub(slew)))
+        };
+        let folding = self.config.fold_back(sample.current, self.current_zero());
+        self.folded = if folding { self.folded.saturating_add(1) } else { 0 };
+        if self.folded >= FOLD_BACK_TRIP_PERIODS {
+            self.latch(DriveFault::Overcurrent);
+            return self.off(sample);
+        }
+        let duty = if folding {
+            let direction = self.command.direction().unwrap_or(Direction::Pull);
+            let zero =
+                self.config.zero_current_duty(sample.bus_voltage, self.emf_toward(direction));
+            let mid = u32::from(self.applied.raw()).saturating_add(u32::from(zero.raw())) / 2;
+            window.clamp(Duty::from_raw_clamped(u16::try_from(mid).unwrap_or(0)))
+        } else {
+            window.clamp(slewed)
+        };
+        self.applied = duty;
         DriveOutput { pattern, duty }
+    }
+
+    /// All off: no high side conducts (a fault, coast, or a pattern the dead time holds off).
+    fn off(&mut self, sample: DriveSample) -> DriveOutput {
+        self.folded = 0;
+        self.energized = None;
+        self.sequencer.all_off();
+        self.off_with(SwitchPattern::ALL_OFF, sample)
+    }
+
+    /// `pattern` (no high side on) with zero duty; tares the current sense once the bridge
+    /// has been all-off for [`TARE_SETTLE`].
+    fn off_with(&mut self, pattern: SwitchPattern, sample: DriveSample) -> DriveOutput {
+        self.applied = Duty::ZERO;
+        if pattern.is_all_off() {
+            self.off_for = PwmTicks(self.off_for.0.saturating_add(sample.elapsed.0));
+            if self.off_for >= TARE_SETTLE {
+                self.tare(sample.current);
+            }
+        } else {
+            self.off_for = PwmTicks(0);
+        }
+        DriveOutput { pattern, duty: Duty::ZERO }
+    }
+
+    /// One step of the current sense's tare: the zero moves 1/32 of the way to the sample
+    /// (a 1.6 ms time constant at 20 kHz); a zero outside the tolerance latches a fault.
+    fn tare(&mut self, code: AdcCode) {
+        let target = i32::from(code.get()).saturating_mul(16);
+        let zero = i32::from(self.zero16);
+        let difference = target.saturating_sub(zero);
+        // At least one 1/16 code per period, so the tare converges exactly.
+        let step = match difference / 32 {
+            0 => difference.signum(),
+            step => step,
+        };
+        let moved = zero.saturating_add(step);
+        self.zero16 = u16::try_from(moved.clamp(0, 4_095 * 16)).unwrap_or(0);
+        if !self.config.zero_plausible(self.current_zero()) {
+            self.latch(DriveFault::CurrentSenseZero);
+        }
     }
 
     /// The pattern to request for torque in `direction` with the rotor in `sector`.
@@ -390,9 +575,9 @@ impl Drive {
                 SwitchPattern::ALL_OFF
             }
             None => {
-                let rotor_ready =
-                    self.quiet_for >= REVERSAL_QUIET || self.rotation == Some(direction);
-                if rotor_ready && self.sequencer.ready_for(entry, elapsed) {
+                // The rotor's state is already judged by the window (it exists, so the rotor
+                // does not turn against the torque too fast for the current limit).
+                if self.sequencer.ready_for(entry, elapsed) {
                     self.energized = Some(direction);
                     entry
                 } else {
@@ -409,18 +594,24 @@ impl Drive {
                 SectorStep::Stay => {}
                 SectorStep::Forward => {
                     self.steps = self.steps.wrapping_add(1);
-                    self.rotation = Some(Direction::Pull);
-                    self.quiet_for = PwmTicks(0);
+                    self.stepped(Direction::Pull);
                 }
                 SectorStep::Backward => {
                     self.steps = self.steps.wrapping_sub(1);
-                    self.rotation = Some(Direction::Release);
-                    self.quiet_for = PwmTicks(0);
+                    self.stepped(Direction::Release);
                 }
                 SectorStep::Skipped => self.latch(DriveFault::SectorSkipped),
             }
         }
         self.last_sector = Some(sector);
+    }
+
+    /// An accepted Hall step in `direction`: the step interval (only between two steps the
+    /// same way; a turn-around starts it afresh) and the rotation.
+    fn stepped(&mut self, direction: Direction) {
+        self.interval = if self.rotation == Some(direction) { self.quiet_for } else { PwmTicks(0) };
+        self.rotation = Some(direction);
+        self.quiet_for = PwmTicks(0);
     }
 
     /// Latches `fault` unless one is already latched (the first cause is the one reported),
@@ -438,8 +629,16 @@ impl Drive {
 mod tests {
     use super::*;
 
+    /// A 24 V bus (code 1 638 of the 1:12 divider).
+    const BUS_24V: AdcCode = AdcCode::new(1_638);
+
     fn sample(sector: Sector) -> DriveSample {
-        DriveSample { hall: sector.hall_code(), elapsed: PwmTicks(8_500), ..Default::default() }
+        DriveSample {
+            hall: sector.hall_code(),
+            elapsed: PwmTicks(8_500),
+            bus_voltage: BUS_24V,
+            ..Default::default()
+        }
     }
 
     /// Power-up: the rotor reads `sector` and has been still for the reversal quiet time.
@@ -469,7 +668,87 @@ mod tests {
         drive.set_command(pull(30_000));
         let out = drive.step(sample(Sector::S0));
         assert_eq!(out.pattern, six_step(Sector::S0, Direction::Pull));
-        assert_eq!(out.duty.raw(), 30_000);
+        // The duty slews up from zero, one period's allowance at a time …
+        assert_eq!(out.duty.raw(), DUTY_SLEW_PER_PERIOD);
+        // … and a rotor at rest on 24 V gets at most I·R / V = 5.6 V / 24 V, not 0.46.
+        let high = drive.window(Direction::Pull, BUS_24V).map(|window| window.high);
+        for _ in 0..10 {
+            drive.step(sample(Sector::S0));
+        }
+        assert_eq!(Some(drive.applied()), high);
+        assert!(drive.applied().raw() < 15_400);
+    }
+
+    #[test]
+    fn a_small_command_passes_unchanged_once_slewed() {
+        let mut drive = settled(Sector::S0);
+        drive.set_command(pull(3_000));
+        assert_eq!(drive.step(sample(Sector::S0)).duty.raw(), 3_000);
+    }
+
+    #[test]
+    fn bus_overvoltage_is_off_in_the_same_call_and_latched() {
+        let mut drive = settled(Sector::S0);
+        drive.set_command(pull(3_000));
+        assert!(!drive.step(sample(Sector::S0)).pattern.is_all_off());
+        let pumped = DriveSample { bus_voltage: AdcCode::new(2_322), ..sample(Sector::S0) };
+        assert_eq!(drive.step(pumped), DriveOutput::OFF);
+        assert_eq!(drive.fault(), Some(DriveFault::BusOvervoltage));
+    }
+
+    #[test]
+    fn a_bidirectional_sense_is_tared_and_does_not_trip_at_mid_rail() {
+        let config = DriveConfig::new(
+            limit::CurrentSense::PER_PHASE_BIDIRECTIONAL,
+            limit::BusSense::PAPER,
+            limit::CurrentLimit::PAPER,
+            12_000,
+        );
+        let Ok(config) = config else { panic!("valid configuration") };
+        let mut drive = Drive::with_config(config);
+        // The amplifier sits 20 codes (0.24 A) above mid-rail: tared away with the bridge off.
+        let idle = DriveSample { current: AdcCode::new(2_068), ..sample(Sector::S0) };
+        for _ in 0..400 {
+            drive.step(idle);
+        }
+        assert_eq!(drive.fault(), None);
+        assert!(drive.current_zero().get().abs_diff(2_068) <= 1, "{:?}", drive.current_zero());
+        // 12 A of winding current from the tared zero trips; 11.5 A does not.
+        drive.set_command(pull(3_000));
+        let at = |amps_milli: u32| DriveSample {
+            current: AdcCode::new(2_068 + u16::try_from(amps_milli * 1_000 / 12_207).unwrap_or(0)),
+            ..sample(Sector::S0)
+        };
+        drive.step(at(11_500));
+        assert_eq!(drive.fault(), None);
+        drive.step(at(12_100));
+        assert_eq!(drive.fault(), Some(DriveFault::Overcurrent));
+    }
+
+    #[test]
+    fn a_current_the_window_cannot_hold_down_folds_back_then_trips() {
+        let mut drive = settled(Sector::S0);
+        drive.set_command(pull(3_000));
+        drive.step(sample(Sector::S0));
+        // 10 A sampled (1 639 codes at 6.1 mA): below the trip, above the fold-back.
+        let hot = DriveSample { current: AdcCode::new(1_639), ..sample(Sector::S0) };
+        for period in 1..FOLD_BACK_TRIP_PERIODS {
+            let out = drive.step(hot);
+            assert!(out.duty.raw() < 3_000, "period {period}: folded back");
+            assert_eq!(drive.fault(), None);
+        }
+        assert_eq!(drive.step(hot), DriveOutput::OFF);
+        assert_eq!(drive.fault(), Some(DriveFault::Overcurrent));
+    }
+
+    #[test]
+    fn an_implausible_current_zero_is_a_fault() {
+        let mut drive = Drive::new();
+        let offset = DriveSample { current: AdcCode::new(400), ..sample(Sector::S0) };
+        for _ in 0..400 {
+            drive.step(offset);
+        }
+        assert_eq!(drive.fault(), Some(DriveFault::CurrentSenseZero));
     }
 
     #[test]
@@ -487,8 +766,8 @@ mod tests {
         assert_eq!(drive.clear_fault(), Err(ClearRefused::CommandNotZero));
         drive.set_command(DriveCommand::Coast);
         assert_eq!(drive.clear_fault(), Ok(()));
-        drive.set_command(pull(30_000));
-        assert_eq!(drive.step(sample(Sector::S0)).duty.raw(), 30_000);
+        drive.set_command(pull(3_000));
+        assert_eq!(drive.step(sample(Sector::S0)).duty.raw(), 3_000);
     }
 
     #[test]

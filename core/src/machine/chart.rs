@@ -868,8 +868,8 @@ impl Chart {
     }
 }
 
-/// Whether a fault cannot clear now: its own cause, or any rule that holds everywhere (both
-/// limits, a latched drive fault, overcurrent), is still visible in `inputs`. A latched drive
+/// Whether a fault cannot clear now: its own cause, or both limits, is still visible in
+/// `inputs`. A latched drive
 /// fault is cleared by the drive itself when asked with the command at coast, so the fault
 /// state keeps asking while it waits for it.
 #[must_use]
@@ -880,8 +880,7 @@ pub fn fault_persists(code: FaultCode, inputs: &Inputs) -> bool {
         }
         _ => false,
     };
-    let global = inputs.limits.both() || inputs.motor_current >= safety::OVERCURRENT_CODE;
-    own || global
+    own || inputs.limits.both()
 }
 
 impl Chart {

@@ -2,7 +2,8 @@
 //!
 //! # Theory of operation
 //!
-//! A [`FaultCode`] names one detected failure. Codes `E-01`…`E-19` are **faults**: they latch
+//! A [`FaultCode`] names one detected failure. Codes `E-01`…`E-19` and `E-23`…`E-24` are
+//! **faults**: they latch
 //! (the machine enters its fault state, the bridge coasts in the same tick, the display shows
 //! the code, the fault lamp lights and the beeper sounds three times) and are cleared only by
 //! the operator pressing Start while the drive command is zero and the condition is gone.
@@ -62,11 +63,15 @@ pub enum FaultCode {
     CalibrationRejected,
     /// E-22 (notice): the stored calibration failed validation; the sensor runs uncorrected.
     StoredCalibrationInvalid,
+    /// E-23: the DC bus reached its configured maximum (regeneration or supply overvoltage).
+    BusOvervoltage,
+    /// E-24: the motor-current sense's zero, tared with the bridge off, is out of tolerance.
+    CurrentSenseZero,
 }
 
 impl FaultCode {
     /// Every code, in number order.
-    pub const ALL: [Self; 22] = [
+    pub const ALL: [Self; 24] = [
         Self::LimitsBoth,
         Self::LimitStuck,
         Self::LoadCellOpen,
@@ -89,6 +94,8 @@ impl FaultCode {
         Self::StoreInvalid,
         Self::CalibrationRejected,
         Self::StoredCalibrationInvalid,
+        Self::BusOvervoltage,
+        Self::CurrentSenseZero,
     ];
 
     /// The number shown after `E-`.
@@ -117,6 +124,8 @@ impl FaultCode {
             Self::StoreInvalid => 20,
             Self::CalibrationRejected => 21,
             Self::StoredCalibrationInvalid => 22,
+            Self::BusOvervoltage => 23,
+            Self::CurrentSenseZero => 24,
         }
     }
 
@@ -135,6 +144,8 @@ impl FaultCode {
         match fault {
             DriveFault::Overcurrent => Self::Overcurrent,
             DriveFault::OvercurrentTrip => Self::OvercurrentTrip,
+            DriveFault::BusOvervoltage => Self::BusOvervoltage,
+            DriveFault::CurrentSenseZero => Self::CurrentSenseZero,
             DriveFault::HallInvalid => Self::HallInvalid,
             DriveFault::SectorSkipped => Self::HallSequence,
         }
@@ -160,9 +171,9 @@ mod tests {
     }
 
     #[test]
-    fn only_the_last_three_are_notices() {
+    fn only_twenty_to_twenty_two_are_notices() {
         for code in FaultCode::ALL {
-            assert_eq!(code.is_notice(), code.number() >= 20, "{code:?}");
+            assert_eq!(code.is_notice(), (20..=22).contains(&code.number()), "{code:?}");
         }
     }
 }

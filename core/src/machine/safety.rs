@@ -5,9 +5,11 @@
 //!
 //! The rules are split by where they hold, matching the machine's superstates:
 //!
-//! - **Everywhere** ([`global_fault`]): both limit switches active, a latched drive fault,
-//!   motor current at or above the overcurrent limit. Checked in every state but the fault
-//!   state, with no persistence: one sample is enough to stop.
+//! - **Everywhere** ([`global_fault`]): both limit switches active, a latched drive fault.
+//!   Checked in every state but the fault state, with no persistence: one sample is enough
+//!   to stop. Overcurrent and bus overvoltage are the drive's: it compares every PWM period's
+//!   sample (not the tick's mean) against the board's thresholds from the tared zero, switches
+//!   the bridge off in that same period and reports the latched fault here.
 //! - **While moving** ([`limit_guard`], [`stall`], [`load_cell_rail`]): the drive command
 //!   never points toward an active limit switch (it is replaced by coast); where the
 //!   carriage should be moving, duty with no Hall step for [`STALL_QUIET`] is a stall; a load-cell reading at a converter rail for
@@ -81,24 +83,14 @@ pub const BREAK_PERSIST: u8 = 10;
 /// Ticks a reversed reading must persist before it latches.
 pub const REVERSED_PERSIST: u8 = 20;
 
-/// The lowest motor-current code that reads as overcurrent
-/// ([`crate::drive::OVERCURRENT_LIMIT`], 12 A):
-/// `⌈12 A × 0.2 V/A × 4096 / 5 V⌉ = 1 967`. A unit test checks it against
-/// [`crate::sense::current::threshold_code`].
-pub const OVERCURRENT_CODE: AdcCode = AdcCode::new(1_967);
-
-/// The fault every state but the fault state raises at once, if any: both limits, a
-/// latched drive fault, overcurrent — in that order.
+/// The fault every state but the fault state raises at once, if any: both limits, then a
+/// latched drive fault (overcurrent, bus overvoltage, current-sense zero, Hall).
 #[must_use]
 pub fn global_fault(inputs: &Inputs) -> Option<FaultCode> {
     if inputs.limits.both() {
         Some(FaultCode::LimitsBoth)
-    } else if let Some(fault) = inputs.drive.fault {
-        Some(FaultCode::from_drive(fault))
-    } else if inputs.motor_current >= OVERCURRENT_CODE {
-        Some(FaultCode::Overcurrent)
     } else {
-        None
+        inputs.drive.fault.map(FaultCode::from_drive)
     }
 }
 
@@ -251,20 +243,19 @@ impl TensionWatch {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::drive::{Direction, DriveFault, OVERCURRENT_LIMIT};
-    use crate::sense::current;
-
-    #[test]
-    fn overcurrent_code_matches_the_conversion() {
-        assert_eq!(current::threshold_code(OVERCURRENT_LIMIT), Some(OVERCURRENT_CODE));
-    }
+    use crate::drive::{Direction, DriveFault};
 
     #[test]
     fn global_rules_in_order() {
         let mut inputs = Inputs::default();
         assert_eq!(global_fault(&inputs), None);
-        inputs.motor_current = OVERCURRENT_CODE;
+        // The tick's mean current is the drive's business (it sees every period).
+        inputs.motor_current = AdcCode::MAX;
+        assert_eq!(global_fault(&inputs), None);
+        inputs.drive.fault = Some(DriveFault::Overcurrent);
         assert_eq!(global_fault(&inputs), Some(FaultCode::Overcurrent));
+        inputs.drive.fault = Some(DriveFault::BusOvervoltage);
+        assert_eq!(global_fault(&inputs), Some(FaultCode::BusOvervoltage));
         inputs.drive.fault = Some(DriveFault::HallInvalid);
         assert_eq!(global_fault(&inputs), Some(FaultCode::HallInvalid));
         inputs.limits = LimitSwitches { home: true, end: true };

@@ -158,6 +158,8 @@ const fn fault_code(fault: Option<DriveFault>) -> u8 {
         Some(DriveFault::OvercurrentTrip) => 2,
         Some(DriveFault::HallInvalid) => 3,
         Some(DriveFault::SectorSkipped) => 4,
+        Some(DriveFault::BusOvervoltage) => 5,
+        Some(DriveFault::CurrentSenseZero) => 6,
     }
 }
 
@@ -167,6 +169,8 @@ const fn fault_from(code: u8) -> Option<DriveFault> {
         2 => Some(DriveFault::OvercurrentTrip),
         3 => Some(DriveFault::HallInvalid),
         4 => Some(DriveFault::SectorSkipped),
+        5 => Some(DriveFault::BusOvervoltage),
+        6 => Some(DriveFault::CurrentSenseZero),
         _ => None,
     }
 }

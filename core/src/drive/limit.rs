@@ -1,0 +1,578 @@
+//! The board the drive runs on, and current limiting by control: what the current sense reads,
+//! what the bus divider reads, and the duty window that keeps the winding current within a
+//! limit whatever the rotor does.
+//!
+//! # Theory of operation
+//!
+//! With six-step drive two windings conduct in series, and the switched leg is complementary
+//! (`crate::drive::commutation`): during the off-time the low sides short the pair. Averaged
+//! over a PWM period the pair sees `duty·V_bus` against the back-EMF `e` and its resistance
+//! `R`, so the winding current settles at
+//!
+//! ```text
+//! I = (duty·V_bus − e) / R          (e > 0 when the rotor turns the way the torque points)
+//! ```
+//!
+//! Keeping `|I| ≤ I_lim` is therefore a window on the duty:
+//!
+//! ```text
+//! (e − I_lim·R) / V_bus  ≤  duty  ≤  (e + I_lim·R) / V_bus
+//! ```
+//!
+//! — the upper edge bounds the motoring current (a start from rest may ask for at most
+//! `I_lim·R/V_bus`, ≈ 0.23 at 24 V), the lower edge the braking current (a duty far below
+//! the back-EMF would short the spinning motor through the low sides). When the rotor turns
+//! *against* the torque, `e < 0`: if `−e ≥ I_lim·R` even zero duty would brake with more than
+//! the limit, the window is empty and the drive must not energise (it coasts: with every
+//! switch off no current flows while `|e| < V_bus`). This replaces a fixed "quiet time"
+//! before a reversal: the drive reverses as soon as the rotor's speed — its back-EMF —
+//! allows it, at a duty that keeps the current within the limit.
+//!
+//! [`DriveConfig::window`] evaluates it from three measured quantities and three constants:
+//!
+//! - `V_bus` from the bus divider's converter code ([`BusSense`]), floored at
+//!   [`BusSense::floor_mv`] (a low reading can only widen nothing: a lower assumed bus
+//!   *narrows* the window's lower edge and *widens* its upper edge, so the floor is where the
+//!   board's undervoltage lockout holds the bus; below it the gate drivers are off anyway).
+//! - `e` from the Hall timing: one Hall step is 1/24 motor turn, so
+//!   `e = K / ticks_per_step` with `K = Ke · (2π/24) · f_timer` ([`CurrentLimit::emf_mv_ticks`]).
+//!   The drive uses `ticks_per_step = max(last step interval, time since the last step)`:
+//!   exact at constant speed and an *upper* bound of the speed while the rotor slows (a slowing
+//!   rotor moved less than one step since its last edge), which is what coasting, braking and
+//!   the moment before a reversal are. (While the rotor speeds up the estimate lags by one step
+//!   interval; the limit's margin below the trip — 8 A against 12 A — covers it, and the
+//!   per-period fold-back on the sampled current catches what is left.)
+//! - `I_lim·R` with the *lowest* resistance the pair can have (cold windings, MOSFETs at their
+//!   best), so the real current is at most the limit.
+//!
+//! Above [`BusSense::regen_code`] the lower edge rises to `e/V_bus`: no braking current, so the
+//! bus stops being pumped; at [`BusSense::over_code`] the drive latches a fault and coasts.
+//!
+//! # Current sensing
+//!
+//! [`CurrentSense`] says what the current converter code stands for: the **winding** current
+//! (per-phase low-side shunts, or a DC-link shunt sampled in the middle of the on-time) or the
+//! **link average** (a DC-link shunt behind an RC filter: `≈ duty × I`). Its zero — 0 for a
+//! unidirectional amplifier, mid-rail for a bidirectional one — is tared by the drive while
+//! the bridge is off ([`TARE_SETTLE`]); the overcurrent threshold is the same *winding*
+//! current on both kinds ([`CurrentSense::overcurrent`]).
+//!
+//! Every quantity is an integer in mV, mA, converter codes or duty raw units, with the
+//! divisions done in `u32`; the conversions are precomputed by [`DriveConfig::new`], which
+//! refuses a configuration whose arithmetic could overflow.
+
+use crate::drive::duty::{DUTY_MAX, Duty};
+use crate::drive::{PWM_TIMER_HZ, PwmTicks};
+use crate::units::AdcCode;
+
+/// The converter's full-scale code count (12 bit).
+const ADC_COUNTS: u32 = 4_096;
+
+/// How long the bridge must have been all-off before the current sense is tared: 5 ms
+/// (the winding current decays with `L/R` ≈ 1.4 ms; after 3.5 time constants it is < 3 %).
+pub const TARE_SETTLE: PwmTicks = PwmTicks::from_micros(5_000);
+
+/// What the current converter code stands for.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+#[cfg_attr(kani, derive(kani::Arbitrary))]
+pub enum CurrentReading {
+    /// The winding current: per-phase low-side shunts (the conducting low side's), or a
+    /// DC-link shunt converted in the middle of the high side's on-time.
+    Winding,
+    /// The average of the DC-link current (an RC-filtered link shunt): ≈ duty × winding
+    /// current.
+    LinkAverage,
+}
+
+/// The motor-current sensing of a board.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct CurrentSense {
+    /// What the code stands for.
+    pub reading: CurrentReading,
+    /// The code at zero current by design: 0 (unidirectional amplifier) or 2 048 (mid-rail).
+    pub design_zero: AdcCode,
+    /// Amperes per code, in nA (0.2 V/A at 5 V / 4 096: 6 103 516 nA).
+    pub na_per_code: u32,
+    /// How far the tared zero may sit from the design zero before the sense is faulty, codes.
+    pub zero_tolerance: u16,
+}
+
+impl CurrentSense {
+    /// taut's own board: one DC-link shunt converted mid on-time (it reads the winding
+    /// current) through a unidirectional 0.2 V/A amplifier.
+    pub const PAPER: Self = Self {
+        reading: CurrentReading::Winding,
+        design_zero: AdcCode::new(0),
+        na_per_code: 6_103_516,
+        zero_tolerance: 82,
+    };
+
+    /// Per-phase low-side shunts with bidirectional 0.1 V/A amplifiers (zero at mid-rail).
+    pub const PER_PHASE_BIDIRECTIONAL: Self = Self {
+        reading: CurrentReading::Winding,
+        design_zero: AdcCode::new(2_048),
+        na_per_code: 12_207_031,
+        zero_tolerance: 41,
+    };
+
+    /// An RC-filtered DC-link shunt with a bidirectional 0.1 V/A amplifier.
+    pub const LINK_AVERAGE_BIDIRECTIONAL: Self =
+        Self { reading: CurrentReading::LinkAverage, ..Self::PER_PHASE_BIDIRECTIONAL };
+
+    /// The codes a current of `ma` spans, rounded up.
+    fn codes_for(&self, ma: u32) -> Option<u16> {
+        let na = u64::from(ma).checked_mul(1_000_000)?;
+        let per = u64::from(self.na_per_code);
+        let codes = na.checked_add(per.checked_sub(1)?)?.checked_div(per)?;
+        u16::try_from(codes).ok()
+    }
+}
+
+/// The DC bus divider and the bus limits.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct BusSense {
+    /// Bus millivolts at converter full scale (5 V × divider ratio 12 = 60 000 mV).
+    pub full_scale_mv: u32,
+    /// The lowest bus the window assumes, mV: the board's undervoltage lockout (18 V).
+    pub floor_mv: u32,
+    /// Above this bus voltage the drive stops braking regeneratively, mV.
+    pub regen_mv: u32,
+    /// At or above this bus voltage the drive coasts and latches a fault, mV.
+    pub max_mv: u32,
+}
+
+impl BusSense {
+    /// The paper's 24 V machine (supply 20–30 V): 1:12 divider, lockout at 18 V, no
+    /// regeneration above 32 V, fault at 34 V (the bus capacitors are rated 35 V or more).
+    pub const PAPER: Self =
+        Self { full_scale_mv: 60_000, floor_mv: 18_000, regen_mv: 32_000, max_mv: 34_000 };
+
+    /// The bus voltage a code stands for, mV.
+    #[must_use]
+    pub fn millivolts(&self, code: AdcCode) -> u32 {
+        u32::from(code.get()).saturating_mul(self.full_scale_mv) / ADC_COUNTS
+    }
+
+    /// The lowest code that reads at least `mv`.
+    fn code_for(&self, mv: u32) -> Option<u16> {
+        let scaled = u64::from(mv).checked_mul(u64::from(ADC_COUNTS))?;
+        let per = u64::from(self.full_scale_mv);
+        let code = scaled.checked_add(per.checked_sub(1)?)?.checked_div(per)?;
+        u16::try_from(code).ok().filter(|&code| code <= AdcCode::MAX.get())
+    }
+}
+
+/// The motor data the window needs.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct CurrentLimit {
+    /// The winding current the drive keeps to, mA (8 A: two thirds of the 12 A trip).
+    pub limit_ma: u32,
+    /// The lowest resistance of the conducting pair (windings + two MOSFETs), mΩ: the
+    /// nameplate's 0.846 Ω less 17 % for cold copper and tolerance.
+    pub resistance_mohm: u32,
+    /// Back-EMF × PWM-timer ticks per Hall step, mV·ticks: `Ke·(2π/24)·f_timer` =
+    /// 60.1 mV·s/rad × 0.2618 rad × 170 MHz = 2.675 × 10⁹.
+    pub emf_mv_ticks: u32,
+    /// The per-period fold-back threshold on the sampled winding current, mA (9.5 A).
+    pub fold_back_ma: u32,
+}
+
+impl CurrentLimit {
+    /// The paper's motor (`crate::tension::motor::MotorModel::PAPER`) with taut's limits.
+    pub const PAPER: Self = Self {
+        limit_ma: 8_000,
+        resistance_mohm: 700,
+        emf_mv_ticks: 2_675_000_000,
+        fold_back_ma: 9_500,
+    };
+}
+
+/// Why a drive configuration was refused.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub enum DriveConfigError {
+    /// The current sense's gain is zero, or the trip current is beyond its full scale.
+    CurrentSense,
+    /// The bus divider's full scale is zero or absurd, or the bus limits are out of order
+    /// (floor < regeneration < maximum ≤ full scale).
+    Bus,
+    /// The current limit is zero, at or above the trip, or `I·R` would overflow.
+    Limit,
+}
+
+/// A duty range the drive may apply: `low ≤ duty ≤ high`.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct DutyWindow {
+    /// The least duty (bounds the braking current).
+    pub low: Duty,
+    /// The greatest duty (bounds the motoring current).
+    pub high: Duty,
+}
+
+impl DutyWindow {
+    /// `duty` moved into the window.
+    #[must_use]
+    pub fn clamp(self, duty: Duty) -> Duty {
+        duty.max(self.low).min(self.high)
+    }
+}
+
+/// The drive's board configuration, validated and precomputed.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct DriveConfig {
+    sense: CurrentSense,
+    bus: BusSense,
+    limit: CurrentLimit,
+    /// `I_lim·R`, mV.
+    ir_mv: u32,
+    /// Codes from zero that trip (winding current at the trip).
+    trip_codes: u16,
+    /// Codes from zero that fold the duty back.
+    fold_back_codes: u16,
+    /// Bus code at or above which regeneration stops.
+    regen_code: u16,
+    /// Bus code at or above which the drive faults.
+    over_code: u16,
+}
+
+/// The largest back-EMF the window considers, mV (above any bus the board supports).
+pub const EMF_MAX_MV: u32 = 60_000;
+
+impl DriveConfig {
+    /// taut's own board and the paper's motor.
+    pub const PAPER: Self = Self {
+        sense: CurrentSense::PAPER,
+        bus: BusSense::PAPER,
+        limit: CurrentLimit::PAPER,
+        ir_mv: 5_600,
+        trip_codes: 1_967,
+        fold_back_codes: 1_557,
+        regen_code: 2_185,
+        over_code: 2_322,
+    };
+
+    /// A configuration for `sense`, `bus` and `limit` with the trip at `trip_ma`.
+    ///
+    /// # Errors
+    /// [`DriveConfigError`] names the part that is zero, out of order or out of range.
+    pub fn new(
+        sense: CurrentSense,
+        bus: BusSense,
+        limit: CurrentLimit,
+        trip_ma: u32,
+    ) -> Result<Self, DriveConfigError> {
+        if sense.na_per_code == 0 || sense.design_zero > AdcCode::MAX {
+            return Err(DriveConfigError::CurrentSense);
+        }
+        let trip_codes = sense.codes_for(trip_ma).ok_or(DriveConfigError::CurrentSense)?;
+        let fold_back_codes =
+            sense.codes_for(limit.fold_back_ma).ok_or(DriveConfigError::CurrentSense)?;
+        if trip_codes == 0 || trip_codes > AdcCode::MAX.get() {
+            return Err(DriveConfigError::CurrentSense);
+        }
+        let bus_ok = (1_000..=1_000_000).contains(&bus.full_scale_mv)
+            && bus.floor_mv > 0
+            && bus.floor_mv < bus.regen_mv
+            && bus.regen_mv < bus.max_mv
+            && bus.max_mv <= bus.full_scale_mv;
+        if !bus_ok {
+            return Err(DriveConfigError::Bus);
+        }
+        let regen_code = bus.code_for(bus.regen_mv).ok_or(DriveConfigError::Bus)?;
+        let over_code = bus.code_for(bus.max_mv).ok_or(DriveConfigError::Bus)?;
+        let ir_mv = limit
+            .limit_ma
+            .checked_mul(limit.resistance_mohm)
+            .map(|product| product / 1_000)
+            .filter(|&ir| ir > 0 && ir <= EMF_MAX_MV)
+            .ok_or(DriveConfigError::Limit)?;
+        if limit.limit_ma >= trip_ma
+            || limit.fold_back_ma < limit.limit_ma
+            || limit.fold_back_ma >= trip_ma
+            || limit.emf_mv_ticks == 0
+        {
+            return Err(DriveConfigError::Limit);
+        }
+        Ok(Self { sense, bus, limit, ir_mv, trip_codes, fold_back_codes, regen_code, over_code })
+    }
+
+    /// The current sense.
+    #[must_use]
+    pub const fn sense(&self) -> CurrentSense {
+        self.sense
+    }
+
+    /// The bus divider and limits.
+    #[must_use]
+    pub const fn bus(&self) -> BusSense {
+        self.bus
+    }
+
+    /// The current limit.
+    #[must_use]
+    pub const fn limit(&self) -> CurrentLimit {
+        self.limit
+    }
+
+    /// `I_lim·R`, mV.
+    #[must_use]
+    pub const fn ir_mv(&self) -> u32 {
+        self.ir_mv
+    }
+
+    /// Codes from the zero at which the drive trips.
+    #[must_use]
+    pub const fn trip_codes(&self) -> u16 {
+        self.trip_codes
+    }
+
+    /// Whether a bus code is at or above the configured maximum.
+    #[must_use]
+    pub const fn bus_over(&self, code: AdcCode) -> bool {
+        code.get() >= self.over_code
+    }
+
+    /// The back-EMF, mV, of a rotor making one Hall step every `ticks_per_step` ticks
+    /// (zero for a rotor at rest, `ticks_per_step = 0` meaning "no step seen"), at most
+    /// [`EMF_MAX_MV`].
+    #[must_use]
+    pub fn emf_mv(&self, ticks_per_step: u32) -> u32 {
+        self.limit.emf_mv_ticks.checked_div(ticks_per_step).unwrap_or(0).min(EMF_MAX_MV)
+    }
+
+    /// The duty window for a bus code and a back-EMF `emf_mv` that is positive when the rotor
+    /// turns the way the torque points; `None` when no duty keeps the current within the
+    /// limit (the rotor turns against the torque with `|e| ≥ I_lim·R`).
+    #[must_use]
+    pub fn window(&self, bus: AdcCode, emf_mv: i32) -> Option<DutyWindow> {
+        let bus_mv = self.bus.millivolts(bus).max(self.bus.floor_mv);
+        let regen_allowed = bus.get() < self.regen_code;
+        let ir = self.ir_mv;
+        let (low_mv, high_mv) = if emf_mv >= 0 {
+            let e = emf_mv.unsigned_abs().min(EMF_MAX_MV);
+            let low = if regen_allowed { e.saturating_sub(ir) } else { e };
+            (low, e.saturating_add(ir))
+        } else {
+            let e = emf_mv.unsigned_abs().min(EMF_MAX_MV);
+            if e >= ir {
+                return None;
+            }
+            (0, ir.saturating_sub(e))
+        };
+        Some(DutyWindow {
+            low: duty_of(low_mv, bus_mv, true),
+            high: duty_of(high_mv, bus_mv, false),
+        })
+    }
+
+    /// Whether the sampled current code is an overcurrent: a winding current at or above the
+    /// trip, with the sense's zero at `zero`. A link-average reading is `duty × I`, so it is
+    /// compared with the trip scaled by the last applied duty (at least ¼: below that the
+    /// link carries too little of the winding current to read, and the duty window alone
+    /// bounds the current).
+    #[must_use]
+    pub fn overcurrent(&self, code: AdcCode, zero: AdcCode, applied: Duty) -> bool {
+        let from_zero = u32::from(code.get().abs_diff(zero.get()));
+        let trip = u32::from(self.trip_codes);
+        match self.sense.reading {
+            CurrentReading::Winding => from_zero >= trip,
+            CurrentReading::LinkAverage => {
+                let duty = u32::from(applied.raw()).max(QUARTER_DUTY);
+                from_zero.saturating_mul(DUTY_ONE_RAW) >= trip.saturating_mul(duty)
+            }
+        }
+    }
+
+    /// Whether the sampled winding current is at or above the fold-back threshold (winding
+    /// readings only: a link average says too little within one period).
+    #[must_use]
+    pub fn fold_back(&self, code: AdcCode, zero: AdcCode) -> bool {
+        self.sense.reading == CurrentReading::Winding
+            && code.get().abs_diff(zero.get()) >= self.fold_back_codes
+    }
+
+    /// The duty at which the winding current is zero for a back-EMF `emf_mv` (same sign
+    /// convention as [`Self::window`]), on the bus `bus`.
+    #[must_use]
+    pub fn zero_current_duty(&self, bus: AdcCode, emf_mv: i32) -> Duty {
+        let bus_mv = self.bus.millivolts(bus).max(self.bus.floor_mv);
+        let e = if emf_mv > 0 { emf_mv.unsigned_abs().min(EMF_MAX_MV) } else { 0 };
+        duty_of(e, bus_mv, true)
+    }
+
+    /// Whether `zero` is within the tolerance of the design zero.
+    #[must_use]
+    pub const fn zero_plausible(&self, zero: AdcCode) -> bool {
+        zero.get().abs_diff(self.sense.design_zero.get()) <= self.sense.zero_tolerance
+    }
+}
+
+/// A quarter of the duty scale, raw.
+const QUARTER_DUTY: u32 = 16_384;
+/// The duty scale, raw.
+const DUTY_ONE_RAW: u32 = 65_536;
+
+/// `mv / bus_mv` as a duty, rounded up (`round_up`, for a lower edge) or down (an upper
+/// edge), at most [`DUTY_MAX`]. `mv ≤ 2 × EMF_MAX_MV`, so `mv × 4 096` fits a `u32`; the
+/// quotient is scaled to the duty's 2⁻¹⁶ by × 16 (a resolution of 2.4 × 10⁻⁴).
+fn duty_of(mv: u32, bus_mv: u32, round_up: bool) -> Duty {
+    let scaled = mv.saturating_mul(4_096);
+    let quotient = if round_up {
+        scaled.saturating_add(bus_mv.saturating_sub(1)).checked_div(bus_mv)
+    } else {
+        scaled.checked_div(bus_mv)
+    }
+    .unwrap_or(u32::MAX);
+    let raw = quotient.saturating_mul(16).min(u32::from(DUTY_MAX.raw()));
+    Duty::from_raw_clamped(u16::try_from(raw).unwrap_or(DUTY_MAX.raw()))
+}
+
+/// PWM-timer ticks in one second, for the back-EMF constant's derivation.
+pub const TICKS_PER_SECOND: u32 = PWM_TIMER_HZ;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_paper_constants_are_what_new_computes() {
+        let built =
+            DriveConfig::new(CurrentSense::PAPER, BusSense::PAPER, CurrentLimit::PAPER, 12_000);
+        assert_eq!(built, Ok(DriveConfig::PAPER));
+    }
+
+    #[test]
+    fn the_back_emf_constant_is_ke_times_a_step_angle_times_the_timer() {
+        // Ke = 60.1 mV·s/rad, 2π/24 rad per step, 170 MHz.
+        let k = 60.1 * (2.0 * core::f64::consts::PI / 24.0) * f64::from(TICKS_PER_SECOND);
+        let relative = (f64::from(CurrentLimit::PAPER.emf_mv_ticks) - k).abs() / k;
+        assert!(relative < 0.001, "{k}");
+        // 3 700 rpm = 1 480 steps/s: one step per 114 865 ticks reads ≈ 23.3 V.
+        let e = DriveConfig::PAPER.emf_mv(114_865);
+        assert!((23_000..23_500).contains(&e), "{e}");
+        assert_eq!(DriveConfig::PAPER.emf_mv(0), 0);
+    }
+
+    /// The current a duty gives, mA: `(duty·V − e)/R` with the limit's resistance.
+    fn current_ma(duty: Duty, bus_mv: u32, emf_mv: i32) -> i64 {
+        let applied = i64::from(duty.raw()) * i64::from(bus_mv) / 65_536;
+        (applied - i64::from(emf_mv)) * 1_000 / i64::from(CurrentLimit::PAPER.resistance_mohm)
+    }
+
+    #[test]
+    fn every_window_keeps_the_current_within_the_limit() {
+        let config = DriveConfig::PAPER;
+        let limit = i64::from(CurrentLimit::PAPER.limit_ma);
+        let mut windows = 0;
+        for bus_code in (0..=4_095u16).step_by(13) {
+            let bus = AdcCode::new(bus_code);
+            let bus_mv = config.bus().millivolts(bus).max(config.bus().floor_mv);
+            for emf in (-30_000..=30_000).step_by(97) {
+                match config.window(bus, emf) {
+                    Some(window) => {
+                        windows += 1;
+                        assert!(window.low <= window.high, "{bus_code} {emf}");
+                        // The upper edge motors with at most the limit (rounding: 0.1 %).
+                        let high = current_ma(window.high, bus_mv, emf);
+                        assert!(high <= limit + 10, "{bus_code} {emf} {high}");
+                        // The lower edge brakes with at most the limit, unless the edge
+                        // is the cap (a rotor faster than the bus can follow).
+                        if window.low < DUTY_MAX {
+                            let low = current_ma(window.low, bus_mv, emf);
+                            assert!(low >= -limit - 10, "{bus_code} {emf} {low}");
+                        }
+                    }
+                    None => assert!(emf < 0 && emf.unsigned_abs() >= config.ir_mv()),
+                }
+            }
+        }
+        assert!(windows > 100_000);
+    }
+
+    #[test]
+    fn from_rest_on_24_volts_the_duty_is_at_most_a_quarter() {
+        let bus = AdcCode::new(1_638); // 23.99 V
+        let window = DriveConfig::PAPER
+            .window(bus, 0)
+            .unwrap_or(DutyWindow { low: DUTY_MAX, high: DUTY_MAX });
+        assert_eq!(window.low, Duty::ZERO);
+        // 5.6 V / 24 V = 0.233
+        assert!((15_200..15_400).contains(&window.high.raw()), "{:?}", window.high);
+    }
+
+    #[test]
+    fn above_the_regeneration_threshold_the_drive_does_not_brake() {
+        let config = DriveConfig::PAPER;
+        let high_bus = AdcCode::new(2_200); // 32.2 V
+        let window = config
+            .window(high_bus, 20_000)
+            .unwrap_or(DutyWindow { low: Duty::ZERO, high: Duty::ZERO });
+        assert_eq!(window.low, config.zero_current_duty(high_bus, 20_000));
+        assert!(!config.bus_over(high_bus));
+        assert!(config.bus_over(AdcCode::new(2_322)));
+        assert!(!config.bus_over(AdcCode::new(2_321)));
+    }
+
+    #[test]
+    fn a_rotor_turning_against_the_torque_faster_than_the_limit_allows_gets_no_window() {
+        let config = DriveConfig::PAPER;
+        let bus = AdcCode::new(1_638);
+        assert_eq!(config.window(bus, -5_600), None);
+        assert!(config.window(bus, -5_599).is_some());
+    }
+
+    #[test]
+    fn the_trip_is_the_same_winding_current_on_every_kind_of_sense() {
+        for sense in [
+            CurrentSense::PAPER,
+            CurrentSense::PER_PHASE_BIDIRECTIONAL,
+            CurrentSense::LINK_AVERAGE_BIDIRECTIONAL,
+        ] {
+            let config = DriveConfig::new(sense, BusSense::PAPER, CurrentLimit::PAPER, 12_000);
+            let Ok(config) = config else { panic!("{sense:?}") };
+            let zero = sense.design_zero;
+            let amps = |code: u16| {
+                f64::from(code.abs_diff(zero.get())) * f64::from(sense.na_per_code) * 1e-9
+            };
+            // At full duty a link average reads 0.95 of the winding current; either way the
+            // trip is 12 A of winding current, to within one code of the threshold's rounding.
+            let duty = Duty::from_raw_clamped(65_535);
+            let seen = if sense.reading == CurrentReading::Winding { 1.0 } else { 0.949_997 };
+            let code_amps = f64::from(sense.na_per_code) * 1e-9;
+            for raw in zero.get()..=4_095 {
+                let trips = config.overcurrent(AdcCode::new(raw), zero, duty);
+                let winding = amps(raw) / seen;
+                if trips {
+                    assert!(winding >= 12.0 - 2.0 * code_amps, "{sense:?} {raw}");
+                } else {
+                    assert!(winding < 12.0 + 2.0 * code_amps, "{sense:?} {raw}");
+                }
+            }
+            // A bidirectional zero reads no current at all.
+            assert!(!config.overcurrent(zero, zero, Duty::ZERO));
+        }
+    }
+
+    #[test]
+    fn refuses_configurations_that_do_not_make_sense() {
+        let s = CurrentSense::PAPER;
+        let b = BusSense::PAPER;
+        let l = CurrentLimit::PAPER;
+        assert_eq!(
+            DriveConfig::new(CurrentSense { na_per_code: 0, ..s }, b, l, 12_000),
+            Err(DriveConfigError::CurrentSense)
+        );
+        assert_eq!(DriveConfig::new(s, b, l, 30_000), Err(DriveConfigError::CurrentSense));
+        assert_eq!(
+            DriveConfig::new(s, BusSense { regen_mv: 40_000, ..b }, l, 12_000),
+            Err(DriveConfigError::Bus)
+        );
+        assert_eq!(
+            DriveConfig::new(s, b, CurrentLimit { limit_ma: 12_000, ..l }, 12_000),
+            Err(DriveConfigError::Limit)
+        );
+        assert_eq!(
+            DriveConfig::new(s, b, CurrentLimit { emf_mv_ticks: 0, ..l }, 12_000),
+            Err(DriveConfigError::Limit)
+        );
+    }
+}

@@ -27,7 +27,7 @@
 //!   fast as the twin goes; it prints a transcript (and frames) to stdout. Tests drive the
 //!   panel through it.
 
-pub mod display;
+pub use taut_sim::operator::display;
 pub mod script;
 pub mod terminal;
 

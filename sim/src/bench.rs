@@ -434,6 +434,8 @@ pub struct Progress<'a> {
 
 /// Runs `bench` with `operator` until `done` or [`SESSION_LIMIT_MS`], reporting progress
 /// every 50 ms and at each state change (one tick late, with the new state's own display).
+/// `done` sees the bench after every tick and may act on it (inject a fault, break the
+/// string) before the next.
 ///
 /// # Errors
 /// [`SessionError::Timeout`].
@@ -442,7 +444,7 @@ pub fn run_session(
     operator: &mut Operator,
     session: Session,
     progress: &mut dyn FnMut(&Progress<'_>),
-    mut done: impl FnMut(&Bench, &Operator) -> bool,
+    mut done: impl FnMut(&mut Bench, &Operator) -> bool,
 ) -> Result<(), SessionError> {
     let mut last_state = bench.machine().state();
     let mut changed = false;

@@ -175,8 +175,16 @@ const fn fault_from(code: u8) -> Option<DriveFault> {
 /// `Inputs` does not compile until it is written here (and read in [`decode_inputs`]).
 #[must_use]
 pub fn encode_inputs(inputs: &Inputs) -> [u8; INPUTS_LEN] {
-    let Inputs { now_ms, load_cell, motor_current, bus_voltage, drive, string_counter, limits, keys } =
-        *inputs;
+    let Inputs {
+        now_ms,
+        load_cell,
+        motor_current,
+        bus_voltage,
+        drive,
+        string_counter,
+        limits,
+        keys,
+    } = *inputs;
     let DriveStatus { fault, steps, rotation, quiet_for, energized } = drive;
     let mut bytes = [0; INPUTS_LEN];
     let mut out = Writer { bytes: &mut bytes, at: 0 };

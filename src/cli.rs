@@ -130,9 +130,36 @@ fn percent_in_fives(max: u8) -> impl Fn(&str) -> Result<u8, String> + Clone {
     }
 }
 
+/// A parser of whole numbers within `lo..=hi` (signs, fractions, words and values outside
+/// are rejected with the range in the message).
+pub fn whole<T>(lo: T, hi: T) -> impl Fn(&str) -> Result<T, String> + Clone
+where
+    T: std::str::FromStr + PartialOrd + std::fmt::Display + Copy + Send + Sync + 'static,
+{
+    move |text: &str| {
+        let range = if hi_is_max(&hi) { format!("{lo} or more") } else { format!("{lo}–{hi}") };
+        let value: T =
+            text.trim().parse().map_err(|_| format!("`{text}` is not a whole number ({range})"))?;
+        if value < lo || value > hi {
+            return Err(format!("{value} is not in {range}"));
+        }
+        Ok(value)
+    }
+}
+
+/// Whether `hi` is its type's largest value (printed as "or more").
+fn hi_is_max<T: std::fmt::Display>(hi: &T) -> bool {
+    hi.to_string() == u64::MAX.to_string()
+}
+
 /// Counts from 1 (`--scenarios`, `--cycles`): at least one.
-fn count(max: u64) -> clap::builder::RangedU64ValueParser<u64> {
-    clap::value_parser!(u64).range(1..=max)
+fn count(max: u64) -> impl Fn(&str) -> Result<u64, String> + Clone {
+    whole(1, max)
+}
+
+/// A seed: any whole number from 0.
+fn seed(text: &str) -> Result<u64, String> {
+    whole(0, u64::MAX)(text)
 }
 
 // ───────────────────────────── value enums ─────────────────────────────
@@ -224,26 +251,26 @@ impl SensingArg {
 #[derive(Args, Clone, Debug)]
 pub struct JobArgs {
     /// Tension to set on the panel: kilograms, or with a unit (25, 25.5kg, 55lb).
-    #[arg(long, default_value = "25", value_parser = parse_tension, value_name = "KGF")]
+    #[arg(long, allow_negative_numbers = true, default_value = "25", value_parser = parse_tension, value_name = "KGF")]
     pub tension: SetPoint,
     /// String on the machine.
     #[arg(long, value_enum, default_value = "tennis-synthetic", value_name = "KIND")]
     pub string: StringArg,
     /// Speed setting, 1 (gentlest) to 9 (fastest).
-    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u8).range(1..=9))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 5, value_parser = whole(1_u8, 9))]
     pub speed: u8,
     /// Pre-stretch, percent above the tension (0–30, steps of 5).
-    #[arg(long = "pre-stretch", default_value_t = 0, value_name = "PCT", value_parser = percent_in_fives(30))]
+    #[arg(long = "pre-stretch", allow_negative_numbers = true, default_value_t = 0, value_name = "PCT", value_parser = percent_in_fives(30))]
     pub pre_stretch: u8,
     /// Make a knot pull: knot mode on, knot increase PCT (0–20, steps of 5; 15 if omitted).
-    #[arg(long, num_args = 0..=1, default_missing_value = "15", value_name = "PCT", value_parser = percent_in_fives(20))]
+    #[arg(long, allow_negative_numbers = true, num_args = 0..=1, default_missing_value = "15", value_name = "PCT", value_parser = percent_in_fives(20))]
     pub knot: Option<u8>,
     /// Run machine N of the twin's family (`TwinConfig::family_kind`: motor, drivetrain,
     /// sensors and board drawn from their ranges) instead of the nominal machine.
-    #[arg(long, value_name = "N")]
+    #[arg(long, allow_negative_numbers = true, value_name = "N", value_parser = seed)]
     pub seed: Option<u64>,
     /// Seconds the operator lets the machine hold before releasing (0–120).
-    #[arg(long, default_value = "5", value_name = "SECONDS", value_parser = ranged_f64(0.0..=120.0))]
+    #[arg(long, allow_negative_numbers = true, default_value = "5", value_name = "SECONDS", value_parser = ranged_f64(0.0..=120.0))]
     pub hold: f64,
     /// Skip the commissioning calibration: the machine runs on the tared, uncorrected sensor.
     #[arg(long)]
@@ -282,7 +309,7 @@ pub struct PanelArgs {
     #[arg(long, value_enum, default_value = "tennis-synthetic", value_name = "KIND")]
     pub string: StringArg,
     /// Machine N of the twin's family instead of the nominal machine.
-    #[arg(long, value_name = "N")]
+    #[arg(long, allow_negative_numbers = true, value_name = "N", value_parser = seed)]
     pub seed: Option<u64>,
     /// What the machine's flash holds at power-up.
     #[arg(long, value_enum, default_value_t = Flash::Calibrated)]
@@ -295,7 +322,7 @@ pub struct PanelArgs {
     #[arg(long)]
     pub frames: bool,
     /// Interactive mode: machine milliseconds per real millisecond (0.1–100).
-    #[arg(long, default_value = "1", value_name = "FACTOR", value_parser = ranged_f64(0.1..=100.0))]
+    #[arg(long, allow_negative_numbers = true, default_value = "1", value_name = "FACTOR", value_parser = ranged_f64(0.1..=100.0))]
     pub rate: f64,
     /// Print the script format and exit.
     #[arg(long)]
@@ -319,7 +346,7 @@ pub struct PaperArgs {
 #[derive(Args, Clone, Debug)]
 pub struct PullArgs {
     /// Target tension (5.0–50.0 kg in 0.1 kg steps, or with a unit: 55lb).
-    #[arg(long, value_parser = parse_tension, value_name = "KGF", conflicts_with = "scenario")]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_tension, value_name = "KGF", conflicts_with = "scenario")]
     pub tension: Option<SetPoint>,
     /// String kind.
     #[arg(long, value_enum, value_name = "KIND", conflicts_with = "scenario")]
@@ -328,16 +355,16 @@ pub struct PullArgs {
     #[arg(long, value_enum, default_value = "taut")]
     pub controller: ControllerArg,
     /// Speed setting, 1–9.
-    #[arg(long, default_value_t = 9, value_parser = clap::value_parser!(u8).range(1..=9))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 9, value_parser = whole(1_u8, 9))]
     pub speed: u8,
     /// Seconds to hold after Start before releasing (1–120).
-    #[arg(long, default_value = "12", value_name = "SECONDS", value_parser = ranged_f64(1.0..=120.0))]
+    #[arg(long, allow_negative_numbers = true, default_value = "12", value_name = "SECONDS", value_parser = ranged_f64(1.0..=120.0))]
     pub hold: f64,
     /// Machine N of the twin's family instead of the nominal machine.
-    #[arg(long, value_name = "N", conflicts_with = "scenario")]
+    #[arg(long, allow_negative_numbers = true, value_name = "N", value_parser = seed, conflicts_with = "scenario")]
     pub seed: Option<u64>,
     /// Re-run scenario N of `taut report accuracy` (seed 1): its machine, string and target.
-    #[arg(long, value_name = "N")]
+    #[arg(long, allow_negative_numbers = true, value_name = "N", value_parser = seed)]
     pub scenario: Option<u64>,
     /// Write a plot (tension, hold error, carriage, duty, current) here.
     #[arg(long, value_name = "FILE")]
@@ -354,10 +381,10 @@ pub struct PullArgs {
 #[derive(Args, Clone, Debug)]
 pub struct AccuracyArgs {
     /// Number of scenarios (machines of the family, each with a string and a target).
-    #[arg(long, default_value_t = 200, value_parser = count(1_000_000))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 200, value_parser = count(1_000_000))]
     pub scenarios: u64,
     /// Seed of the scenario draw.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = seed)]
     pub seed: u64,
     /// Controllers to run on every scenario (comma-separated).
     #[arg(long, value_enum, value_delimiter = ',', default_value = "taut")]
@@ -366,7 +393,7 @@ pub struct AccuracyArgs {
     #[arg(long, value_enum, default_value_t = SensingArg::Family)]
     pub sensing: SensingArg,
     /// Worker threads (default: the machine's cores).
-    #[arg(long, value_parser = clap::value_parser!(u16).range(1..=256))]
+    #[arg(long, allow_negative_numbers = true, value_parser = whole(1_u16, 256))]
     pub threads: Option<u16>,
     /// Write the JSON summary here.
     #[arg(long, value_name = "FILE")]
@@ -383,16 +410,16 @@ pub struct AccuracyArgs {
 #[derive(Args, Clone, Debug)]
 pub struct AblationArgs {
     /// Number of scenarios.
-    #[arg(long, default_value_t = 200, value_parser = count(1_000_000))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 200, value_parser = count(1_000_000))]
     pub scenarios: u64,
     /// Seed of the scenario draw.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = seed)]
     pub seed: u64,
     /// The machines' current-sensing board.
     #[arg(long, value_enum, default_value_t = SensingArg::Family)]
     pub sensing: SensingArg,
     /// Worker threads (default: the machine's cores).
-    #[arg(long, value_parser = clap::value_parser!(u16).range(1..=256))]
+    #[arg(long, allow_negative_numbers = true, value_parser = whole(1_u16, 256))]
     pub threads: Option<u16>,
     /// Write the JSON summary here.
     #[arg(long, value_name = "FILE")]
@@ -403,19 +430,19 @@ pub struct AblationArgs {
 #[derive(Args, Clone, Debug)]
 pub struct RobustnessArgs {
     /// Scenarios (string kind and target) per point of each axis.
-    #[arg(long, default_value_t = 4, value_parser = count(10_000))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 4, value_parser = count(10_000))]
     pub scenarios: u64,
     /// Points per axis, evenly from its low end (0) to its high end (1); at least 2.
-    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(2..=21))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 3, value_parser = whole(2_u64, 21))]
     pub points: u64,
     /// Only these axes (comma-separated names, e.g. inertia,friction); default all.
     #[arg(long, value_delimiter = ',', value_parser = parse_axis)]
     pub axes: Vec<taut_sim::Axis>,
     /// Seed of the scenario draw.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = seed)]
     pub seed: u64,
     /// Worker threads (default: the machine's cores).
-    #[arg(long, value_parser = clap::value_parser!(u16).range(1..=256))]
+    #[arg(long, allow_negative_numbers = true, value_parser = whole(1_u16, 256))]
     pub threads: Option<u16>,
     /// Write the JSON summary here.
     #[arg(long, value_name = "FILE")]
@@ -437,23 +464,23 @@ fn parse_axis(text: &str) -> Result<taut_sim::Axis, String> {
 #[derive(Args, Clone, Debug)]
 pub struct MachineArgs {
     /// Number of whole machine cycles (boot, set, pull, hold, release).
-    #[arg(long, default_value_t = 100, value_parser = count(1_000_000))]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 100, value_parser = count(1_000_000))]
     pub cycles: u64,
     /// Seed of the machine draw.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = seed)]
     pub seed: u64,
     /// Break the string during the hold in every Kth cycle (0: never).
-    #[arg(long, default_value_t = 10, value_name = "K")]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_name = "K", value_parser = seed)]
     pub break_every: u64,
     /// Inject a real fault (alternately a shorted phase and a stalled rotor) during the pull
     /// in every Kth cycle (0: never).
-    #[arg(long, default_value_t = 25, value_name = "K")]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 25, value_name = "K", value_parser = seed)]
     pub fault_every: u64,
     /// The machines' current-sensing board.
     #[arg(long, value_enum, default_value_t = SensingArg::Family)]
     pub sensing: SensingArg,
     /// Worker threads (default: the machine's cores).
-    #[arg(long, value_parser = clap::value_parser!(u16).range(1..=256))]
+    #[arg(long, allow_negative_numbers = true, value_parser = whole(1_u16, 256))]
     pub threads: Option<u16>,
     /// Write the JSON summary here.
     #[arg(long, value_name = "FILE")]

@@ -34,7 +34,7 @@ use taut_core::units::{Kgf, Q16};
 use taut_sim::bench::{kgf, to_kgf};
 
 use crate::cli::PaperArgs;
-use crate::output::{Status, write_file, write_json};
+use crate::output::{Status, check_writable, write_file, write_json};
 use crate::plot::{Figure, Panel, Series, Stroke};
 
 /// The plant and disturbance of the re-run.
@@ -220,6 +220,9 @@ pub fn figure(rsmc: &PaperRun, pd: &PaperRun) -> Figure {
 /// # Errors
 /// A file cannot be written.
 pub fn main(args: &PaperArgs) -> Status {
+    for path in [&args.json, &args.svg].into_iter().flatten() {
+        check_writable(path)?;
+    }
     let (rsmc, pd, h) = run();
     let show = |x: Option<f64>| x.map_or("never".to_owned(), |v| format!("{v:.4}"));
     println!("| figure | taut re-run | paper |\n|---|---|---|");

@@ -9,7 +9,7 @@ use taut_sim::bench::{ControllerBench, ControllerRow, kgf};
 use taut_sim::{StringKind, TwinConfig};
 
 use crate::cli::{PullArgs, SensingArg};
-use crate::output::{Failure, Status, write_file};
+use crate::output::{Failure, Status, check_writable, write_file};
 use crate::plot::{Figure, Panel, Series, Stroke};
 use crate::report::accuracy::controller_config;
 use crate::report::{Scenario, commissioned_calibration, pull_settings, signed_duty};
@@ -203,6 +203,9 @@ pub fn csv(trace: &[ControllerRow]) -> String {
 /// The machine could not be commissioned or the bench started, or a file cannot be
 /// written.
 pub fn main(args: &PullArgs) -> Status {
+    for path in [&args.svg, &args.csv].into_iter().flatten() {
+        check_writable(path)?;
+    }
     let setup = setup(args);
     let calibration = commissioned_calibration(&setup.twin).map_err(|f| {
         Failure::Message(format!("the machine could not be calibrated ({})", f.name()))

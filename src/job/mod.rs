@@ -39,7 +39,7 @@ use taut_sim::operator::{Operator, Plan, display};
 use taut_sim::{StringKind, TwinConfig};
 
 use crate::cli::JobArgs;
-use crate::output::{Failure, Status, write_file, write_json};
+use crate::output::{Failure, Status, check_writable, write_file, write_json};
 
 /// Default hold time of the job, ms: a few seconds of constant pull while the string creeps.
 pub const DEFAULT_HOLD_MS: u32 = 5_000;
@@ -264,6 +264,11 @@ pub fn progress_line(progress: &Progress<'_>) -> String {
 /// # Errors
 /// A session failed or a file could not be written.
 pub fn main(args: &JobArgs) -> Status {
+    // Fail on an output path before the run, not after it.
+    check_writable(&args.svg)?;
+    if let Some(path) = &args.json {
+        check_writable(path)?;
+    }
     let options = CycleOptions::from_args(args);
     let terminal = std::io::stderr().is_terminal();
     let mut shown = 0_u32;

@@ -352,22 +352,29 @@ pub fn main(args: &PanelArgs) -> Status {
         println!("{}", script::FORMAT_HELP);
         return Ok(true);
     }
+    // The script is read and parsed first: a bad script fails before the machine powers up.
+    let script = match &args.script {
+        Some(path) => {
+            let read = |error| Failure::Read { path: path.clone(), error };
+            let text = if path.as_os_str() == "-" {
+                let mut text = String::new();
+                std::io::Read::read_to_string(&mut std::io::stdin(), &mut text).map_err(read)?;
+                text
+            } else {
+                std::fs::read_to_string(path).map_err(read)?
+            };
+            let parsed = script::Script::parse(&text)
+                .map_err(|e| Failure::Usage(format!("{}: {e}", path.display())))?;
+            Some((path, parsed))
+        }
+        None => None,
+    };
     let mut session = PanelSession::new(args.string.into(), args.seed, args.flash)
         .map_err(|e| Failure::Message(e.to_string()))?;
-    let Some(path) = &args.script else {
+    let Some((path, parsed)) = script else {
         terminal::run(&mut session, args.rate).map_err(|e| Failure::Message(e.to_string()))?;
         return Ok(true);
     };
-    let read = |error| Failure::Read { path: path.clone(), error };
-    let text = if path.as_os_str() == "-" {
-        let mut text = String::new();
-        std::io::Read::read_to_string(&mut std::io::stdin(), &mut text).map_err(read)?;
-        text
-    } else {
-        std::fs::read_to_string(path).map_err(read)?
-    };
-    let parsed = script::Script::parse(&text)
-        .map_err(|e| Failure::Usage(format!("{}: {e}", path.display())))?;
     let mut stdout = std::io::stdout().lock();
     match parsed.run(&mut session, args.frames, &mut stdout) {
         Ok(()) => Ok(true),

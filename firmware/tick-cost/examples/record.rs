@@ -54,7 +54,8 @@ fn record() -> Result<Vec<u8>, String> {
     }
     let rows = bench.take_rows();
     let fingerprint = rows.iter().fold(FINGERPRINT_START, |f, row| fold_outputs(f, &row.outputs));
-    let stores = rows.iter().map(|row| u32::from(row.outputs.store)).fold(0_u32, u32::saturating_add);
+    let stores =
+        rows.iter().map(|row| u32::from(row.outputs.store)).fold(0_u32, u32::saturating_add);
     let ticks: Vec<_> = rows.iter().map(|row| row.inputs).collect();
     let header = Header {
         ticks: u32::try_from(ticks.len()).map_err(|_| "too many ticks")?,

@@ -197,15 +197,53 @@ pub fn csv(trace: &[ControllerRow]) -> String {
     out
 }
 
-/// `taut pull`.
+/// A pull's record.
+#[derive(Clone, Debug)]
+pub struct PullRun {
+    /// What it ran on.
+    pub setup: PullSetup,
+    /// Every tick from Start to home.
+    pub trace: Vec<ControllerRow>,
+    /// When the release began, s since Start.
+    pub release_s: f64,
+    /// Its figures.
+    pub summary: PullSummary,
+}
+
+impl PullRun {
+    /// The plot, titled with what was run.
+    #[must_use]
+    pub fn figure(&self, args: &PullArgs) -> Figure {
+        let string = self.setup.twin.string.kind.name();
+        let title = format!(
+            "taut pull: {string} at {:.1} kgf, controller {}, speed {}",
+            self.setup.target_kgf,
+            args.controller.name(),
+            args.speed
+        );
+        let subtitle = format!(
+            "{}, current sensing {}, calibrated by the machine's own 4-point calibration; held {:.1} s, then released",
+            self.setup.machine,
+            self.setup.twin.current_sense.name(),
+            args.hold
+        );
+        figure(
+            &self.trace,
+            self.setup.target_kgf,
+            &title,
+            &subtitle,
+            self.summary.settle_s,
+            self.release_s,
+        )
+    }
+}
+
+/// Runs the pull `args` ask for: commissioning (the machine's calibration), then the
+/// controller pulls, holds for `--hold` and releases home.
 ///
 /// # Errors
-/// The machine could not be commissioned or the bench started, or a file cannot be
-/// written.
-pub fn main(args: &PullArgs) -> Status {
-    for path in [&args.svg, &args.csv].into_iter().flatten() {
-        check_writable(path)?;
-    }
+/// The machine could not be calibrated or the bench started.
+pub fn run(args: &PullArgs) -> Result<PullRun, Failure> {
     let setup = setup(args);
     let calibration = commissioned_calibration(&setup.twin).map_err(|f| {
         Failure::Message(format!("the machine could not be calibrated ({})", f.name()))
@@ -226,13 +264,27 @@ pub fn main(args: &PullArgs) -> Status {
             break;
         }
     }
-    let string = setup.twin.string.kind.name();
-    let s = summarize(&trace, setup.target_kgf, release_s);
+    let summary = summarize(&trace, setup.target_kgf, release_s);
+    Ok(PullRun { setup, trace, release_s, summary })
+}
+
+/// `taut pull`: runs the pull, prints one line of figures, writes the plot and the CSV.
+/// `Ok(false)` when the drive faulted.
+///
+/// # Errors
+/// The machine could not be calibrated, or a file cannot be written.
+pub fn main(args: &PullArgs) -> Status {
+    for path in [&args.svg, &args.csv].into_iter().flatten() {
+        check_writable(path)?;
+    }
+    let pull = run(args)?;
+    let (setup, s) = (&pull.setup, &pull.summary);
     let opt = |v: Option<f64>, unit: &str| {
         v.map_or_else(|| "never".to_owned(), |v| format!("{v:.3} {unit}"))
     };
     println!(
-        "pull {string} to {:.1} kgf ({}, speed {}, {}, current sensing {}): settled {}, overshoot {:.3} kgf, hold error {}, peak winding current {:.2} A, true tension at release {:.3} kgf, released in {}{}",
+        "pull {} to {:.1} kgf ({}, speed {}, {}, current sensing {}): settled {}, overshoot {:.3} kgf, hold error {}, peak winding current {:.2} A, true tension at release {:.3} kgf, released in {}{}",
+        setup.twin.string.kind.name(),
         setup.target_kgf,
         args.controller.name(),
         args.speed,
@@ -247,26 +299,11 @@ pub fn main(args: &PullArgs) -> Status {
         if s.drive_fault { "; the drive faulted" } else { "" }
     );
     if let Some(path) = &args.svg {
-        let title = format!(
-            "taut pull: {string} at {:.1} kgf, controller {}, speed {}",
-            setup.target_kgf,
-            args.controller.name(),
-            args.speed
-        );
-        let subtitle = format!(
-            "{}, current sensing {}, calibrated by the machine's own 4-point calibration; held {:.1} s, then released",
-            setup.machine,
-            setup.twin.current_sense.name(),
-            args.hold
-        );
-        write_file(
-            path,
-            figure(&trace, setup.target_kgf, &title, &subtitle, s.settle_s, release_s).to_svg(),
-        )?;
+        write_file(path, pull.figure(args).to_svg())?;
         println!("plot: {}", path.display());
     }
     if let Some(path) = &args.csv {
-        write_file(path, csv(&trace))?;
+        write_file(path, csv(&pull.trace))?;
         println!("trace: {}", path.display());
     }
     Ok(!s.drive_fault)

@@ -215,7 +215,7 @@ fn what_was_run(seed: u64, sensing: SensingArg, results: &[ScenarioResult]) -> S
 }
 
 /// The report's plots: the quantiles of hold error, overshoot (log scale) and settle/t_min
-/// per controller; and the first scenario that every controller pulled.
+/// per controller; and the first scenario the first controller pulled.
 #[must_use]
 pub fn figures(
     seed: u64,
@@ -265,7 +265,8 @@ pub fn figures(
             ],
         ),
     )];
-    if let Some(r) = results.iter().find(|r| r.metrics.iter().all(|m| m.failure.is_none())) {
+    if let Some(r) = results.iter().find(|r| r.metrics.first().is_some_and(|m| m.failure.is_none()))
+    {
         let scenario = Scenario::new(seed, r.index, sensing);
         if let Ok(calibration) = commissioned_calibration(&scenario.twin) {
             let mut tension = Vec::new();

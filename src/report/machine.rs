@@ -227,6 +227,9 @@ fn tally<K: Ord + Clone>(keys: impl Iterator<Item = K>) -> Vec<(K, usize)> {
 pub struct Detections {
     /// The kind.
     pub kind: Injection,
+    /// Cycles planned to have it (a cycle that faulted before the point of injection never
+    /// gets it).
+    pub planned: usize,
     /// Cycles it was injected in.
     pub injected: usize,
     /// Cycles in which the machine latched a fault after it.
@@ -269,7 +272,15 @@ pub fn findings(cycles: &[Cycle]) -> Findings {
                 mine.iter().filter_map(|c| c.detection()).collect();
             let codes = tally(detected.iter().map(|(code, _)| fault_name(*code)));
             let slowest_ms = detected.iter().map(|(_, ms)| *ms).max();
-            Detections { kind, injected: mine.len(), detected: detected.len(), codes, slowest_ms }
+            let planned = cycles.iter().filter(|c| c.injection == kind).count();
+            Detections {
+                kind,
+                planned,
+                injected: mine.len(),
+                detected: detected.len(),
+                codes,
+                slowest_ms,
+            }
         })
         .collect();
     let healthy: Vec<f64> = cycles
@@ -306,15 +317,16 @@ pub fn text(f: &Findings) -> String {
         out.push_str("| — | 0 |\n");
     }
     out.push_str(
-        "\n| injected | cycles | detected | codes | slowest detection |\n|---|---|---|---|---|\n",
+        "\n| injected | planned | cycles injected | detected | codes | slowest detection |\n|---|---|---|---|---|---|\n",
     );
     for d in &f.injections {
         let (kind, injected, detected, slowest) = (d.kind, &d.injected, &d.detected, d.slowest_ms);
         let codes: Vec<String> = d.codes.iter().map(|(c, n)| format!("{n} {c}")).collect();
         let _ = writeln!(
             out,
-            "| {} | {injected} | {detected} ({}) | {} | {} |",
+            "| {} | {} | {injected} | {detected} ({}) | {} | {} |",
             kind.name(),
+            d.planned,
             if *injected > 0 {
                 format!("{:.0} %", *detected as f64 / *injected as f64 * 100.0)
             } else {
@@ -352,6 +364,7 @@ pub fn to_json(args: &MachineArgs, f: &Findings) -> Value {
         "false_faults": f.false_faults.iter().map(|(c, n)| json!({"code": c, "count": n})).collect::<Vec<_>>(),
         "injections": f.injections.iter().map(|d| json!({
             "kind": d.kind.name(),
+            "planned": d.planned,
             "cycles": d.injected,
             "detected": d.detected,
             "codes": d.codes.iter().map(|(c, n)| json!({"code": c, "count": n})).collect::<Vec<_>>(),

@@ -358,7 +358,7 @@ pub const AGGREGATE_HEADER: &str = "| hold p50 / p99 / max kgf | overshoot p99 /
 #[must_use]
 pub fn aggregate_row(a: &Aggregate) -> String {
     format!(
-        " {} / {} / {} | {} / {} | {} / {} | {} | {} | {} | {} | {} of {} |",
+        " | {} / {} / {} | {} / {} | {} / {} | {} | {} | {} | {} | {} of {} |",
         cell(a.hold_kgf[0], 3),
         cell(a.hold_kgf[1], 3),
         cell(a.hold_kgf[2], 3),

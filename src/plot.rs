@@ -15,15 +15,23 @@
 //!
 //! # Layout
 //!
-//! A [`Figure`] has a title, a subtitle (what was run: string, tension, seed…) and
-//! [`Panel`]s stacked vertically. Panels share the figure's x range unless they set their own
-//! ([`Panel::with_x_range`], e.g. a hold window zoomed in time). Each axis is padded beyond
-//! the data (5 % of its span) and rounded out to "nice" ticks of 1, 2 or 5 × 10ⁿ, so both
-//! ends carry a label and a line at the data's edge (a target) sits inside the frame. A
-//! fixed range ([`Panel::with_y_range`]) clips what falls outside it. [`Scale::Log`] draws
-//! decades. Legends sit in a column right of the plot area.
+//! A [`Figure`] has a title, a subtitle (what was run: string, tension, seed…; wrapped onto
+//! as many lines as it needs) and [`Panel`]s stacked vertically. Panels share the figure's x
+//! range unless they set their own ([`Panel::with_x_range`], e.g. a hold window zoomed in
+//! time); the shared x-axis label sits under the last shared panel, a panel's own under it.
+//! Each y axis is padded beyond the data (5 % of its span) and rounded out to "nice" ticks
+//! of 1, 2 or 5 × 10ⁿ, about one per 36 px (x: one per 80 px), so both ends carry a label
+//! and a line at the data's edge (a target) sits inside the frame. A fixed range
+//! ([`Panel::with_y_range`]) clips what falls outside it. [`Scale::Log`] pads in decades and
+//! labels both ends. Legends sit in a column right of the plot area, never over data. Within
+//! a panel, references (dashed) are drawn first, noisy measurements (thin) next, and the
+//! first series last, so it lies on top. A y label longer than its panel wraps to two lines.
 
 use std::fmt::Write as _;
+
+/// The duty axis of every plot, ± this many percent (a line at full duty stays inside the
+/// frame).
+pub const DUTY_AXIS_PERCENT: f64 = 105.0;
 
 /// Points kept per series after thinning.
 pub const MAX_POINTS: usize = 4_000;
@@ -40,12 +48,22 @@ const LEFT: f64 = 80.0;
 const LEGEND_W: f64 = 190.0;
 /// Right margin beyond the legend, px.
 const RIGHT: f64 = 10.0;
-/// Title and subtitle, px.
+/// Title and the subtitle's first line, px.
 const TOP: f64 = 58.0;
+/// Each further line of a wrapped subtitle, px.
+const SUBTITLE_LINE: f64 = 15.0;
+/// Characters per subtitle line (12 px text across the figure).
+const SUBTITLE_CHARS: usize = 140;
+/// Pixels per y tick interval, at least (12 px labels).
+const Y_TICK_PX: f64 = 36.0;
+/// Pixels per x tick interval, at least.
+const X_TICK_PX: f64 = 80.0;
+/// Width of a character of 12 px text, px (DejaVu Sans's mean, for fitting labels).
+const CHAR_PX: f64 = 6.8;
 /// Space under a panel for its x tick labels, px.
 const GAP: f64 = 34.0;
-/// Space for the x-axis label at the bottom, px.
-const BOTTOM: f64 = 34.0;
+/// Space under the last panel, px.
+const BOTTOM: f64 = 8.0;
 
 /// How a line is drawn.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
@@ -164,10 +182,15 @@ impl Panel {
         }
     }
 
-    /// A timeline panel (a strip of coloured bands).
+    /// A timeline panel (a strip of coloured bands), as high as its legend (one line per
+    /// distinct [`Band::key`]) and at least 26 px.
     #[must_use]
     pub fn timeline(y_label: &str, bands: Vec<Band>) -> Self {
-        Self { height: 26.0, content: Content::Timeline(bands), ..Self::new(y_label, Vec::new()) }
+        let mut keys: Vec<&str> = bands.iter().map(|b| b.key.as_str()).collect();
+        keys.sort_unstable();
+        keys.dedup();
+        let height = (keys.len() as f64 * TIMELINE_KEY_PX).max(26.0);
+        Self { height, content: Content::Timeline(bands), ..Self::new(y_label, Vec::new()) }
     }
 
     /// This panel with a fixed y range.
@@ -287,25 +310,26 @@ pub struct Geometry {
     pub panels: Vec<PanelGeometry>,
 }
 
-/// A "nice" tick step near `span / 5`: 1, 2 or 5 × 10ⁿ.
+/// The "nice" tick step (1, 2 or 5 × 10ⁿ) nearest to `span / intervals` (nearest on a log
+/// scale, so an axis gets about `intervals` of them).
 #[must_use]
-pub fn nice_step(span: f64) -> f64 {
-    if !(span.is_finite() && span > 0.0) {
+pub fn nice_step(span: f64, intervals: f64) -> f64 {
+    if !(span.is_finite() && span > 0.0 && intervals >= 1.0) {
         return 1.0;
     }
-    let raw = span / 5.0;
+    let raw = span / intervals;
     let magnitude = 10_f64.powf(raw.log10().floor());
-    let fraction = raw / magnitude;
-    let nice = if fraction <= 1.0 {
-        1.0
-    } else if fraction <= 2.0 {
-        2.0
-    } else if fraction <= 5.0 {
-        5.0
-    } else {
-        10.0
-    };
-    nice * magnitude
+    [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * magnitude)
+        .min_by(|a, b| (a / raw).ln().abs().total_cmp(&(b / raw).ln().abs()))
+        .unwrap_or(magnitude)
+}
+
+/// `(lo, hi)` rounded out to multiples of `step`.
+fn rounded_out(lo: f64, hi: f64, step: f64) -> (f64, f64) {
+    // A bound already on a tick (within rounding) stays there.
+    ((lo / step + 1e-9).floor() * step, (hi / step - 1e-9).ceil() * step)
 }
 
 /// The finite range of `values`, widened when empty or flat.
@@ -325,13 +349,51 @@ fn data_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     (lo, hi)
 }
 
-/// `(lo, hi)` padded by 5 % of the span each side and rounded out to ticks: the axis and
-/// its step.
-fn padded(lo: f64, hi: f64) -> (f64, f64, f64) {
+/// `(lo, hi)` padded by 5 % of the span each side and rounded out to ticks about
+/// `intervals` apart: the axis and its step.
+fn padded(lo: f64, hi: f64, intervals: f64) -> (f64, f64, f64) {
     let pad = (hi - lo) * 0.05;
     let (lo, hi) = (lo - pad, hi + pad);
-    let step = nice_step(hi - lo);
-    ((lo / step).floor() * step, (hi / step).ceil() * step, step)
+    let step = nice_step(hi - lo, intervals);
+    let (lo, hi) = rounded_out(lo, hi, step);
+    (lo, hi, step)
+}
+
+/// `text` broken at spaces into lines of at most `width` characters (a longer word stands
+/// alone).
+fn wrap(text: &str, width: usize) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    let mut line = String::new();
+    for word in text.split(' ') {
+        if !line.is_empty() && line.chars().count() + 1 + word.chars().count() > width {
+            lines.push(std::mem::take(&mut line));
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(word);
+    }
+    lines.push(line);
+    lines
+}
+
+/// `(lo, hi)` (both > 0) padded by 5 % of its span in decades each side and rounded out to
+/// 1, 2 or 5 × 10ⁿ, so values at either end (a floor standing for 0) sit inside the frame.
+fn log_padded(lo: f64, hi: f64) -> (f64, f64) {
+    let (a, b) = (lo.log10(), hi.log10());
+    let pad = (b - a) * 0.05;
+    let (a, b) = (a - pad, b + pad);
+    let down = |v: f64| {
+        let decade = 10_f64.powf(v.floor());
+        let m = 10_f64.powf(v - v.floor());
+        decade * [5.0, 2.0, 1.0].into_iter().find(|&n| n <= m * 1.000_001).unwrap_or(1.0)
+    };
+    let up = |v: f64| {
+        let decade = 10_f64.powf(v.floor());
+        let m = 10_f64.powf(v - v.floor());
+        decade * [1.0, 2.0, 5.0, 10.0].into_iter().find(|&n| n >= m * 0.999_999).unwrap_or(10.0)
+    };
+    (down(a), up(b))
 }
 
 /// At most [`MAX_POINTS`] points: each bucket's min and max, in order.
@@ -394,25 +456,28 @@ fn linear_ticks(lo: f64, hi: f64, step: f64) -> Vec<(f64, String)> {
     ticks
 }
 
-/// Ticks of a log axis: every decade, and 2 and 5 times it when there are few decades.
+/// Ticks of a log axis: every decade, 2 and 5 times it when there are few decades, and
+/// both ends (a 1, 2 or 5 × 10ⁿ from [`log_padded`]) always.
 fn log_ticks(lo: f64, hi: f64) -> Vec<(f64, String)> {
-    let mut ticks = Vec::new();
+    let label = |v: f64| {
+        let decimals = (-v.log10().floor()).max(0.0) as usize;
+        format!("{v:.decimals$}")
+    };
     let first = lo.log10().floor() as i32;
     let last = hi.log10().ceil() as i32;
     let few = last - first <= 3;
+    let mut values = vec![lo, hi];
     for e in first..=last {
         for m in [1.0, 2.0, 5.0] {
-            if m > 1.0 && !few {
-                continue;
-            }
             let v = m * 10_f64.powi(e);
-            if v >= lo * 0.999 && v <= hi * 1.001 {
-                let decimals = if e < 0 { (-e) as usize } else { 0 };
-                ticks.push((v, format!("{v:.decimals$}")));
+            let inside = v > lo * 1.001 && v < hi * 0.999;
+            if inside && (m == 1.0 || few) {
+                values.push(v);
             }
         }
     }
-    ticks
+    values.sort_by(f64::total_cmp);
+    values.into_iter().map(|v| (v, label(v))).collect()
 }
 
 impl Figure {
@@ -441,8 +506,14 @@ impl Figure {
         if longest == 0 { 0.0 } else { longest as f64 * 5.2 + 6.0 }
     }
 
-    /// The shared x range: the data of every panel without its own range, padded to ticks.
-    fn shared_x(&self) -> (f64, f64, f64) {
+    /// The subtitle's lines.
+    fn subtitle_lines(&self) -> Vec<String> {
+        wrap(&self.subtitle, SUBTITLE_CHARS)
+    }
+
+    /// The shared x range: the data of every panel without its own range, rounded out to
+    /// ticks about [`X_TICK_PX`] apart.
+    fn shared_x(&self, plot_w: f64) -> (f64, f64, f64) {
         let (lo, hi) =
             data_range(self.panels.iter().filter(|p| p.x_range.is_none()).flat_map(|p| {
                 match &p.content {
@@ -457,9 +528,10 @@ impl Figure {
         if !self.categories.is_empty() {
             return (-0.5, self.categories.len() as f64 - 0.5, 1.0);
         }
-        // Time axes start where the data starts; only the far end is padded.
-        let step = nice_step(hi - lo);
-        ((lo / step).floor() * step, (hi / step).ceil() * step, step)
+        // Time axes start where the data starts: rounded out to ticks, not padded.
+        let step = nice_step(hi - lo, plot_w / X_TICK_PX);
+        let (lo, hi) = rounded_out(lo, hi, step);
+        (lo, hi, step)
     }
 
     /// The SVG document.
@@ -472,11 +544,15 @@ impl Figure {
     #[must_use]
     pub fn render(&self) -> (String, Geometry) {
         let plot_w = WIDTH - LEFT - LEGEND_W - RIGHT;
-        let (sx_lo, sx_hi, sx_step) = self.shared_x();
-        let height = TOP
+        let (sx_lo, sx_hi, sx_step) = self.shared_x(plot_w);
+        let subtitle = self.subtitle_lines();
+        let top_space = TOP + (subtitle.len().max(1) - 1) as f64 * SUBTITLE_LINE;
+        // Whole pixels, so a rasteriser's image is exactly the document.
+        let height = (top_space
             + self.panels.iter().map(|p| p.height + GAP).sum::<f64>()
             + BOTTOM
-            + self.category_space();
+            + self.category_space())
+        .ceil();
         let mut svg = String::new();
         let _ = write!(
             svg,
@@ -484,20 +560,28 @@ impl Figure {
         );
         let _ = write!(
             svg,
-            r##"<text x="{:.1}" y="22" text-anchor="middle" font-size="16" font-weight="bold">{}</text><text x="{:.1}" y="42" text-anchor="middle" font-size="12" fill="#333">{}</text>"##,
-            LEFT + plot_w / 2.0,
+            r#"<text x="{:.1}" y="22" text-anchor="middle" font-size="16" font-weight="bold">{}</text>"#,
+            WIDTH / 2.0,
             escape(&self.title),
-            LEFT + plot_w / 2.0,
-            escape(&self.subtitle)
         );
+        for (i, line) in subtitle.iter().enumerate() {
+            let _ = write!(
+                svg,
+                r##"<text x="{:.1}" y="{:.1}" text-anchor="middle" font-size="12" fill="#333">{}</text>"##,
+                WIDTH / 2.0,
+                42.0 + i as f64 * SUBTITLE_LINE,
+                escape(line)
+            );
+        }
         let mut geometry = Geometry { width: WIDTH, height, panels: Vec::new() };
-        let mut top = TOP;
+        let mut top = top_space;
         let last_shared = self.panels.iter().rposition(|p| p.x_range.is_none());
         for (index, panel) in self.panels.iter().enumerate() {
             let area = Rect { x: LEFT, y: top, w: plot_w, h: panel.height };
             let (x_lo, x_hi, x_step) = match panel.x_range {
                 Some((lo, hi)) => {
-                    let step = nice_step(hi - lo);
+                    let step = nice_step(hi - lo, plot_w / X_TICK_PX);
+                    let (lo, hi) = rounded_out(lo, hi, step);
                     (lo, hi, step)
                 }
                 None => (sx_lo, sx_hi, sx_step),
@@ -569,21 +653,20 @@ impl Figure {
                     );
                 }
             }
-            if let Some(label) = &panel.x_label {
+            // The x-axis label: a panel's own, or the figure's under the last shared panel
+            // (below its category names, if any).
+            let shared = (Some(index) == last_shared).then_some(&self.x_label);
+            if let Some(label) = panel.x_label.as_ref().or(shared) {
+                let below = if categories { self.category_space() } else { 0.0 };
                 let _ = write!(
                     svg,
                     r##"<text x="{:.1}" y="{:.1}" text-anchor="middle" fill="#333">{}</text>"##,
                     area.x + area.w / 2.0,
-                    area.y + area.h + 29.0,
+                    area.y + area.h + below + 29.0,
                     escape(label)
                 );
             }
-            let _ = write!(
-                svg,
-                r#"<text transform="translate(20,{:.1}) rotate(-90)" text-anchor="middle">{}</text>"#,
-                area.y + area.h / 2.0,
-                escape(&panel.y_label)
-            );
+            y_label(&mut svg, &panel.y_label, area);
             match &panel.content {
                 Content::Lines(series) => draw_lines(&mut svg, series, &x, &y, &clip, area),
                 Content::Timeline(bands) => draw_timeline(&mut svg, bands, &x, &clip, area),
@@ -594,15 +677,36 @@ impl Figure {
                 area.x, area.y, area.w, area.h
             );
             top += panel.height + GAP;
+            if categories && Some(index) == last_shared {
+                top += self.category_space();
+            }
         }
+        svg.push_str("</svg>");
+        (svg, geometry)
+    }
+}
+
+/// A panel's y-axis label, rotated beside `area`: on two lines when one would be longer than
+/// the panel is high, and smaller still if those would be.
+fn y_label(svg: &mut String, label: &str, area: Rect) {
+    let chars = label.chars().count();
+    let fits = |lines: usize| chars.div_ceil(lines) as f64 * CHAR_PX <= area.h - 6.0;
+    let lines = if fits(1) { vec![label.to_owned()] } else { wrap(label, chars.div_ceil(2) + 4) };
+    let longest = lines.iter().map(|l| l.chars().count()).max().unwrap_or(0) as f64;
+    let size = if longest * CHAR_PX <= area.h - 6.0 {
+        12.0
+    } else {
+        (12.0 * (area.h - 6.0) / (longest * CHAR_PX)).max(8.0)
+    };
+    let first_x = if lines.len() > 1 { 14.0 } else { 20.0 };
+    for (i, line) in lines.iter().enumerate() {
         let _ = write!(
             svg,
-            r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">{}</text></svg>"#,
-            LEFT + plot_w / 2.0,
-            height - 10.0,
-            escape(&self.x_label)
+            r#"<text transform="translate({:.1},{:.1}) rotate(-90)" text-anchor="middle" font-size="{size:.1}">{}</text>"#,
+            first_x + i as f64 * (size + 2.0),
+            area.y + area.h / 2.0,
+            escape(line)
         );
-        (svg, geometry)
     }
 }
 
@@ -614,18 +718,18 @@ fn y_axis(panel: &Panel, area: Rect) -> (AxisScale, Vec<(f64, String)>) {
             let (lo, hi) = panel.y_range.unwrap_or_else(|| {
                 let (lo, hi) = data_range(values.filter(|v| *v > 0.0));
                 let lo = if lo > 0.0 { lo } else { 1e-3 };
-                (10_f64.powf(lo.log10().floor()), 10_f64.powf(hi.max(lo * 10.0).log10().ceil()))
+                log_padded(lo, hi.max(lo * 10.0))
             });
             let scale = AxisScale { lo, hi, px_lo: area.y + area.h, px_hi: area.y, log: true };
             (scale, log_ticks(lo, hi))
         }
         Scale::Linear => {
             let (lo, hi, step) = match (panel.y_range, &panel.content) {
-                (Some((lo, hi)), _) => (lo, hi, nice_step(hi - lo)),
+                (Some((lo, hi)), _) => (lo, hi, nice_step(hi - lo, area.h / Y_TICK_PX)),
                 (None, Content::Timeline(_)) => (0.0, 1.0, 1.0),
                 (None, Content::Lines(_)) => {
                     let (lo, hi) = data_range(values);
-                    padded(lo, hi)
+                    padded(lo, hi, area.h / Y_TICK_PX)
                 }
             };
             let scale = AxisScale { lo, hi, px_lo: area.y + area.h, px_hi: area.y, log: false };
@@ -639,6 +743,9 @@ fn y_axis(panel: &Panel, area: Rect) -> (AxisScale, Vec<(f64, String)>) {
     }
 }
 
+/// Draws `series` and their legend. Legend entries keep the series' order; the lines are
+/// drawn references (dashed) first, then noisy measurements (thin), then the rest, and
+/// within each kind the first series last, so it lies on top.
 fn draw_lines(
     svg: &mut String,
     series: &[Series],
@@ -647,8 +754,7 @@ fn draw_lines(
     clip: &str,
     area: Rect,
 ) {
-    let legend_x = area.x + area.w + 12.0;
-    for (index, s) in series.iter().enumerate() {
+    let style = |index: usize, s: &Series| {
         let colour = s.colour.unwrap_or(PALETTE[index % PALETTE.len()]);
         let (width, dash) = match s.stroke {
             Stroke::Solid => (1.6, ""),
@@ -656,6 +762,19 @@ fn draw_lines(
             Stroke::Thin => (0.8, r#" stroke-opacity="0.7""#),
             Stroke::Markers => (0.0, ""),
         };
+        (colour, width, dash)
+    };
+    let layer = |s: &Series| match s.stroke {
+        Stroke::Dashed => 0,
+        Stroke::Thin => 1,
+        Stroke::Solid => 2,
+        Stroke::Markers => 3,
+    };
+    let mut order: Vec<usize> = (0..series.len()).collect();
+    order.sort_by_key(|&i| (layer(&series[i]), std::cmp::Reverse(i)));
+    for index in order {
+        let s = &series[index];
+        let (colour, width, dash) = style(index, s);
         if s.stroke == Stroke::Markers {
             for &(px, py) in s.points.iter().filter(|(a, b)| a.is_finite() && b.is_finite()) {
                 let _ = write!(
@@ -665,15 +784,6 @@ fn draw_lines(
                     y.px(py)
                 );
             }
-            let ly = area.y + 12.0 + index as f64 * 16.0;
-            let _ = write!(
-                svg,
-                r#"<circle cx="{:.1}" cy="{:.1}" r="4" fill="{colour}"/><text x="{:.1}" y="{ly:.1}">{}</text>"#,
-                legend_x + 11.0,
-                ly - 4.0,
-                legend_x + 27.0,
-                escape(&s.label)
-            );
             continue;
         }
         let mut path = String::new();
@@ -699,18 +809,40 @@ fn draw_lines(
                 path.trim_end()
             );
         }
+    }
+    let legend_x = area.x + area.w + 12.0;
+    for (index, s) in series.iter().enumerate() {
+        let (colour, _, dash) = style(index, s);
         let ly = area.y + 12.0 + index as f64 * 16.0;
+        if s.stroke == Stroke::Markers {
+            let _ = write!(
+                svg,
+                r#"<circle cx="{:.1}" cy="{:.1}" r="4" fill="{colour}"/>"#,
+                legend_x + 11.0,
+                ly - 4.0,
+            );
+        } else {
+            let _ = write!(
+                svg,
+                r#"<line x1="{legend_x:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="{colour}" stroke-width="2.5"{dash}/>"#,
+                ly - 4.0,
+                legend_x + 22.0,
+                ly - 4.0,
+            );
+        }
         let _ = write!(
             svg,
-            r#"<line x1="{legend_x:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="{colour}" stroke-width="2.5"{dash}/><text x="{:.1}" y="{ly:.1}">{}</text>"#,
-            ly - 4.0,
-            legend_x + 22.0,
-            ly - 4.0,
+            r#"<text x="{:.1}" y="{ly:.1}">{}</text>"#,
             legend_x + 27.0,
             escape(&s.label)
         );
     }
 }
+
+/// The narrowest a band is drawn, px (a 20 ms state on a 15 s axis stays visible).
+const MIN_BAND_PX: f64 = 3.0;
+/// One line of a timeline's legend, px.
+pub const TIMELINE_KEY_PX: f64 = 13.0;
 
 fn draw_timeline(svg: &mut String, bands: &[Band], x: &AxisScale, clip: &str, area: Rect) {
     let mut keys: Vec<(&str, &str)> = Vec::new();
@@ -720,7 +852,7 @@ fn draw_timeline(svg: &mut String, bands: &[Band], x: &AxisScale, clip: &str, ar
             svg,
             r#"<rect x="{x0:.1}" y="{:.1}" width="{:.1}" height="{:.1}" fill="{}" clip-path="url(#{clip})"><title>{}: {:.3}–{:.3} s</title></rect>"#,
             area.y,
-            (x1 - x0).max(0.6),
+            (x1 - x0).max(MIN_BAND_PX),
             area.h,
             band.colour,
             escape(&band.label),
@@ -740,12 +872,12 @@ fn draw_timeline(svg: &mut String, bands: &[Band], x: &AxisScale, clip: &str, ar
             keys.push((&band.key, band.colour));
         }
     }
-    // The legend: two columns in the legend column, from the strip's top down (a timeline
-    // panel is given the height its legend needs).
+    // The legend: one entry a line in the legend column, from the strip's top down
+    // ([`Panel::timeline`] is as high as its legend needs).
     let legend_x = area.x + area.w + 12.0;
     for (index, (key, colour)) in keys.iter().enumerate() {
-        let lx = legend_x + (index % 2) as f64 * 95.0;
-        let y = area.y + (index / 2) as f64 * 13.0;
+        let lx = legend_x;
+        let y = area.y + index as f64 * TIMELINE_KEY_PX;
         let _ = write!(
             svg,
             r##"<rect x="{lx:.1}" y="{y:.1}" width="10" height="10" fill="{colour}" stroke="#888" stroke-width="0.5"/><text x="{:.1}" y="{:.1}" font-size="10">{}</text>"##,
@@ -762,9 +894,11 @@ mod tests {
 
     #[test]
     fn nice_steps() {
-        assert_eq!(nice_step(10.0), 2.0);
-        assert_eq!(nice_step(0.5), 0.1);
-        assert_eq!(nice_step(23.0), 5.0);
+        assert_eq!(nice_step(10.0, 5.0), 2.0);
+        assert_eq!(nice_step(0.5, 5.0), 0.1);
+        assert_eq!(nice_step(23.0, 5.0), 5.0);
+        assert_eq!(nice_step(14.0, 9.0), 2.0);
+        assert!((nice_step(0.5, 9.0) - 0.05).abs() < 1e-12);
     }
 
     #[test]
@@ -829,13 +963,24 @@ mod tests {
     }
 
     #[test]
-    fn log_axis_spans_decades() {
+    fn log_axis_is_padded_and_labelled_at_both_ends() {
         let panel = Panel::new("e", vec![Series::new("q", vec![(0.0, 0.03), (100.0, 20.0)])]).log();
         let figure = Figure::new("t", "s", "x", vec![panel]);
         let (svg, geometry) = figure.render();
         let y = geometry.panels[0].y;
-        assert_eq!((y.lo, y.hi), (0.01, 100.0));
-        assert!(svg.contains(">0.01<") && svg.contains(">100<"));
+        assert!((y.lo - 0.02).abs() < 1e-12 && (y.hi - 50.0).abs() < 1e-9, "{y:?}");
+        assert!(svg.contains(">0.02<") && svg.contains(">50<") && svg.contains(">1<"));
+        assert!(y.px(0.03) < y.px(y.lo) - 2.0, "the lowest value is above the frame");
+    }
+
+    #[test]
+    fn long_subtitles_wrap_and_push_the_panels_down() {
+        assert_eq!(wrap("aa bb cc", 5), ["aa bb", "cc"]);
+        assert_eq!(wrap("averyverylongword x", 5), ["averyverylongword", "x"]);
+        let panel = || Panel::new("kgf", vec![Series::new("s", vec![(0.0, 1.0), (1.0, 2.0)])]);
+        let short = Figure::new("t", "short", "x", vec![panel()]).render().1;
+        let long = Figure::new("t", &"word ".repeat(60), "x", vec![panel()]).render().1;
+        assert!(long.panels[0].area.y >= short.panels[0].area.y + SUBTITLE_LINE);
     }
 
     #[test]

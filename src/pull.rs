@@ -10,7 +10,7 @@ use taut_sim::{StringKind, TwinConfig};
 
 use crate::cli::{PullArgs, SensingArg};
 use crate::output::{Failure, Status, check_writable, write_file};
-use crate::plot::{Figure, Panel, Series, Stroke};
+use crate::plot::{Band, DUTY_AXIS_PERCENT, Figure, Panel, Series, Stroke};
 use crate::report::accuracy::controller_config;
 use crate::report::{Scenario, commissioned_calibration, pull_settings, signed_duty};
 
@@ -95,8 +95,42 @@ pub fn summarize(trace: &[ControllerRow], target: f64, release_s: f64) -> PullSu
     }
 }
 
-/// The pull's plot: tension (true, measured, reference, target), the hold zoomed to
-/// ±0.2 kgf, carriage, duty and current.
+/// A controller phase's name and colour on the timeline.
+const fn phase_band(phase: PullPhase) -> (&'static str, &'static str) {
+    match phase {
+        PullPhase::Idle => ("idle", "#e5e5e5"),
+        PullPhase::TakeUp => ("take-up", "#9ecae1"),
+        PullPhase::Approach => ("approach", "#6baed6"),
+        PullPhase::PreStretch => ("pre-stretch", "#bcbddc"),
+        PullPhase::Settle => ("settle", "#fdd0a2"),
+        PullPhase::Hold => ("hold", "#31a354"),
+        PullPhase::Release => ("release", "#fd8d3c"),
+    }
+}
+
+/// One band per run of ticks in the same controller phase.
+#[must_use]
+pub fn phases(trace: &[ControllerRow]) -> Vec<Band> {
+    let mut bands: Vec<Band> = Vec::new();
+    let step = trace.get(1).zip(trace.first()).map_or(0.001, |(b, a)| b.t_s - a.t_s);
+    for row in trace {
+        let (name, colour) = phase_band(row.control.phase);
+        match bands.last_mut() {
+            Some(band) if band.key == name => band.to = row.t_s + step,
+            _ => bands.push(Band {
+                from: row.t_s,
+                to: row.t_s + step,
+                label: name.to_owned(),
+                key: name.to_owned(),
+                colour,
+            }),
+        }
+    }
+    bands
+}
+
+/// The pull's plot: tension (true, measured, reference, target), carriage, duty, current,
+/// the controller's phases on the same time axis, and the hold zoomed to ±0.2 kgf.
 #[must_use]
 pub fn figure(
     trace: &[ControllerRow],
@@ -109,13 +143,16 @@ pub fn figure(
     let series =
         |f: &dyn Fn(&ControllerRow) -> f64| trace.iter().map(|r| (r.t_s, f(r))).collect::<Vec<_>>();
     let target_line = vec![(0.0, target), (release_s, target)];
+    let until_release = |f: &dyn Fn(&ControllerRow) -> f64| {
+        trace.iter().filter(|r| r.t_s <= release_s).map(|r| (r.t_s, f(r))).collect::<Vec<_>>()
+    };
     let mut panels = vec![
         Panel::new(
             "tension (kgf)",
             vec![
                 Series::new("measured (calibrated)", series(&|r| r.measured_kgf))
                     .stroke(Stroke::Thin),
-                Series::new("reference", series(&|r| kgf(r.control.reference)))
+                Series::new("reference", until_release(&|r| kgf(r.control.reference)))
                     .stroke(Stroke::Dashed),
                 Series::new("true", series(&|r| r.truth.tension_kgf)),
                 Series::new("target", target_line).stroke(Stroke::Dashed).colour("#555555"),
@@ -130,6 +167,7 @@ pub fn figure(
             "duty (%, − = release)",
             vec![Series::new("duty", series(&|r| signed_duty(r) * 100.0))],
         )
+        .with_y_range(-DUTY_AXIS_PERCENT, DUTY_AXIS_PERCENT)
         .with_height(110.0),
         Panel::new(
             "winding current (A)",
@@ -140,6 +178,7 @@ pub fn figure(
             ],
         )
         .with_height(110.0),
+        Panel::timeline("phase", phases(trace)),
     ];
     let from = settle_s.unwrap_or(0.0).min(release_s - 0.5).max(0.0);
     let hold = |f: &dyn Fn(&ControllerRow) -> f64| {

@@ -7,7 +7,7 @@ use taut_sim::bench::{Transition, state_name};
 
 use super::CycleRun;
 use super::summary::{duty_percent, entered, machine_text, panel_kgf, settings_text, summary};
-use crate::plot::{Band, Figure, Panel, Series, Stroke};
+use crate::plot::{Band, DUTY_AXIS_PERCENT, Figure, Panel, Series, Stroke};
 
 /// Half-height of the zoomed hold panel, kgf.
 pub const HOLD_ZOOM_KGF: f64 = 0.2;
@@ -67,13 +67,6 @@ pub fn figure(run: &CycleRun) -> Figure {
         .filter_map(|i| panel_kgf(run, i).map(|v| (t(run.rows[i].t_ms), v)))
         .collect();
     let bands = timeline(&run.transitions, t(end));
-    let keys = {
-        let mut keys: Vec<&str> = bands.iter().map(|b| b.key.as_str()).collect();
-        keys.dedup();
-        keys.sort_unstable();
-        keys.dedup();
-        keys.len()
-    };
     let mut panels = vec![
         Panel::new(
             "tension (kgf)",
@@ -89,6 +82,7 @@ pub fn figure(run: &CycleRun) -> Figure {
             "duty (%, − = release)",
             vec![Series::new("commanded duty", all(&|r| duty_percent(r)))],
         )
+        .with_y_range(-DUTY_AXIS_PERCENT, DUTY_AXIS_PERCENT)
         .with_height(120.0),
         Panel::new(
             "winding current (A)",
@@ -99,7 +93,7 @@ pub fn figure(run: &CycleRun) -> Figure {
             ],
         )
         .with_height(120.0),
-        Panel::timeline("state", bands).with_height((keys.div_ceil(2) as f64 * 13.0).max(26.0)),
+        Panel::timeline("state", bands),
     ];
     let holding = pulling.and_then(|p| entered(run, MachineState::Holding, p));
     if let (Some(from), Some(to)) = (holding, releasing) {
@@ -115,7 +109,8 @@ pub fn figure(run: &CycleRun) -> Figure {
             Panel::new(
                 "hold: tension − target (kgf)",
                 vec![
-                    Series::new("panel reading", window(panel_reading)).stroke(Stroke::Thin),
+                    Series::new("panel reading (0.1 kg steps)", window(panel_reading))
+                        .stroke(Stroke::Thin),
                     Series::new("true tension", window(all(&|r| r.truth.tension_kgf))),
                     Series::new("target", vec![(from_s, 0.0), (to_s, 0.0)])
                         .stroke(Stroke::Dashed)

@@ -16,7 +16,7 @@ use crate::cli::{AccuracyArgs, ControllerArg, SensingArg};
 use crate::output::{
     Progress, Status, check_writable, create_dir, parallel, threads, write_file, write_json,
 };
-use crate::plot::{Figure, Panel, Series, Stroke};
+use crate::plot::{DUTY_AXIS_PERCENT, Figure, Panel, Series, Stroke};
 
 /// The controller of a report entry.
 #[must_use]
@@ -228,17 +228,28 @@ pub fn figures(
             .iter()
             .map(|r| &r.metrics[which])
             .filter(|m| m.failure.is_none())
-            .map(|m| f(m).max(floor))
+            .map(f)
+            .filter(|e| e.is_finite())
+            .map(|e| e.max(floor))
             .collect();
         v.sort_by(f64::total_cmp);
+        // The empirical quantile function: the k-th smallest value over the k-th n-th of
+        // the percentile axis, a step each.
         let n = v.len().max(1) as f64;
-        v.iter().enumerate().map(|(i, e)| ((i + 1) as f64 / n * 100.0, *e)).collect::<Vec<_>>()
+        v.iter()
+            .enumerate()
+            .flat_map(|(k, e)| [(k as f64 / n * 100.0, *e), ((k + 1) as f64 / n * 100.0, *e)])
+            .collect::<Vec<_>>()
     };
     let series = |f: &dyn Fn(&Metrics) -> f64, floor: f64| {
         lineup
             .iter()
             .enumerate()
-            .map(|(which, e)| Series::new(e.name, quantile(which, f, floor)))
+            .map(|(which, e)| {
+                let points = quantile(which, f, floor);
+                let label = format!("{} ({} of {})", e.name, points.len() / 2, results.len());
+                Series::new(&label, points)
+            })
             .collect::<Vec<_>>()
     };
     let goal = |value: f64, label: &str| {
@@ -302,7 +313,9 @@ pub fn figures(
                     vec![
                         Panel::new("true tension (kgf)", tension),
                         Panel::new("true − target (kgf), ±0.2", error).with_y_range(-0.2, 0.2),
-                        Panel::new("duty (%, − = release)", duty).with_height(120.0),
+                        Panel::new("duty (%, − = release)", duty)
+                            .with_y_range(-DUTY_AXIS_PERCENT, DUTY_AXIS_PERCENT)
+                            .with_height(120.0),
                     ],
                 ),
             ));

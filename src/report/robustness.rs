@@ -194,7 +194,8 @@ pub fn figure(args: &RobustnessArgs, axes: &[Axis], runs: &[Point]) -> Figure {
                     .map(|(i, &axis)| {
                         let w =
                             worst(runs.iter().filter(|p| p.axis == axis && p.position == position));
-                        (i as f64, f(&w).max(floor))
+                        // Positions side by side around their axis, low end left.
+                        (i as f64 + (position - 0.5) * 0.4, f(&w).max(floor))
                     })
                     .collect();
                 Series::new(&format!("position {position:.2}"), points).stroke(Stroke::Markers)
@@ -212,11 +213,12 @@ pub fn figure(args: &RobustnessArgs, axes: &[Axis], runs: &[Point]) -> Figure {
     over.push(goal(0.05));
     let mut ratio = per_position(&|w| w.settle_ratio, 0.0);
     ratio.push(goal(1.5));
-    let failed = per_position(&|w| w.failed as f64, 0.0);
+    let scenarios = args.scenarios.max(1) as f64;
+    let failed = per_position(&|w| w.failed as f64 / scenarios * 100.0, 0.0);
     Figure::new(
         "taut report robustness: each axis of the family alone, worst case per position",
         &format!(
-            "taut's controller, speed 9, {} scenarios per point (string kinds in turn, targets 8–35 kgf, seed {}), the machine's own calibration; 0 = the axis's low end, 1 = its high end",
+            "taut's controller, speed 9, {} scenario(s) per point (string kinds in turn, targets 8–35 kgf, seed {}), the machine's own calibration; 0 = the axis's low end, 1 = its high end",
             args.scenarios, args.seed
         ),
         "uncertainty axis",
@@ -224,10 +226,36 @@ pub fn figure(args: &RobustnessArgs, axes: &[Axis], runs: &[Point]) -> Figure {
             Panel::new("worst hold error (kgf, log)", hold).log(),
             Panel::new("worst overshoot (kgf, log)", over).log(),
             Panel::new("worst settle / t_min", ratio),
-            Panel::new("failed runs", failed).with_height(120.0),
+            Panel::new("failed runs (%)", failed)
+                .with_y_range(-5.0, 105.0)
+                .with_height(120.0),
         ],
     )
     .with_categories(axes.iter().map(|a| a.name().to_owned()).collect())
+}
+
+/// The axes `args` ask for (all when none are named).
+#[must_use]
+pub fn axes(args: &RobustnessArgs) -> Vec<Axis> {
+    if args.axes.is_empty() { Axis::ALL.to_vec() } else { args.axes.clone() }
+}
+
+/// Runs every point of every axis of `args` ([`axes`]) with a progress counter.
+#[must_use]
+pub fn run_all(args: &RobustnessArgs) -> Vec<Point> {
+    let mut jobs: Vec<(Axis, f64, u64)> = Vec::new();
+    for axis in axes(args) {
+        for &position in &positions(args.points) {
+            for index in 0..args.scenarios {
+                jobs.push((axis, position, index));
+            }
+        }
+    }
+    let progress = Progress::new(jobs.len(), "runs");
+    parallel(jobs.len() as u64, threads(args.threads), &progress, &|i| {
+        let (axis, position, index) = jobs[i as usize];
+        run_point(axis, position, index, args.seed)
+    })
 }
 
 /// `taut report robustness`.
@@ -238,22 +266,10 @@ pub fn main(args: &RobustnessArgs) -> Status {
     for path in [&args.json, &args.svg].into_iter().flatten() {
         check_writable(path)?;
     }
-    let axes: Vec<Axis> = if args.axes.is_empty() { Axis::ALL.to_vec() } else { args.axes.clone() };
+    let axes = axes(args);
     let positions = positions(args.points);
-    let mut jobs: Vec<(Axis, f64, u64)> = Vec::new();
-    for &axis in &axes {
-        for &position in &positions {
-            for index in 0..args.scenarios {
-                jobs.push((axis, position, index));
-            }
-        }
-    }
     let started = std::time::Instant::now();
-    let progress = Progress::new(jobs.len(), "runs");
-    let runs = parallel(jobs.len() as u64, threads(args.threads), &progress, &|i| {
-        let (axis, position, index) = jobs[i as usize];
-        run_point(axis, position, index, args.seed)
-    });
+    let runs = run_all(args);
     println!("{}", markdown(&axes, &runs));
     println!(
         "{} runs ({} axes × {} points × {} scenarios), wall clock {:.1} s",

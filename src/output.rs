@@ -63,7 +63,17 @@ pub fn report_failure(failure: &Failure) -> i32 {
 pub fn write_file(path: &Path, contents: impl AsRef<[u8]>) -> Result<(), Failure> {
     let fail = |error| Failure::Write { path: path.to_owned(), error };
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent).map_err(fail)?;
+        std::fs::create_dir_all(parent).map_err(|error| {
+            // "File exists" says little when a folder on the way is a file: name it.
+            match parent.ancestors().find(|a| a.is_file()) {
+                Some(file) => Failure::Message(format!(
+                    "cannot write {}: {} is a file, not a folder",
+                    path.display(),
+                    file.display()
+                )),
+                None => fail(error),
+            }
+        })?;
     }
     std::fs::write(path, contents).map_err(fail)
 }
@@ -82,7 +92,14 @@ pub fn write_json(path: &Path, doc: &serde_json::Value) -> Result<(), Failure> {
 /// # Errors
 /// [`Failure::Write`].
 pub fn create_dir(dir: &Path) -> Result<(), Failure> {
-    std::fs::create_dir_all(dir).map_err(|error| Failure::Write { path: dir.to_owned(), error })
+    std::fs::create_dir_all(dir).map_err(|error| match dir.ancestors().find(|a| a.is_file()) {
+        Some(file) => Failure::Message(format!(
+            "cannot write {}: {} is a file, not a folder",
+            dir.display(),
+            file.display()
+        )),
+        None => Failure::Write { path: dir.to_owned(), error },
+    })
 }
 
 /// Checks before a long run that `path` can be written (creates it empty), so a typo in an

@@ -176,7 +176,7 @@ pub fn figure(rsmc: &PaperRun, pd: &PaperRun) -> Figure {
     let zip = |t: &[f64], v: &[f64]| t.iter().copied().zip(v.iter().copied()).collect::<Vec<_>>();
     Figure::new(
         "taut paper: the paper's simulation (section 7.3) re-run, RSMC against PD",
-        "RSMC λ = 100, G = 0.2, kφ = 0.001; PD kp = 100, kd = 20; 0.1 ms step; set point 10 kgw; nominal model Ā = 20 s⁻¹, D̄ = 400 s⁻² (true D +10\u{a0}%, f_u = 0.2 kgw)",
+        "RSMC λ = 100, G = 0.2, kφ = 0.001; PD kp = 100, kd = 20; 0.1 ms step; set point 10 kgw; nominal model Ā = 20 s⁻¹, D̄ = 400 s⁻² (true\u{a0}D\u{a0}+10\u{a0}%, f_u = 0.2 kgw)",
         "time (s)",
         vec![
             Panel::new(

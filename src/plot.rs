@@ -58,6 +58,8 @@ const SUBTITLE_CHARS: usize = 140;
 const Y_TICK_PX: f64 = 36.0;
 /// Pixels per x tick interval, at least.
 const X_TICK_PX: f64 = 80.0;
+/// Closest an inner tick label may come to a labelled end of a log axis, px.
+const MIN_TICK_GAP_PX: f64 = 14.0;
 /// Width of a character of 12 px text, px (DejaVu Sans's mean, for fitting labels).
 const CHAR_PX: f64 = 6.8;
 /// Space under a panel for its x tick labels, px.
@@ -721,7 +723,32 @@ fn y_axis(panel: &Panel, area: Rect) -> (AxisScale, Vec<(f64, String)>) {
                 log_padded(lo, hi.max(lo * 10.0))
             });
             let scale = AxisScale { lo, hi, px_lo: area.y + area.h, px_hi: area.y, log: true };
-            (scale, log_ticks(lo, hi))
+            // Where an inner tick crowds an end (a 10 just under a 20), one label goes: the
+            // decade stays, the other is left out.
+            let decade = |v: f64| (v.log10() - v.log10().round()).abs() < 1e-9;
+            let all = log_ticks(lo, hi);
+            let near = |a: f64, b: f64| (scale.px(a) - scale.px(b)).abs() < MIN_TICK_GAP_PX;
+            let is_end = |v: f64| {
+                near(v, lo) && v <= lo * (1.0 + 1e-9) || near(v, hi) && v >= hi * (1.0 - 1e-9)
+            };
+            let ticks = all
+                .iter()
+                .filter(|(v, _)| {
+                    let end = if near(*v, lo) { lo } else { hi };
+                    if is_end(*v) {
+                        // An end yields to a decade next to it.
+                        !all.iter().any(|(w, _)| {
+                            !is_end(*w) && near(*w, end) && decade(*w) && !decade(end)
+                        })
+                    } else if near(*v, lo) || near(*v, hi) {
+                        decade(*v) && !decade(end)
+                    } else {
+                        true
+                    }
+                })
+                .cloned()
+                .collect();
+            (scale, ticks)
         }
         Scale::Linear => {
             let (lo, hi, step) = match (panel.y_range, &panel.content) {
@@ -759,7 +786,7 @@ fn draw_lines(
         let (width, dash) = match s.stroke {
             Stroke::Solid => (1.6, ""),
             Stroke::Dashed => (1.4, r#" stroke-dasharray="6 4""#),
-            Stroke::Thin => (0.8, r#" stroke-opacity="0.7""#),
+            Stroke::Thin => (0.8, r#" stroke-opacity="0.5""#),
             Stroke::Markers => (0.0, ""),
         };
         (colour, width, dash)
@@ -830,9 +857,13 @@ fn draw_lines(
                 ly - 4.0,
             );
         }
+        // A label longer than the legend column is set smaller, never cut.
+        let room = LEGEND_W - 27.0 - RIGHT;
+        let wide = s.label.chars().count() as f64 * CHAR_PX;
+        let size = if wide <= room { 12.0 } else { (12.0 * room / wide).max(8.0) };
         let _ = write!(
             svg,
-            r#"<text x="{:.1}" y="{ly:.1}">{}</text>"#,
+            r#"<text x="{:.1}" y="{ly:.1}" font-size="{size:.1}">{}</text>"#,
             legend_x + 27.0,
             escape(&s.label)
         );

@@ -109,7 +109,7 @@ pub fn figure(run: &CycleRun) -> Figure {
             Panel::new(
                 "hold: tension − target (kgf)",
                 vec![
-                    Series::new("panel reading (0.1 kg steps)", window(panel_reading))
+                    Series::new("panel reading (0.1 kg)", window(panel_reading))
                         .stroke(Stroke::Thin),
                     Series::new("true tension", window(all(&|r| r.truth.tension_kgf))),
                     Series::new("target", vec![(from_s, 0.0), (to_s, 0.0)])

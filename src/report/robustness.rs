@@ -194,8 +194,11 @@ pub fn figure(args: &RobustnessArgs, axes: &[Axis], runs: &[Point]) -> Figure {
                     .map(|(i, &axis)| {
                         let w =
                             worst(runs.iter().filter(|p| p.axis == axis && p.position == position));
-                        // Positions side by side around their axis, low end left.
-                        (i as f64 + (position - 0.5) * 0.4, f(&w).max(floor))
+                        // Positions side by side around their axis, low end left; no
+                        // marker where every run failed (NaN: `max` would make it the floor).
+                        let v = f(&w);
+                        let v = if v.is_nan() { v } else { v.max(floor) };
+                        (i as f64 + (position - 0.5) * 0.4, v)
                     })
                     .collect();
                 Series::new(&format!("position {position:.2}"), points).stroke(Stroke::Markers)

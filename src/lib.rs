@@ -1,8 +1,13 @@
-//! `taut` (library part): the host side of taut — software-in-the-loop runs of the tension
-//! controller on the digital twin, the reports built on them, and the SVG plots.
+//! `taut` (library part): the host tool — the main job, the terminal panel, the reports and
+//! the plots, all running the firmware's machine (or its tension controller) on the digital
+//! twin through the one bench, [`taut_sim::bench`].
 //!
-//! The `taut` binary (`src/main.rs`) is a thin clap front end over these modules; the root
-//! `tests/` use them directly.
+//! The `taut` binary (`src/main.rs`) parses the command line ([`cli`]) and calls one entry
+//! function per subcommand: [`job::main`], [`panel::main`], [`pull::main`], [`paper::main`],
+//! [`report::accuracy::main`], [`report::ablation::main`], [`report::robustness::main`],
+//! [`report::machine::main`]. Each returns an [`output::Status`]; failures are one line.
+//! Modules depend downwards only: `cli`, `output`, `plot` at the bottom; `report` on them;
+//! `pull` on `report`; `job`, `panel`, `paper` on the bottom three.
 #![allow(
     clippy::float_arithmetic,
     reason = "host-side reports: metrics, percentiles and plots are computed in f64"
@@ -17,13 +22,16 @@
 #![allow(
     clippy::arithmetic_side_effects,
     clippy::indexing_slicing,
-    reason = "host tool: an overflow or bad index is a bug that should stop the report loudly"
+    reason = "host tool: counts and indices of its own vectors; an overflow or a bad index is a \
+              bug, not a user's input"
 )]
-#![allow(clippy::expect_used, reason = "host tool: a broken built-in configuration is a bug")]
+#![allow(clippy::print_stdout, reason = "a command-line tool prints its results")]
 
-pub mod cycle;
+pub mod cli;
+pub mod job;
+pub mod output;
 pub mod panel;
 pub mod paper;
 pub mod plot;
+pub mod pull;
 pub mod report;
-pub mod sil;

@@ -15,7 +15,7 @@
 
 mod machine_support;
 
-use machine_support::Rig;
+use machine_support::{Rig, RigExt as _};
 use taut_core::drive::{DriveCommand, HallCode, Phase};
 use taut_core::io::{Inputs, Key, Keys, LimitSwitches};
 use taut_core::machine::{FaultCode, Machine, MachineState, panel};
@@ -27,22 +27,22 @@ use taut_sim::{Fault, LimitSwitch, LoadCellFault, StringKind, TwinConfig};
 /// Runs until a fault latches; asserts it is `code`, that the bridge was off in the
 /// latching tick and that the panel shows it.
 fn expect_fault(rig: &mut Rig, code: FaultCode, max_ms: u64) {
-    let latched = rig.run_until(max_ms, |rig| rig.machine.fault().is_some());
-    assert!(latched, "no fault within {max_ms} ms (expected {code:?}); history {:?}", rig.states);
-    assert_eq!(rig.machine.fault(), Some(code), "history {:?}", rig.states);
-    assert_eq!(rig.outputs.drive, DriveCommand::Coast, "bridge not off in the latching tick");
+    let latched = rig.run_until(max_ms, |rig| rig.machine().fault().is_some());
+    assert!(latched, "no fault within {max_ms} ms (expected {code:?}); history {:?}", rig.states());
+    assert_eq!(rig.machine().fault(), Some(code), "history {:?}", rig.states());
+    assert_eq!(rig.outputs().drive, DriveCommand::Coast, "bridge not off in the latching tick");
     rig.tick();
-    assert_eq!(rig.outputs.display, panel::fault(code.number()));
-    assert!(rig.outputs.leds.fault);
+    assert_eq!(rig.outputs().display, panel::fault(code.number()));
+    assert!(rig.outputs().leds.fault);
     // Latched: time alone does not clear it.
     rig.run(2_000);
-    assert_eq!(rig.machine.fault(), Some(code));
-    assert_eq!(rig.outputs.drive, DriveCommand::Coast);
+    assert_eq!(rig.machine().fault(), Some(code));
+    assert_eq!(rig.outputs().drive, DriveCommand::Coast);
 }
 
 /// Clears the fault with Start once the cause is gone and checks where the machine goes.
 fn clear_to(rig: &mut Rig, next: MachineState) {
-    rig.twin.clear_injected();
+    rig.twin_mut().clear_injected();
     rig.press(Key::Start);
     rig.expect_state(next, 45_000);
 }
@@ -61,11 +61,11 @@ fn pull_to_hold(rig: &mut Rig) {
 #[test]
 fn machine_fault_e01_both_limits_any_state() {
     let mut rig = ready(StringKind::TennisSynthetic);
-    rig.twin.inject(Fault::LimitSwitchStuck { switch: LimitSwitch::End, closed: true });
+    rig.twin_mut().inject(Fault::LimitSwitchStuck { switch: LimitSwitch::End, closed: true });
     expect_fault(&mut rig, FaultCode::LimitsBoth, 10);
     // Start is refused while the wiring fault is present.
     rig.press(Key::Start);
-    assert_eq!(rig.machine.fault(), Some(FaultCode::LimitsBoth));
+    assert_eq!(rig.machine().fault(), Some(FaultCode::LimitsBoth));
     clear_to(&mut rig, MachineState::Ready);
 }
 
@@ -73,10 +73,10 @@ fn machine_fault_e01_both_limits_any_state() {
 fn machine_fault_e01_both_limits_while_pulling() {
     let mut rig = ready(StringKind::TennisPolyester);
     pull_to_hold(&mut rig);
-    rig.twin.inject(Fault::LimitSwitchStuck { switch: LimitSwitch::Home, closed: true });
-    rig.twin.inject(Fault::LimitSwitchStuck { switch: LimitSwitch::End, closed: true });
+    rig.twin_mut().inject(Fault::LimitSwitchStuck { switch: LimitSwitch::Home, closed: true });
+    rig.twin_mut().inject(Fault::LimitSwitchStuck { switch: LimitSwitch::End, closed: true });
     expect_fault(&mut rig, FaultCode::LimitsBoth, 10);
-    rig.twin.clear_injected();
+    rig.twin_mut().clear_injected();
     clear_to(&mut rig, MachineState::Ready);
     assert!(rig.visited(MachineState::Releasing), "cleared by releasing the string first");
 }
@@ -84,11 +84,11 @@ fn machine_fault_e01_both_limits_while_pulling() {
 #[test]
 fn machine_fault_e02_home_switch_stuck_closed() {
     let mut rig = Rig::nominal(StringKind::TennisSynthetic);
-    rig.twin.inject(Fault::LimitSwitchStuck { switch: LimitSwitch::Home, closed: true });
+    rig.twin_mut().inject(Fault::LimitSwitchStuck { switch: LimitSwitch::Home, closed: true });
     expect_fault(&mut rig, FaultCode::LimitStuck, 5_000);
     // A boot fault reruns the self-test when cleared.
     clear_to(&mut rig, MachineState::Ready);
-    assert!(rig.states.iter().filter(|(_, s)| *s == MachineState::SelfTest).count() >= 2);
+    assert!(rig.states().iter().filter(|(_, s)| *s == MachineState::SelfTest).count() >= 2);
 }
 
 #[test]
@@ -98,12 +98,12 @@ fn machine_fault_e03_e04_load_cell_open_and_short_at_boot() {
         (LoadCellFault::Short, FaultCode::LoadCellShort),
     ] {
         let mut rig = Rig::nominal(StringKind::TennisSynthetic);
-        rig.twin.inject(Fault::LoadCell(fault));
+        rig.twin_mut().inject(Fault::LoadCell(fault));
         expect_fault(&mut rig, code, 1_000);
         assert!(!rig.visited(MachineState::MotorTest), "the motor is not run on a broken sensor");
         // Refused while the sensor still reads at its rail.
         rig.press(Key::Start);
-        assert_eq!(rig.machine.fault(), Some(code));
+        assert_eq!(rig.machine().fault(), Some(code));
         clear_to(&mut rig, MachineState::Ready);
     }
 }
@@ -112,15 +112,15 @@ fn machine_fault_e03_e04_load_cell_open_and_short_at_boot() {
 fn machine_fault_e03_load_cell_open_while_pulling() {
     let mut rig = ready(StringKind::TennisSynthetic);
     pull_to_hold(&mut rig);
-    rig.twin.inject(Fault::LoadCell(LoadCellFault::Open));
-    let latched = rig.run_until(500, |rig| rig.machine.fault().is_some());
+    rig.twin_mut().inject(Fault::LoadCell(LoadCellFault::Open));
+    let latched = rig.run_until(500, |rig| rig.machine().fault().is_some());
     assert!(latched);
     // Open in the middle of a pull: the reading collapses — a string break or an open
     // sensor, both stop the pull.
     assert!(
-        matches!(rig.machine.fault(), Some(FaultCode::LoadCellOpen | FaultCode::StringBreak)),
+        matches!(rig.machine().fault(), Some(FaultCode::LoadCellOpen | FaultCode::StringBreak)),
         "{:?}",
-        rig.machine.fault()
+        rig.machine().fault()
     );
 }
 
@@ -135,17 +135,17 @@ fn machine_fault_e05_load_cell_zero_out_of_band() {
 #[test]
 fn machine_fault_e06_load_cell_reversed() {
     let mut rig = ready(StringKind::TennisSynthetic);
-    rig.twin.inject(Fault::LoadCell(LoadCellFault::Reversed));
+    rig.twin_mut().inject(Fault::LoadCell(LoadCellFault::Reversed));
     rig.press(Key::Start);
     expect_fault(&mut rig, FaultCode::LoadCellReversed, 20_000);
-    assert!(rig.twin.truth().tension_kgf < 5.0, "stopped before the string was loaded");
+    assert!(rig.twin().truth().tension_kgf < 5.0, "stopped before the string was loaded");
     clear_to(&mut rig, MachineState::Ready);
 }
 
 #[test]
 fn machine_fault_e07_motor_does_not_turn() {
     let mut rig = Rig::nominal(StringKind::TennisSynthetic);
-    rig.twin.inject(Fault::CarriageJam);
+    rig.twin_mut().inject(Fault::CarriageJam);
     expect_fault(&mut rig, FaultCode::MotorNoRotation, 3_000);
     assert!(rig.visited(MachineState::MotorTest));
 }
@@ -165,10 +165,10 @@ fn machine_fault_e09_stall_or_e10_overcurrent_on_a_jam_at_speed() {
     let mut rig = ready(StringKind::TennisSynthetic);
     rig.press(Key::Start);
     rig.run(150);
-    rig.twin.inject(Fault::CarriageJam);
-    let latched = rig.run_until(5_000, |rig| rig.machine.fault().is_some());
-    assert!(latched, "history {:?}", rig.states);
-    let code = rig.machine.fault().unwrap();
+    rig.twin_mut().inject(Fault::CarriageJam);
+    let latched = rig.run_until(5_000, |rig| rig.machine().fault().is_some());
+    assert!(latched, "history {:?}", rig.states());
+    let code = rig.machine().fault().unwrap();
     assert!(
         matches!(
             code,
@@ -221,29 +221,29 @@ fn machine_fault_e10_e11_overcurrent() {
     let mut shorted = ready(StringKind::TennisPolyester);
     shorted.press(Key::Start);
     shorted.run(300);
-    shorted.twin.inject(Fault::ShortedPhase { phase: Phase::A, shorted_percent: 90 });
+    shorted.twin_mut().inject(Fault::ShortedPhase { phase: Phase::A, shorted_percent: 90 });
     let mut peak = 0.0f64;
     shorted.run_until(500, |rig| {
-        peak = peak.max(rig.twin.truth().winding_current_a.abs());
-        rig.machine.fault().is_some()
+        peak = peak.max(rig.twin().truth().winding_current_a.abs());
+        rig.machine().fault().is_some()
     });
     println!(
         "shorted phase: peak winding current {peak:.2} A, fault {:?}",
-        shorted.machine.fault()
+        shorted.machine().fault()
     );
     assert!(peak < 0.8 * 12.0, "{peak} A");
     // The tick's mean current code alone is not the machine's to judge (the drive sees
     // every period): a high mean with no drive fault does not fault the machine.
-    let mut machine = rig.machine.clone();
-    let mut inputs = rig.twin.inputs();
+    let mut machine = rig.machine().clone();
+    let mut inputs = rig.twin().inputs();
     inputs.motor_current = taut_core::units::AdcCode::MAX;
     let out = machine.tick(&inputs);
     assert_ne!(machine.fault(), Some(FaultCode::Overcurrent), "{out:?}");
     // The drive's own latch (here: a jam at full current) shows as E-10 or E-11.
     let mut rig = ready(StringKind::TennisPolyester);
-    rig.twin.inject(Fault::CurrentSenseOpen);
+    rig.twin_mut().inject(Fault::CurrentSenseOpen);
     pull_to_hold(&mut rig);
-    println!("with the current sense open the pull still holds: {:?}", rig.machine.state());
+    println!("with the current sense open the pull still holds: {:?}", rig.machine().state());
 }
 
 #[test]
@@ -251,7 +251,7 @@ fn machine_fault_e12_hall_invalid() {
     let mut rig = ready(StringKind::TennisSynthetic);
     rig.press(Key::Start);
     rig.run(100);
-    rig.twin.inject(Fault::HallGlitch { code: HallCode::from_raw(0b111), periods: 200 });
+    rig.twin_mut().inject(Fault::HallGlitch { code: HallCode::from_raw(0b111), periods: 200 });
     expect_fault(&mut rig, FaultCode::HallInvalid, 500);
     clear_to(&mut rig, MachineState::Ready);
 }
@@ -261,10 +261,10 @@ fn machine_fault_e13_hall_sequence() {
     let mut rig = ready(StringKind::TennisSynthetic);
     rig.press(Key::Start);
     rig.run(100);
-    rig.twin.inject(Fault::HallLineStuck { phase: Phase::A, level: true });
-    let latched = rig.run_until(2_000, |rig| rig.machine.fault().is_some());
+    rig.twin_mut().inject(Fault::HallLineStuck { phase: Phase::A, level: true });
+    let latched = rig.run_until(2_000, |rig| rig.machine().fault().is_some());
     assert!(latched);
-    let code = rig.machine.fault().unwrap();
+    let code = rig.machine().fault().unwrap();
     assert!(matches!(code, FaultCode::HallSequence | FaultCode::HallInvalid), "{code:?}");
     println!("stuck Hall line → {code:?}");
 }
@@ -274,18 +274,18 @@ fn machine_fault_e14_end_of_travel() {
     // A very soft string at a high tension runs out of travel before reaching it.
     let mut rig = ready(StringKind::BadmintonSoft);
     rig.hold(Key::Up, 8_000);
-    assert!(rig.machine.record().settings.set_point().tenths() >= 450);
+    assert!(rig.machine().record().settings.set_point().tenths() >= 450);
     rig.press(Key::Start);
     expect_fault(&mut rig, FaultCode::EndOfTravel, 40_000);
     clear_to(&mut rig, MachineState::Ready);
-    assert!(rig.twin.truth().limits.home);
+    assert!(rig.twin().truth().limits.home);
 }
 
 #[test]
 fn machine_fault_e15_string_break_in_hold() {
     let mut rig = ready(StringKind::TennisSynthetic);
     pull_to_hold(&mut rig);
-    rig.twin.break_string();
+    rig.twin_mut().break_string();
     expect_fault(&mut rig, FaultCode::StringBreak, 200);
     clear_to(&mut rig, MachineState::Ready);
 }
@@ -295,7 +295,7 @@ fn machine_fault_e16_no_string() {
     let mut rig = ready(StringKind::NoString);
     rig.press(Key::Start);
     expect_fault(&mut rig, FaultCode::NoString, 20_000);
-    let travel = rig.twin.truth().carriage_mm;
+    let travel = rig.twin().truth().carriage_mm;
     assert!(travel > 140.0 && travel < 200.0, "stopped at {travel} mm");
     clear_to(&mut rig, MachineState::Ready);
 }
@@ -339,13 +339,13 @@ fn machine_fault_e09_e18_jam_at_low_speed() {
     rig.press(Key::Function);
     rig.press(Key::Function);
     rig.press(Key::Function);
-    rig.twin.inject(Fault::CarriageJam);
+    rig.twin_mut().inject(Fault::CarriageJam);
     rig.press(Key::Start);
-    let latched = rig.run_until(45_000, |rig| rig.machine.fault().is_some());
+    let latched = rig.run_until(45_000, |rig| rig.machine().fault().is_some());
     assert!(latched);
-    let code = rig.machine.fault().unwrap();
+    let code = rig.machine().fault().unwrap();
     assert!(matches!(code, FaultCode::PullTimeout | FaultCode::Stall), "{code:?}");
-    println!("jam at speed 1 → {code:?} after {:?}", rig.states.last());
+    println!("jam at speed 1 → {code:?} after {:?}", rig.states().last());
 }
 
 #[test]
@@ -381,11 +381,11 @@ fn machine_fault_e19_release_timeout() {
     let mut rig = ready(StringKind::TennisSynthetic);
     pull_to_hold(&mut rig);
     rig.press(Key::Start);
-    assert_eq!(rig.machine.state(), MachineState::Releasing);
-    rig.twin.inject(Fault::CarriageJam);
-    let latched = rig.run_until(45_000, |rig| rig.machine.fault().is_some());
+    assert_eq!(rig.machine().state(), MachineState::Releasing);
+    rig.twin_mut().inject(Fault::CarriageJam);
+    let latched = rig.run_until(45_000, |rig| rig.machine().fault().is_some());
     assert!(latched);
-    let code = rig.machine.fault().unwrap();
+    let code = rig.machine().fault().unwrap();
     // On the twin a jammed carriage draws enough current to trip first.
     assert!(
         matches!(code, FaultCode::ReleaseTimeout | FaultCode::Stall | FaultCode::Overcurrent),
@@ -469,11 +469,11 @@ fn machine_notice_e20_corrupt_record_uses_defaults() {
     let config = TwinConfig::nominal(StringKind::TennisSynthetic);
     let mut rig = Rig::with_machine(&config, Machine::from_stored(stored));
     rig.expect_state(MachineState::Ready, 30_000);
-    assert_eq!(rig.outputs.display, panel::fault(20));
-    assert_eq!(rig.machine.fault(), None, "a notice, not a fault");
-    assert_eq!(*rig.machine.record(), Record::default());
+    assert_eq!(rig.outputs().display, panel::fault(20));
+    assert_eq!(rig.machine().fault(), None, "a notice, not a fault");
+    assert_eq!(*rig.machine().record(), Record::default());
     rig.press(Key::Down);
-    assert_eq!(rig.outputs.display, panel::tenths(250), "the key acknowledged the notice only");
+    assert_eq!(rig.outputs().display, panel::tenths(250), "the key acknowledged the notice only");
 }
 
 #[test]
@@ -486,7 +486,7 @@ fn machine_notice_e22_stored_calibration_invalid() {
     };
     let mut rig = Rig::new(&TwinConfig::nominal(StringKind::TennisSynthetic), record);
     rig.expect_state(MachineState::Ready, 30_000);
-    assert_eq!(rig.outputs.display, panel::fault(22));
+    assert_eq!(rig.outputs().display, panel::fault(22));
 }
 
 #[test]
@@ -501,8 +501,8 @@ fn machine_notice_e21_calibration_rejected() {
         rig.press(Key::Start);
     }
     rig.expect_state(MachineState::Ready, 30_000);
-    assert_eq!(rig.outputs.display, panel::fault(21));
-    assert_eq!(rig.machine.record().calibration, None, "the old calibration is kept");
+    assert_eq!(rig.outputs().display, panel::fault(21));
+    assert_eq!(rig.machine().record().calibration, None, "the old calibration is kept");
 }
 
 #[test]
@@ -513,7 +513,7 @@ fn machine_calibration_abort_by_key() {
     rig.expect_state(MachineState::CalibrationEntry { point: 0 }, 30_000);
     rig.press(Key::Function);
     rig.expect_state(MachineState::Ready, 30_000);
-    assert_eq!(rig.machine.record().calibration, None);
+    assert_eq!(rig.machine().record().calibration, None);
     assert!(rig.visited(MachineState::Releasing));
 }
 

@@ -15,7 +15,7 @@
 
 mod machine_support;
 
-use machine_support::{Rig, display_tenths};
+use machine_support::{Rig, RigExt as _, display_tenths};
 use taut_core::io::Key;
 use taut_core::machine::{CALIBRATION_WINDOW, MachineState, View, panel};
 use taut_core::store::{Record, Unit};
@@ -25,12 +25,12 @@ use taut_sim::{StringKind, TwinConfig};
 fn boot_and_calibrate(config: &TwinConfig) -> Rig {
     let mut rig = Rig::new(config, Record::default());
     rig.expect_state(MachineState::CalibrationWindow, 5_000);
-    assert_eq!(rig.outputs.display, panel::text(b"CAL?"));
+    assert_eq!(rig.outputs().display, panel::text(b"CAL?"));
     rig.press(Key::Function);
     for point in 0..4u8 {
         rig.expect_state(MachineState::CalibrationEntry { point }, 30_000);
         // The operator reads the reference gauge and keys its reading in.
-        let gauge = rig.twin.reference_gauge();
+        let gauge = rig.twin_mut().reference_gauge();
         let tenths = (gauge * 10.0).round() as i32;
         rig.key_in(tenths);
         rig.press(Key::Start);
@@ -43,7 +43,7 @@ fn boot_and_calibrate(config: &TwinConfig) -> Rig {
 fn machine_flow_boot_reaches_ready() {
     let mut rig = Rig::nominal(StringKind::TennisSynthetic);
     rig.expect_state(MachineState::Ready, 30_000);
-    let path: Vec<MachineState> = rig.states.iter().map(|(_, s)| *s).collect();
+    let path: Vec<MachineState> = rig.states().iter().map(|(_, s)| *s).collect();
     assert_eq!(
         path,
         [
@@ -55,46 +55,46 @@ fn machine_flow_boot_reaches_ready() {
         ]
     );
     // The window lasts its preset time, then Ready shows the last setting.
-    let window = rig.states[3].0;
-    let ready = rig.states[4].0;
+    let window = rig.states()[3].0;
+    let ready = rig.states()[4].0;
     assert_eq!(ready - window, u64::from(CALIBRATION_WINDOW));
-    assert_eq!(display_tenths(&rig.outputs.display), Some(250));
-    assert!(rig.outputs.leds.kg && !rig.outputs.leds.lb);
-    println!("boot: {:?}", rig.states);
+    assert_eq!(display_tenths(&rig.outputs().display), Some(250));
+    assert!(rig.outputs().leds.kg && !rig.outputs().leds.lb);
+    println!("boot: {:?}", rig.states());
 }
 
 #[test]
 fn machine_flow_calibrate_set_pull_hold_release() {
     let config = TwinConfig::nominal(StringKind::TennisSynthetic).with_seed(7);
     let mut rig = boot_and_calibrate(&config);
-    let calibration = rig.machine.record().calibration.expect("calibration stored");
-    assert!(rig.store_requests > 0, "the calibration was handed to the store");
+    let calibration = rig.machine().record().calibration.expect("calibration stored");
+    assert!(rig.store_writes() > 0, "the calibration was handed to the store");
     println!("calibration points: {calibration:?}");
 
     // Set 24.0 kg: ten Down presses from 25.0.
     for _ in 0..10 {
         rig.press(Key::Down);
     }
-    assert_eq!(display_tenths(&rig.outputs.display), Some(240));
-    assert_eq!(rig.machine.record().settings.set_point().tenths(), 240);
+    assert_eq!(display_tenths(&rig.outputs().display), Some(240));
+    assert_eq!(rig.machine().record().settings.set_point().tenths(), 240);
 
     // Pull, hold.
     rig.press(Key::Start);
-    assert!(matches!(rig.machine.state(), MachineState::Pulling | MachineState::Holding));
+    assert!(matches!(rig.machine().state(), MachineState::Pulling | MachineState::Holding));
     rig.expect_state(MachineState::Holding, 20_000);
-    assert!(rig.outputs.leds.holding);
+    assert!(rig.outputs().leds.holding);
     rig.run(1_500);
-    let truth = rig.twin.truth().tension_kgf;
+    let truth = rig.twin().truth().tension_kgf;
     println!("held at {truth:.3} kgf (target 24.0)");
     assert!((truth - 24.0).abs() < 0.3, "held {truth} kgf");
-    assert_eq!(rig.machine.state(), MachineState::Holding);
+    assert_eq!(rig.machine().state(), MachineState::Holding);
 
     // Release with Start: back to home, string loose, Ready again.
     rig.press(Key::Start);
     rig.expect_state(MachineState::Ready, 20_000);
-    assert!(rig.twin.truth().limits.home);
-    assert!(rig.twin.truth().tension_kgf < 1.0);
-    let log = rig.machine.log();
+    assert!(rig.twin().truth().limits.home);
+    assert!(rig.twin().truth().tension_kgf < 1.0);
+    let log = rig.machine().log();
     assert_eq!(log.len(), 1);
     let entry = log.last().unwrap();
     println!("log: {entry:?}");
@@ -103,11 +103,11 @@ fn machine_flow_calibrate_set_pull_hold_release() {
     assert!(entry.peak >= entry.reached);
     assert!(entry.time_to_tension_ms > 0);
     assert!(entry.string_mm > 10, "string drawn: {} mm", entry.string_mm);
-    assert_eq!(rig.machine.record().counters.pulls, 1);
+    assert_eq!(rig.machine().record().counters.pulls, 1);
     // The counters are stored once the panel is idle.
-    let before = rig.store_requests;
+    let before = rig.store_writes();
     rig.run(3_000);
-    assert!(rig.store_requests > before);
+    assert!(rig.store_writes() > before);
 }
 
 #[test]
@@ -116,12 +116,12 @@ fn machine_flow_any_key_during_pull_releases() {
     rig.expect_state(MachineState::Ready, 30_000);
     rig.press(Key::Start);
     rig.run(200);
-    assert_eq!(rig.machine.state(), MachineState::Pulling);
+    assert_eq!(rig.machine().state(), MachineState::Pulling);
     rig.press(Key::Down);
-    assert_eq!(rig.machine.state(), MachineState::Releasing);
+    assert_eq!(rig.machine().state(), MachineState::Releasing);
     rig.expect_state(MachineState::Ready, 20_000);
-    assert!(rig.machine.log().is_empty(), "an aborted pull is not logged");
-    assert_eq!(rig.machine.record().counters.pulls, 0);
+    assert!(rig.machine().log().is_empty(), "an aborted pull is not logged");
+    assert_eq!(rig.machine().record().counters.pulls, 0);
 }
 
 #[test]
@@ -130,25 +130,25 @@ fn machine_flow_panel_settings_units_and_presets() {
     rig.expect_state(MachineState::Ready, 30_000);
     // Function walks the pages: speed, pre-stretch, knot, unit.
     rig.press(Key::Function);
-    assert_eq!(rig.machine.view(), View::Speed);
-    assert_eq!(rig.outputs.display, panel::text(b"SP 5"));
+    assert_eq!(rig.machine().view(), View::Speed);
+    assert_eq!(rig.outputs().display, panel::text(b"SP 5"));
     rig.press(Key::Up);
-    assert_eq!(rig.outputs.display, panel::text(b"SP 6"));
+    assert_eq!(rig.outputs().display, panel::text(b"SP 6"));
     rig.press(Key::Function);
     rig.press(Key::Up);
     rig.press(Key::Up);
-    assert_eq!(rig.outputs.display, panel::text(b"PS10"));
+    assert_eq!(rig.outputs().display, panel::text(b"PS10"));
     rig.press(Key::Function);
     rig.press(Key::Up);
-    assert_eq!(rig.outputs.display, panel::text(b"Kn 5"));
+    assert_eq!(rig.outputs().display, panel::text(b"Kn 5"));
     rig.press(Key::Function);
     rig.press(Key::Up);
-    assert_eq!(rig.outputs.display, panel::text(b" lb "));
+    assert_eq!(rig.outputs().display, panel::text(b" lb "));
     rig.press(Key::Function);
     // 25.0 kg is 55.1 lb, on the 0.5 lb step: 55.0.
-    assert_eq!(display_tenths(&rig.outputs.display), Some(550));
-    assert!(rig.outputs.leds.lb);
-    let settings = rig.machine.record().settings;
+    assert_eq!(display_tenths(&rig.outputs().display), Some(550));
+    assert!(rig.outputs().leds.lb);
+    let settings = rig.machine().record().settings;
     assert_eq!(settings.set_point().unit(), Unit::Pounds);
     assert_eq!(
         (settings.speed(), settings.pre_stretch_percent(), settings.knot_percent()),
@@ -156,45 +156,45 @@ fn machine_flow_panel_settings_units_and_presets() {
     );
     // Up steps by 0.5 lb; holding Up repeats.
     rig.press(Key::Up);
-    assert_eq!(display_tenths(&rig.outputs.display), Some(555));
+    assert_eq!(display_tenths(&rig.outputs().display), Some(555));
     rig.hold(Key::Up, 1_000);
-    let after_hold = display_tenths(&rig.outputs.display).unwrap();
+    let after_hold = display_tenths(&rig.outputs().display).unwrap();
     assert!(after_hold >= 555 + 5 * 4, "repeat stepped to {after_hold}");
 
     // Store the settings in preset 3 (Preset, Up ×2, hold Preset), change, recall.
     rig.press(Key::Preset);
     rig.press(Key::Up);
     rig.press(Key::Up);
-    assert_eq!(rig.outputs.display, panel::text(b"P  3"));
+    assert_eq!(rig.outputs().display, panel::text(b"P  3"));
     rig.hold(Key::Preset, 1_700);
-    assert_eq!(rig.machine.record().presets[2], rig.machine.record().settings);
-    let stored = rig.machine.record().settings;
+    assert_eq!(rig.machine().record().presets[2], rig.machine().record().settings);
+    let stored = rig.machine().record().settings;
     for _ in 0..4 {
         rig.press(Key::Down);
     }
-    assert_ne!(rig.machine.record().settings, stored);
+    assert_ne!(rig.machine().record().settings, stored);
     rig.press(Key::Preset);
     rig.press(Key::Up);
     rig.press(Key::Up);
     rig.press(Key::Start);
-    assert_eq!(rig.machine.record().settings, stored);
-    assert_eq!(rig.machine.state(), MachineState::Ready, "Start recalls, it does not pull");
+    assert_eq!(rig.machine().record().settings, stored);
+    assert_eq!(rig.machine().state(), MachineState::Ready, "Start recalls, it does not pull");
 
     // Knot mode: long Function.
     rig.hold(Key::Function, 1_700);
-    assert!(rig.machine.knot_mode());
-    assert!(rig.outputs.leds.knot);
-    assert_eq!(rig.machine.view(), View::Tension);
+    assert!(rig.machine().knot_mode());
+    assert!(rig.outputs().leds.knot);
+    assert_eq!(rig.machine().view(), View::Tension);
 
     // The settings survive a power cycle through the store.
     rig.run(3_000);
-    let bytes = rig.machine.record().encode();
+    let bytes = rig.machine().record().encode();
     let reloaded = Record::decode(&bytes).unwrap();
-    assert_eq!(reloaded.settings, rig.machine.record().settings);
+    assert_eq!(reloaded.settings, rig.machine().record().settings);
     let mut again = Rig::new(&TwinConfig::nominal(StringKind::TennisSynthetic), reloaded);
     again.expect_state(MachineState::Ready, 30_000);
-    assert_eq!(again.outputs.display, rig.outputs.display);
-    assert!(!again.machine.knot_mode(), "knot mode is per session, not stored");
+    assert_eq!(again.outputs().display, rig.outputs().display);
+    assert!(!again.machine().knot_mode(), "knot mode is per session, not stored");
 }
 
 #[test]
@@ -207,7 +207,7 @@ fn machine_flow_hold_duty_at_full_tension() {
     let mut max_duty = 0u16;
     for _ in 0..3_000 {
         rig.tick();
-        max_duty = max_duty.max(rig.outputs.drive.duty().raw());
+        max_duty = max_duty.max(rig.outputs().drive.duty().raw());
     }
-    println!("hold at {:.2} kgf: max duty {max_duty} / 65536", rig.twin.truth().tension_kgf);
+    println!("hold at {:.2} kgf: max duty {max_duty} / 65536", rig.twin().truth().tension_kgf);
 }

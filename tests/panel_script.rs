@@ -207,7 +207,7 @@ fn the_binary_runs_a_script_from_stdin_and_refuses_interactive_mode_without_a_te
         .stdin(Stdio::null())
         .output()
         .unwrap();
-    assert_eq!(interactive.status.code(), Some(2));
+    assert_eq!(interactive.status.code(), Some(1), "a runtime failure, not a usage error");
     assert!(String::from_utf8_lossy(&interactive.stderr).contains("needs a terminal"));
 }
 
@@ -220,7 +220,9 @@ fn a_blank_flash_boots_on_defaults_with_the_store_notice() {
 
 mod format {
     use proptest::prelude::*;
-    use taut::panel::script::{Check, Command, Lamp, Script, StatePattern};
+    use taut::panel::script::{
+        Check, Command, LONGEST_MS, Lamp, MOST_PRESSES, Script, StatePattern,
+    };
     use taut_core::io::Key;
 
     fn key() -> impl Strategy<Value = Key> {
@@ -248,23 +250,24 @@ mod format {
             "[A-Za-z0-9.?_ -]{0,6}".prop_map(Check::Display),
             (prop::sample::select(lamps), any::<bool>()).prop_map(|(l, on)| Check::Lamp(l, on)),
             any::<bool>().prop_map(Check::Beeper),
-            (-100.0..100.0f64, -100.0..100.0f64).prop_map(|(a, b)| Check::Tension(a, b)),
+            (0.0..=60.0f64, 0.0..=60.0f64).prop_map(|(a, b)| Check::Tension(a.min(b), a.max(b))),
         ]
     }
 
     fn command() -> impl Strategy<Value = Command> {
         prop_oneof![
-            any::<u64>().prop_map(Command::Wait),
-            (key(), any::<u32>()).prop_map(|(k, n)| Command::Press(k, n)),
-            (key(), any::<u64>()).prop_map(|(k, ms)| Command::Hold(k, ms)),
+            (1..=LONGEST_MS).prop_map(Command::Wait),
+            (key(), 1..=MOST_PRESSES).prop_map(|(k, n)| Command::Press(k, n)),
+            (key(), 1..=LONGEST_MS).prop_map(|(k, ms)| Command::Hold(k, ms)),
             key().prop_map(Command::Down),
             key().prop_map(Command::Up),
-            (check(), any::<u64>()).prop_map(|(c, ms)| Command::Until(c, ms)),
+            (check(), 1..=LONGEST_MS).prop_map(|(c, ms)| Command::Until(c, ms)),
             check().prop_map(Command::Expect),
             Just(Command::Print),
             Just(Command::Frame),
             Just(Command::Gauge),
             Just(Command::Break),
+            Just(Command::Restring),
         ]
     }
 
@@ -296,4 +299,55 @@ mod format {
             }
         }
     }
+}
+
+#[test]
+fn the_help_script_example_runs_as_written() {
+    let example: String = taut::panel::script::FORMAT_HELP
+        .split_once("\nExample")
+        .and_then(|(_, rest)| rest.split_once('\n'))
+        .map(|(_, body)| body.lines().map(|l| format!("{}\n", l.trim())).collect())
+        .expect("the help has an example");
+    assert!(example.lines().count() >= 5, "{example}");
+    let mut s = session(Flash::Calibrated);
+    run(&mut s, &example).expect("the example passes on the default panel");
+}
+
+#[test]
+fn after_a_string_break_the_stringer_clears_the_fault_restrings_and_pulls_again() {
+    let mut s = session(Flash::Calibrated);
+    run(
+        &mut s,
+        &format!(
+            "{TO_READY}\
+             press start\n\
+             until holding 20000\n\
+             break\n\
+             until fault 200\n\
+             expect display E-15\n\
+             press start\n\
+             until ready 20000\n\
+             expect led fault off\n\
+             restring\n\
+             press start\n\
+             until holding 20000\n\
+             wait 1500\n\
+             expect tension 21.8 22.2\n\
+             press start\n\
+             until ready 20000\n"
+        ),
+    )
+    .unwrap();
+    assert!(s.frame().join("\n").contains("n fits a new string"));
+}
+
+#[test]
+fn the_frame_says_which_page_the_display_shows() {
+    let mut s = session(Flash::Factory);
+    run(&mut s, TO_READY).unwrap();
+    assert!(s.frame().join("\n").contains("shows: tension set point"));
+    run(&mut s, "press function\nexpect display \"SP 5\"\n").unwrap();
+    assert!(s.frame().join("\n").contains("SP n: pull speed 1 (gentlest) – 9 (fastest)"));
+    run(&mut s, "press function\n").unwrap();
+    assert!(s.frame().join("\n").contains("PSnn: pre-stretch"));
 }

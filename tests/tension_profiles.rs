@@ -18,29 +18,62 @@
     reason = "test figures in f64; a failed set-up is a test failure"
 )]
 
-use taut::sil::{Rig, Sample, calibrate};
+use taut::report::commissioned_calibration;
 use taut_core::drive::Direction;
 use taut_core::sense::calibration::Calibration;
 use taut_core::tension::{
     ControllerConfig, KnotBoost, PreStretch, PullKind, PullPhase, PullSettings, Speed,
 };
 use taut_core::units::Kgf;
+use taut_sim::bench::{ControllerBench, ControllerRow, kgf};
 use taut_sim::{StringKind, TwinConfig};
 
-/// One pull of `ms` ticks; every tick's record and whether the drive ever reversed.
+/// One tick of a pull, as these tests read it.
+struct Sample {
+    /// Time since Start, s.
+    t: f64,
+    /// True tension, kgf.
+    tension: f64,
+    /// The controller's estimate, kgf.
+    estimate: f64,
+    /// The controller's phase.
+    phase: PullPhase,
+    /// A drive fault is latched.
+    fault: bool,
+}
+
+impl From<&ControllerRow> for Sample {
+    fn from(row: &ControllerRow) -> Self {
+        Self {
+            t: row.t_s,
+            tension: row.truth.tension_kgf,
+            estimate: kgf(row.control.tension),
+            phase: row.control.phase,
+            fault: row.truth.drive_fault.is_some(),
+        }
+    }
+}
+
+/// The controller bench on `twin` with `calibration`.
+fn bench(twin: &TwinConfig, calibration: Calibration) -> ControllerBench {
+    ControllerBench::new(twin, &ControllerConfig::TAUT, calibration).expect("bench")
+}
+
+/// One pull of `ms` ticks on a machine calibrated by its own 4-point calibration; asserts
+/// the drive never reverses.
 fn pull(twin: &TwinConfig, settings: &PullSettings, kind: PullKind, ms: u32) -> Vec<Sample> {
-    let calibration = calibrate(twin).calibration.expect("calibration accepted");
-    let mut rig = Rig::new(twin, &ControllerConfig::TAUT, calibration);
+    let calibration = commissioned_calibration(twin).expect("calibration accepted");
+    let mut rig = bench(twin, calibration);
     rig.start(settings, kind);
     let mut trace = Vec::new();
     for _ in 0..ms {
-        let (sample, out, _) = rig.tick();
+        let row = rig.tick();
         assert_ne!(
-            out.command.direction(),
+            row.control.command.direction(),
             Some(Direction::Release),
             "REQ-TEN-09: a pull never reverses the bridge"
         );
-        trace.push(sample);
+        trace.push(Sample::from(&row));
     }
     trace
 }
@@ -147,10 +180,11 @@ fn calibration_identity_is_only_the_sensor() {
     // the true tension is the sensor's own error (the twin's load cell reads low at 20 kgf).
     let (twin, _) = machines()[1];
     let settings = PullSettings::default().with_tension(Kgf::from_int(20)).expect("settings");
-    let mut rig = Rig::new(&twin, &ControllerConfig::TAUT, Calibration::IDENTITY);
+    let mut rig = bench(&twin, Calibration::IDENTITY);
     rig.start(&settings, PullKind::Main);
-    let mut trace = Vec::new();
-    rig.run(5_000, &mut trace);
+    let mut rows = Vec::new();
+    rig.run(5_000, &mut rows);
+    let trace: Vec<Sample> = rows.iter().map(Sample::from).collect();
     let tail = &trace[trace.len() - 1_000..];
     let measured = tail.iter().map(|s| s.estimate).sum::<f64>() / 1_000.0;
     let truth = tail.iter().map(|s| s.tension).sum::<f64>() / 1_000.0;

@@ -28,8 +28,10 @@
 //! [`Axis`] sweeps with [`TwinConfig::on_axis`]), [`motor`] (back-EMF, Hall, three-phase
 //! currents with the complementary bridge and body diodes), [`string`] (slack, creep,
 //! break), [`sensors`] (load cell, current, bus voltage, encoder), [`twin`] (the machine:
-//! backlash, gripper, bus clamp, faults), [`trace`] (run a controller, record, CSV; the
-//! bang-bang oracle), [`rng`] (the seeded generator).
+//! backlash, gripper, bus clamp, faults), [`bench`] (the one bench: the firmware's machine
+//! or its tension controller on the twin, sessions with the simulated [`operator`],
+//! commissioning through the machine's own calibration, the bang-bang oracle), [`trace`]
+//! (run a closure as the controller, record, CSV), [`rng`] (the seeded generator).
 //!
 //! The sections below derive the **nominal** machine ([`TwinConfig::nominal`]); the
 //! family's ranges around it, with their reasoning, are in [`family::ranges`] and
@@ -191,8 +193,10 @@
     )
 )]
 
+pub mod bench;
 pub mod family;
 pub mod motor;
+pub mod operator;
 pub mod params;
 pub mod rng;
 pub mod sensors;
@@ -200,10 +204,11 @@ pub mod string;
 pub mod trace;
 pub mod twin;
 
+pub use bench::{Bench, ControllerBench, bang_bang_reach_time};
 pub use family::{Axis, AxisSpan, Span};
 pub use params::{CurrentSenseParams, CurrentSensing, DcLinkSampling, StringKind, TwinConfig};
 pub use rng::SimRng;
 pub use sensors::{CurrentSense, LoadCellFault};
 pub use string::StringState;
-pub use trace::{Trace, TraceRow, bang_bang_reach_time, run, run_until};
+pub use trace::{Trace, TraceRow, run, run_until};
 pub use twin::{Fault, LimitSwitch, Truth, Twin, drive_at};

@@ -8,15 +8,15 @@
 //! controller saw, the outputs it gave, and the [`Truth`] at the end of that millisecond —
 //! so plots and reports can put what the machine believed beside what was physically
 //! true. [`run_until`] stops early on a condition. [`Trace::write_csv`] dumps a trace for
-//! external tools.
+//! external tools. The tick itself is [`crate::bench::step`], the one loop every bench uses;
+//! the bang-bang oracle is [`crate::bench::bang_bang_reach_time`].
 
 use std::io::{self, Write};
 
 use taut_core::drive::Direction;
 use taut_core::io::{Inputs, Outputs};
 
-use crate::params::TwinConfig;
-use crate::twin::{Truth, Twin, drive_at};
+use crate::twin::{Truth, Twin};
 
 /// One control tick: what the controller saw and did, and the physical state after it.
 #[derive(Clone, Copy, PartialEq, Debug)]
@@ -140,11 +140,7 @@ where
 {
     let mut trace = Trace { rows: Vec::with_capacity(usize::try_from(max_ms).unwrap_or(0)) };
     for _ in 0..max_ms {
-        let inputs = twin.inputs();
-        let outputs = controller(&inputs);
-        twin.apply(&outputs);
-        twin.advance_tick();
-        let row = TraceRow { inputs, outputs, truth: twin.truth() };
+        let row = crate::bench::step(twin, &mut controller, |_| {});
         trace.push(row);
         if stop(&row) {
             break;
@@ -153,66 +149,11 @@ where
     trace
 }
 
-/// The current the bang-bang oracle allows itself, A: below the drive's 12 A software
-/// overcurrent limit with margin for the PWM ripple and commutation transients.
-pub const ORACLE_CURRENT_LIMIT_A: f64 = 10.0;
-
-/// Ticks the oracle coasts after power-up before it pulls: the drive energises a standing
-/// rotor only after `REVERSAL_QUIET` (20 ms) without a Hall step, as after any real Start.
-pub const ORACLE_SETTLE_MS: u32 = 64;
-
-/// The physical limit of a pull: the time from Start until the true tension first reaches
-/// `target_kgf` when the motor pulls flat out — a bang-bang oracle on the same scenario —
-/// or `None` if it does not within `limit_ms` (or the drive faults).
-///
-/// "Flat out" is full duty ([`taut_core::drive::DUTY_MAX`]) except while the rotor is still
-/// accelerating, where the oracle, which knows the true speed and motor constants, caps
-/// the duty at `(Ke·ω + 2R·I_lim) / V_bus` so the winding current stays below
-/// [`ORACLE_CURRENT_LIMIT_A`]: a plain step to 95 % into a standing motor draws ≈ 27 A and
-/// the drive's 12 A limit trips, so that is not a pull the machine can make. The clock
-/// starts when the pull starts, after [`ORACLE_SETTLE_MS`] of coasting from power-up.
-#[must_use]
-pub fn bang_bang_reach_time(config: &TwinConfig, target_kgf: f64, limit_ms: u32) -> Option<f64> {
-    let mut twin = Twin::new(config);
-    run(&mut twin, ORACLE_SETTLE_MS, |_| Outputs::default());
-    let start_s = twin.truth().time_s;
-    let m = config.motor;
-    let volts = config.bridge.bus_volts;
-    let two_r = 2.0 * m.phase_resistance_ohm;
-    for _ in 0..limit_ms {
-        let truth = twin.truth();
-        if truth.drive_fault.is_some() {
-            return None;
-        }
-        if truth.tension_kgf >= target_kgf {
-            return Some(truth.time_s - start_s);
-        }
-        let omega = (truth.motor_rpm * core::f64::consts::TAU / 60.0).max(0.0);
-        let duty = (m.ke_volts_per_rad_s * omega + two_r * ORACLE_CURRENT_LIMIT_A) / volts;
-        twin.apply(&Outputs { drive: drive_at(Direction::Pull, duty), ..Outputs::default() });
-        twin.advance_tick();
-    }
-    None
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::StringKind;
-
-    #[test]
-    fn oracle_reaches_the_target_without_tripping_and_scales_with_slack() {
-        let mut config = TwinConfig::nominal(StringKind::TennisSynthetic);
-        let t1 = bang_bang_reach_time(&config, 25.0, 10_000).expect("reaches");
-        config.string.slack_mm += 20.0;
-        let t2 = bang_bang_reach_time(&config, 25.0, 10_000).expect("reaches");
-        // 20 mm more slack at the ≈ 67 mm/s full speed: ≈ 0.3 s more.
-        assert!((t2 - t1 - 0.3).abs() < 0.05, "{t1} {t2}");
-        // 30 mm slack + 25 kgf / 7.6 kgf/cm ≈ 63 mm at ≈ 67 mm/s: about a second.
-        assert!(t1 > 0.8 && t1 < 1.3, "{t1}");
-        let none = TwinConfig::nominal(StringKind::NoString);
-        assert_eq!(bang_bang_reach_time(&none, 25.0, 2_000), None);
-    }
+    use crate::params::{StringKind, TwinConfig};
+    use crate::twin::drive_at;
 
     #[test]
     fn csv_has_a_header_and_one_line_per_tick() {

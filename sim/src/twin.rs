@@ -652,6 +652,12 @@ impl Twin {
         self.string.break_now();
     }
 
+    /// Fits a new string of the configured kind in the gripper, with the carriage where it
+    /// is: its slack is taken up from here, as when a stringer re-strings after a break.
+    pub fn fit_new_string(&mut self) {
+        self.string = StringModel::new(&self.config.string, self.position_m());
+    }
+
     /// Starts exhibiting `fault` now (until [`Twin::clear_injected`]).
     pub fn inject(&mut self, fault: Fault) {
         let f = &mut self.faults;

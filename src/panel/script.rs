@@ -17,8 +17,10 @@ use std::io::{self, Write};
 use taut_core::io::{Key, Outputs};
 use taut_core::machine::MachineState;
 
-use super::{PanelSession, display};
-use crate::cycle::state_name;
+use taut_sim::bench::state_name;
+use taut_sim::operator::display;
+
+use super::PanelSession;
 
 /// The script format, as `taut panel --help-script` prints it.
 pub const FORMAT_HELP: &str = "\
@@ -43,6 +45,8 @@ runs until then (a time in the past is an error).
   frame                    print the whole panel
   gauge                    print the reference gauge's reading (calibrating by script)
   break                    break the string
+  restring                 fit a new string (after a break: first clear the fault with
+                           Start and let the carriage come home)
 
 KEY    start, up, down, function (or f), preset (or p)
 STATE  self-test, motor-test, homing, calibration-window, calibration-pull,
@@ -51,15 +55,15 @@ TEXT   the display as the transcript prints it (25.0, SP 5, CAL?, E-15, kg); put
        double quotes when it has inner spaces (\"SP 5\"); outer spaces and case do not
        matter (seven segments have no case)
 
-Example:
+Example (the calibrated machine shows the previous job's 22.0 kg at power-up):
   until ready 10000
-  expect display 25.0
+  expect display 22.0
   press up 5
-  expect display 25.5
+  expect display 22.5
   press start
   until holding 20000
   wait 2000
-  expect tension 25.2 25.8
+  expect tension 22.2 22.8
   press start
   until ready 20000
 ";
@@ -255,6 +259,8 @@ pub enum Command {
     Gauge,
     /// Break the string.
     Break,
+    /// Fit a new string.
+    Restring,
 }
 
 /// A key's name in scripts.
@@ -338,6 +344,7 @@ impl fmt::Display for Command {
             Self::Frame => f.write_str("frame"),
             Self::Gauge => f.write_str("gauge"),
             Self::Break => f.write_str("break"),
+            Self::Restring => f.write_str("restring"),
         }
     }
 }
@@ -452,6 +459,31 @@ fn number<T: std::str::FromStr>(word: Option<&String>, what: &str) -> Result<T, 
     word.parse().map_err(|_| format!("`{word}` is not a valid {what}"))
 }
 
+/// The longest a script may wait, hold or run until, ms (an hour of machine time).
+pub const LONGEST_MS: u64 = 3_600_000;
+/// The most presses one `press` makes.
+pub const MOST_PRESSES: u32 = 1_000;
+
+/// A duration in ms, 1…[`LONGEST_MS`].
+fn duration(word: Option<&String>, what: &str) -> Result<u64, String> {
+    let ms: u64 = number(word, what)?;
+    if (1..=LONGEST_MS).contains(&ms) {
+        Ok(ms)
+    } else {
+        Err(format!("{what} {ms} is not in 1–{LONGEST_MS}"))
+    }
+}
+
+/// A tension bound, kgf: a finite number in 0–60.
+fn tension_bound(word: Option<&String>) -> Result<f64, String> {
+    let kgf: f64 = number(word, "tension (kgf)")?;
+    if kgf.is_finite() && (0.0..=60.0).contains(&kgf) {
+        Ok(kgf)
+    } else {
+        Err(format!("tension {kgf} is not in 0–60 kgf"))
+    }
+}
+
 fn on_off(word: Option<&String>) -> Result<bool, String> {
     match word.map(String::as_str) {
         Some("on") => Ok(true),
@@ -477,7 +509,11 @@ fn check(words: &[String]) -> Result<Check, String> {
         }
         Some("beeper") => Ok(Check::Beeper(on_off(words.get(1))?)),
         Some("tension") => {
-            Ok(Check::Tension(number(words.get(1), "kgf")?, number(words.get(2), "kgf")?))
+            let (min, max) = (tension_bound(words.get(1))?, tension_bound(words.get(2))?);
+            if min > max {
+                return Err(format!("tension range {min}–{max} is empty"));
+            }
+            Ok(Check::Tension(min, max))
         }
         _ => Err("expect what? state, display, led, beeper or tension".to_owned()),
     }
@@ -500,7 +536,7 @@ fn command(words: &[String]) -> Result<Command, String> {
     let command = match name {
         "wait" => {
             arity(1)?;
-            Command::Wait(number(rest.first(), "duration (ms)")?)
+            Command::Wait(duration(rest.first(), "duration (ms)")?)
         }
         "press" => {
             arity(2)?;
@@ -508,13 +544,16 @@ fn command(words: &[String]) -> Result<Command, String> {
                 Some(_) => number(rest.get(1), "count")?,
                 None => 1,
             };
+            if !(1..=MOST_PRESSES).contains(&times) {
+                return Err(format!("count {times} is not in 1–{MOST_PRESSES}"));
+            }
             Command::Press(key(rest.first().ok_or("missing key")?)?, times)
         }
         "hold" => {
             arity(2)?;
             Command::Hold(
                 key(rest.first().ok_or("missing key")?)?,
-                number(rest.get(1), "duration (ms)")?,
+                duration(rest.get(1), "duration (ms)")?,
             )
         }
         "down" => {
@@ -536,7 +575,7 @@ fn command(words: &[String]) -> Result<Command, String> {
             };
             arity(used + 1)?;
             let limit = match rest.get(used) {
-                Some(_) => number(rest.get(used), "limit (ms)")?,
+                Some(_) => duration(rest.get(used), "limit (ms)")?,
                 None => UNTIL_LIMIT_MS,
             };
             Command::Until(condition, limit)
@@ -546,12 +585,13 @@ fn command(words: &[String]) -> Result<Command, String> {
             arity(check_words(&check))?;
             Command::Expect(check)
         }
-        "print" | "frame" | "gauge" | "break" => {
+        "print" | "frame" | "gauge" | "break" | "restring" => {
             arity(0)?;
             match name {
                 "print" => Command::Print,
                 "frame" => Command::Frame,
                 "gauge" => Command::Gauge,
+                "restring" => Command::Restring,
                 _ => Command::Break,
             }
         }
@@ -670,6 +710,7 @@ impl Script {
                     writeln!(out, "gauge: {reading:.2} kgf")?;
                 }
                 Command::Break => session.bench_mut().twin_mut().break_string(),
+                Command::Restring => session.bench_mut().twin_mut().fit_new_string(),
             }
             writeln!(out, "{:<28} | {}", line.text, session.status_line())?;
             if frames || line.command == Command::Frame {

@@ -11,11 +11,15 @@
 //! every [`FRAME_MS`], and sleep in `event::poll` until the next pass.
 //!
 //! **Key levels from key events.** The machine wants contact levels every millisecond; a
-//! terminal sends events. [`KeyHolds`] turns them into levels: with the keyboard
-//! enhancement protocol a key is down from its press to its release event; without it each
-//! press (or auto-repeat) holds the key for [`super::TAP_MS`] of machine time, so a held
-//! key stays down while the terminal repeats it. `F` and `P` hold Function and Preset for
-//! [`super::LONG_PRESS_HOLD_MS`]: the panel's long presses (knot mode, store preset).
+//! terminal sends events. [`KeyHolds`] turns them into levels: every press is queued as a
+//! tap of its own ([`super::TAP_MS`] down, [`super::TAP_GAP_MS`] up), so presses that come
+//! faster than the machine's debounce can take them are delayed, never lost; a key the
+//! terminal auto-repeats is held down (its events come closer than [`AUTO_REPEAT_MS`]), so
+//! the panel's own repeat runs. With the keyboard enhancement protocol a key is down from
+//! its press to its release event. `F` and `P` hold Function and Preset for
+//! [`super::LONG_PRESS_HOLD_MS`]: the panel's long presses (knot mode, store preset). A
+//! terminal smaller than the panel is refused at start, and told so while it is resized
+//! too small.
 
 use std::io::{self, IsTerminal as _, Write};
 use std::time::{Duration, Instant};
@@ -27,7 +31,7 @@ use crossterm::event::{
 use crossterm::{cursor, queue, style, terminal};
 use taut_core::io::{Key, Keys};
 
-use super::{LONG_PRESS_HOLD_MS, PanelSession, TAP_MS};
+use super::{FRAME_COLUMNS, FRAME_ROWS, LONG_PRESS_HOLD_MS, PanelSession, TAP_GAP_MS, TAP_MS};
 
 /// Redraw period, ms (≈ 30 frames a second).
 pub const FRAME_MS: u64 = 33;
@@ -43,13 +47,15 @@ pub enum Action {
     Long(Key),
     /// Break the string.
     BreakString,
+    /// Fit a new string.
+    Restring,
     /// Leave the panel.
     Quit,
 }
 
 /// The panel action of a keyboard key, if any: arrows, `+`/`-`, `k`/`j` for Up/Down;
 /// space, Enter, `s` for Start; `f`/`F` Function (short/long); `p`/`P` Preset; `b` breaks
-/// the string; `q`, Esc, Ctrl-C quit.
+/// the string, `n` fits a new one; `q`, Esc, Ctrl-C quit.
 #[must_use]
 pub fn action(code: KeyCode, modifiers: KeyModifiers) -> Option<Action> {
     if modifiers.contains(KeyModifiers::CONTROL) && code == KeyCode::Char('c') {
@@ -64,6 +70,7 @@ pub fn action(code: KeyCode, modifiers: KeyModifiers) -> Option<Action> {
         KeyCode::Char('p') => Action::Key(Key::Preset),
         KeyCode::Char('P') => Action::Long(Key::Preset),
         KeyCode::Char('b') => Action::BreakString,
+        KeyCode::Char('n') => Action::Restring,
         KeyCode::Char('q' | 'Q') | KeyCode::Esc => Action::Quit,
         _ => return None,
     })
@@ -79,57 +86,122 @@ const fn index(key: Key) -> usize {
     }
 }
 
+/// A press and a repeat closer than this are one held key (a terminal's auto-repeat runs
+/// at 25–40 ms; a person tapping quickly, ≥ 80 ms apart), ms.
+pub const AUTO_REPEAT_MS: u64 = 70;
+
+/// One key's schedule: the intervals it is down, in order.
+#[derive(Clone, PartialEq, Eq, Debug, Default)]
+struct Schedule {
+    /// `[from, until)` intervals of machine time, oldest first.
+    down: std::collections::VecDeque<(u64, u64)>,
+    /// The last press or repeat event, ms.
+    last_event: Option<u64>,
+    /// A long press runs until the end of the last interval; releases do not end it.
+    long: bool,
+}
+
+impl Schedule {
+    /// When the key is next free to go down for a new tap.
+    fn next_free(&self, now: u64) -> u64 {
+        self.down.back().map_or(now, |&(_, until)| (until + TAP_GAP_MS).max(now))
+    }
+
+    /// Queues a tap.
+    fn tap(&mut self, now: u64, length: u64) {
+        let from = self.next_free(now);
+        self.down.push_back((from, from + length));
+    }
+}
+
 /// Key levels from key events (see the module docs). Times are machine milliseconds.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+///
+/// Every press is queued as its own tap of [`TAP_MS`] down and [`TAP_GAP_MS`] up after the
+/// taps already queued, so quick presses are never merged or lost. A press that follows the
+/// previous event of the same key within [`AUTO_REPEAT_MS`] is the terminal repeating a
+/// held key: it extends the key's current hold instead, so the machine sees one long press
+/// and repeats by itself. With release events (keyboard enhancement), a key is down from its
+/// press (queued like a tap) until its release, and at least [`TAP_MS`].
+#[derive(Clone, PartialEq, Eq, Debug)]
 pub struct KeyHolds {
     /// Whether release events arrive (keyboard enhancement active).
     releases: bool,
-    /// Per key: down until this time (exclusive).
-    until: [u64; 5],
-    /// Per key: the hold is a long press (release events do not end it).
-    long: [bool; 5],
+    keys: [Schedule; 5],
 }
 
 impl KeyHolds {
     /// No key down; `releases` says whether the terminal sends release events.
     #[must_use]
-    pub const fn new(releases: bool) -> Self {
-        Self { releases, until: [0; 5], long: [false; 5] }
+    pub fn new(releases: bool) -> Self {
+        Self { releases, keys: Default::default() }
     }
 
     /// A press, auto-repeat or release of `key` at machine time `now`.
     pub fn event(&mut self, key: Key, kind: KeyEventKind, now: u64) {
-        let i = index(key);
-        if self.long[i] && self.until[i] > now {
+        let releases = self.releases;
+        let s = &mut self.keys[index(key)];
+        if s.long && s.down.back().is_some_and(|&(_, until)| until > now) {
             return;
         }
-        self.long[i] = false;
-        self.until[i] = match (self.releases, kind) {
-            (true, KeyEventKind::Press) => u64::MAX,
-            (true, KeyEventKind::Release) => now,
-            (true, KeyEventKind::Repeat) => self.until[i],
-            (false, KeyEventKind::Release) => self.until[i],
-            (false, _) => self.until[i].max(now + TAP_MS),
-        };
+        s.long = false;
+        let repeat = kind == KeyEventKind::Repeat
+            || s.last_event.is_some_and(|t| now.saturating_sub(t) < AUTO_REPEAT_MS);
+        match (releases, kind) {
+            (true, KeyEventKind::Release) => {
+                if let Some(last) = s.down.back_mut() {
+                    if last.1 == u64::MAX {
+                        last.1 = now.max(last.0 + TAP_MS);
+                    }
+                }
+            }
+            (true, _) => {
+                if !repeat || s.down.back().is_none_or(|&(_, until)| until != u64::MAX) {
+                    let from = s.next_free(now);
+                    s.down.push_back((from, u64::MAX));
+                }
+            }
+            (false, KeyEventKind::Release) => {}
+            (false, _) => {
+                match s.down.back_mut() {
+                    // The terminal repeating a held key: keep it down.
+                    Some(last) if repeat && last.1 + TAP_GAP_MS >= now => {
+                        last.1 = last.1.max(now + super::HOLD_MS);
+                    }
+                    _ => s.tap(now, TAP_MS),
+                }
+            }
+        }
+        if kind != KeyEventKind::Release {
+            s.last_event = Some(now);
+        }
     }
 
     /// A long press of `key` at `now`.
     pub fn long_press(&mut self, key: Key, now: u64) {
-        let i = index(key);
-        self.long[i] = true;
-        self.until[i] = now + LONG_PRESS_HOLD_MS;
+        let s = &mut self.keys[index(key)];
+        s.tap(now, LONG_PRESS_HOLD_MS);
+        s.long = true;
     }
 
-    /// The key levels at machine time `now`.
-    #[must_use]
-    pub fn keys_at(&self, now: u64) -> Keys {
+    /// The key levels at machine time `now` (intervals that have ended are dropped).
+    pub fn keys_at(&mut self, now: u64) -> Keys {
         let mut keys = Keys::NONE;
         for key in Key::ALL {
-            if self.until[index(key)] > now {
+            let s = &mut self.keys[index(key)];
+            while s.down.front().is_some_and(|&(_, until)| until <= now) {
+                s.down.pop_front();
+            }
+            if s.down.front().is_some_and(|&(from, _)| from <= now) {
                 keys = keys.with(key);
             }
         }
         keys
+    }
+
+    /// Taps still queued, all keys.
+    #[must_use]
+    pub fn queued(&self) -> usize {
+        self.keys.iter().map(|s| s.down.len()).sum()
     }
 }
 
@@ -183,9 +255,15 @@ pub fn run(session: &mut PanelSession, rate: f64) -> io::Result<()> {
             "the interactive panel needs a terminal; use --script FILE to run without one",
         ));
     }
-    if !(rate.is_finite() && rate > 0.0 && rate <= 100.0) {
-        return Err(io::Error::other("--rate must be within 0–100"));
+    let too_small = |(columns, rows): (u16, u16)| columns < FRAME_COLUMNS || rows < FRAME_ROWS;
+    let size = terminal::size()?;
+    if too_small(size) {
+        return Err(io::Error::other(format!(
+            "the terminal is {}×{}; the panel needs at least {FRAME_COLUMNS}×{FRAME_ROWS} (columns × rows)",
+            size.0, size.1
+        )));
     }
+    let mut small = false;
     let screen = Screen::enter()?;
     let mut holds = KeyHolds::new(screen.enhanced);
     let mut anchor = (Instant::now(), session.now_ms());
@@ -207,10 +285,16 @@ pub fn run(session: &mut PanelSession, rate: f64) -> io::Result<()> {
                         Some(Action::BreakString) if kind == KeyEventKind::Press => {
                             session.bench_mut().twin_mut().break_string();
                         }
+                        Some(Action::Restring) if kind == KeyEventKind::Press => {
+                            session.restring();
+                        }
                         _ => {}
                     }
                 }
-                Event::Resize(..) => queue!(out, terminal::Clear(terminal::ClearType::All))?,
+                Event::Resize(columns, rows) => {
+                    small = too_small((columns, rows));
+                    queue!(out, terminal::Clear(terminal::ClearType::All))?;
+                }
                 _ => {}
             }
         }
@@ -228,13 +312,22 @@ pub fn run(session: &mut PanelSession, rate: f64) -> io::Result<()> {
         }
         if last_draw.is_none_or(|t| t.elapsed() >= Duration::from_millis(FRAME_MS)) {
             last_draw = Some(Instant::now());
-            let mut lines = session.frame();
-            lines.push(format!(
-                "  rate {rate}x{}{}   keys down: {:05b}",
-                if screen.enhanced { ", key releases seen" } else { "" },
-                if behind { ", host behind real time" } else { "" },
-                session.keys().bits()
-            ));
+            let mut lines = if small {
+                vec![format!(
+                    "The terminal is too small for the panel: make it at least {FRAME_COLUMNS}×{FRAME_ROWS} (q quits)."
+                )]
+            } else {
+                session.frame()
+            };
+            if !small {
+                lines.push(format!(
+                    "  rate {rate}x{}{}   keys down: {:05b}   taps queued: {}",
+                    if screen.enhanced { ", key releases seen" } else { "" },
+                    if behind { ", host behind real time" } else { "" },
+                    session.keys().bits(),
+                    holds.queued()
+                ));
+            }
             for (row, line) in lines.iter().enumerate() {
                 queue!(
                     out,
@@ -254,22 +347,51 @@ mod tests {
     use super::*;
 
     #[test]
-    fn taps_hold_for_the_tap_time_and_repeats_extend() {
+    fn quick_presses_are_queued_and_each_one_counts() {
         let mut holds = KeyHolds::new(false);
-        holds.event(Key::Up, KeyEventKind::Press, 1_000);
-        assert_eq!(holds.keys_at(1_000), Keys::NONE.with(Key::Up));
-        assert_eq!(holds.keys_at(1_000 + TAP_MS), Keys::NONE);
-        holds.event(Key::Up, KeyEventKind::Press, 1_100);
-        assert!(holds.keys_at(1_100 + TAP_MS - 1).contains(Key::Up));
+        // 28 presses 80 ms apart: faster than a tap plus its gap, slower than auto-repeat.
+        for i in 0..28 {
+            holds.event(Key::Up, KeyEventKind::Press, 1_000 + i * 80);
+        }
+        let mut taps = 0;
+        let mut was_down = false;
+        for now in 1_000..10_000 {
+            let down = holds.keys_at(now).contains(Key::Up);
+            if down && !was_down {
+                taps += 1;
+            }
+            was_down = down;
+        }
+        assert_eq!(taps, 28);
+        assert_eq!(holds.queued(), 0);
+    }
+
+    #[test]
+    fn an_auto_repeated_key_is_held() {
+        let mut holds = KeyHolds::new(false);
+        holds.event(Key::Up, KeyEventKind::Press, 0);
+        // The terminal starts repeating after 500 ms, every 33 ms, for two seconds.
+        let mut t = 500;
+        while t < 2_500 {
+            holds.event(Key::Up, KeyEventKind::Press, t);
+            t += 33;
+        }
+        assert!(holds.keys_at(10).contains(Key::Up));
+        let held = (600..2_400).all(|now| holds.keys_at(now).contains(Key::Up));
+        assert!(held, "a held key stays down for the panel's own repeat");
     }
 
     #[test]
     fn with_release_events_a_key_is_down_until_released() {
         let mut holds = KeyHolds::new(true);
         holds.event(Key::Start, KeyEventKind::Press, 0);
-        assert!(holds.keys_at(60_000).contains(Key::Start));
+        assert!(holds.keys_at(30_000).contains(Key::Start));
         holds.event(Key::Start, KeyEventKind::Release, 60_000);
         assert_eq!(holds.keys_at(60_000), Keys::NONE);
+        // A press and release in the same instant still make a tap.
+        holds.event(Key::Up, KeyEventKind::Press, 70_000);
+        holds.event(Key::Up, KeyEventKind::Release, 70_000);
+        assert!(holds.keys_at(70_000 + TAP_MS - 1).contains(Key::Up));
     }
 
     #[test]

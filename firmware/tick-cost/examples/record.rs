@@ -12,11 +12,9 @@
 
 use std::process::ExitCode;
 
-use taut::cycle::{CycleOptions, Operator, Plan, SESSION_LIMIT_MS, commission, factory_config};
-use taut_core::io::Inputs;
-use taut_core::machine::Machine;
-use taut_core::store::Record;
-use taut_sim::Twin;
+use taut::job::CycleOptions;
+use taut_sim::bench::{Bench, Session, commission, factory_config, run_session};
+use taut_sim::operator::{Operator, Plan};
 use taut_tick_cost::{FINGERPRINT_START, Header, encode_header, encode_inputs, fold_outputs};
 
 /// Ticks recorded after the operator is done (the machine settling at home).
@@ -30,8 +28,9 @@ fn record() -> Result<Vec<u8>, String> {
     let commissioning = commission(&factory_config(&config), options.calibrate, &mut |_| {})
         .map_err(|error| format!("commissioning failed: {error}"))?;
 
-    let mut machine = Machine::from_stored(Record::decode(&commissioning.flash));
-    let mut twin = Twin::new(&config);
+    // The one bench, as the main job runs it: the machine on the twin tick by tick, the
+    // operator looking and pressing between the machine's outputs and the physics.
+    let mut bench = Bench::power_up(&config, &commissioning.flash).recording();
     let plan = Plan {
         calibrate: false,
         settings,
@@ -39,32 +38,25 @@ fn record() -> Result<Vec<u8>, String> {
         pull_hold_ms: Some(options.hold_ms),
     };
     let mut operator = Operator::new(plan);
-    let mut ticks: Vec<Inputs> = Vec::new();
-    let mut fingerprint = FINGERPRINT_START;
-    let mut stores = 0_u32;
     let mut tail = None;
-    for _ in 0..SESSION_LIMIT_MS {
-        // As the board's tick (and `taut::cycle::Bench`): sample, tick, apply, then the
-        // operator looks and presses, then a millisecond of physics.
-        let inputs = twin.inputs();
-        let outputs = machine.tick(&inputs);
-        ticks.push(inputs);
-        fingerprint = fold_outputs(fingerprint, &outputs);
-        stores = stores.saturating_add(u32::from(outputs.store));
-        twin.apply(&outputs);
-        operator.act(&mut twin);
-        twin.advance_tick();
-        if operator.finished() {
-            let left = tail.get_or_insert(TAIL_TICKS);
-            if *left == 0 {
-                break;
-            }
-            *left = left.saturating_sub(1);
+    run_session(&mut bench, &mut operator, Session::Job, &mut |_| {}, |_, operator| {
+        if !operator.finished() {
+            return false;
         }
+        let left: &mut u32 = tail.get_or_insert(TAIL_TICKS);
+        let done = *left == 0;
+        *left = left.saturating_sub(1);
+        done
+    })
+    .map_err(|error| error.to_string())?;
+    if operator.stopped() {
+        return Err("the job did not complete (a fault)".into());
     }
-    if !operator.finished() || operator.stopped() {
-        return Err("the job did not complete (time limit or a fault)".into());
-    }
+    let rows = bench.take_rows();
+    let fingerprint = rows.iter().fold(FINGERPRINT_START, |f, row| fold_outputs(f, &row.outputs));
+    let stores =
+        rows.iter().map(|row| u32::from(row.outputs.store)).fold(0_u32, u32::saturating_add);
+    let ticks: Vec<_> = rows.iter().map(|row| row.inputs).collect();
     let header = Header {
         ticks: u32::try_from(ticks.len()).map_err(|_| "too many ticks")?,
         fingerprint,

@@ -1,5 +1,5 @@
-//! Reading the machine's 7-segment display on the host: ASCII art, text and numbers, all
-//! computed from the segment bitmaps the machine outputs.
+//! Reading the machine's 7-segment display as a person does: ASCII art, text and numbers,
+//! all computed from the segment bitmaps the machine outputs.
 //!
 //! # Theory of operation
 //!
@@ -26,6 +26,12 @@
 //!   resembles (`k`, `L`, `b`, `n`), so compare text case-insensitively.
 //! - [`number`] reads a right-aligned number with at most one decimal (`25.0` → 250 tenths,
 //!   ` SP 5` → none) and [`page_value`] the number of a labelled page (`SP 5` → 5).
+
+#![allow(
+    clippy::arithmetic_side_effects,
+    clippy::indexing_slicing,
+    reason = "index arithmetic on the four fixed digits and decimal values of at most four digits"
+)]
 
 use taut_core::io::{Display, Segments};
 use taut_core::machine::panel::{DECIMAL_POINT, glyph};

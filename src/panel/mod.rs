@@ -5,7 +5,7 @@
 //! # Theory of operation
 //!
 //! A [`PanelSession`] is a [`Bench`] (the firmware's [`taut_core::machine::Machine`] on the
-//! twin, see [`crate::cycle`]) plus the key levels a person is holding down. Each
+//! twin, see [`taut_sim::bench`]) plus the key levels a person is holding down. Each
 //! [`PanelSession::tick`] puts those levels on the twin's key inputs and runs one 1 ms tick;
 //! the machine alone decides what happens (debounce, repeat, long presses, states, faults).
 //! [`PanelSession::frame`] draws the panel from the machine's outputs only: the display from
@@ -18,28 +18,39 @@
 //!
 //! - [`terminal`] (interactive): raw keyboard input through `crossterm`, ticks paced to the
 //!   wall clock (1 ms of machine time per 1 ms of real time, or `--rate` times that), the
-//!   frame redrawn about 30 times a second. A terminal reports key *presses* but usually not
-//!   releases, so each key press holds the key for [`TAP_MS`] (auto-repeat extends it);
-//!   the long presses (Function: knot mode, Preset: store) have their own keys (`F`, `P`).
-//!   Where the terminal supports the keyboard-enhancement protocol (kitty, foot, WezTerm,
-//!   recent Alacritty/iTerm2), real press and release events are used instead.
+//!   frame redrawn about 30 times a second. Every key press is queued and reaches the
+//!   machine as its own tap, however quickly they come; a key the terminal auto-repeats
+//!   (held down) is held on the panel, whose own repeat then runs
+//!   ([`terminal::KeyHolds`]). The long presses (Function: knot mode, Preset: store) have
+//!   their own keys (`F`, `P`). Where the terminal supports the keyboard-enhancement
+//!   protocol (kitty, foot, WezTerm, recent Alacritty/iTerm2), real press and release events
+//!   are used. A string break latches `E-15`: Start clears it and the carriage returns home,
+//!   `n` fits a new string.
 //! - [`script`] (no terminal): a small text format of key presses, waits and checks, run as
 //!   fast as the twin goes; it prints a transcript (and frames) to stdout. Tests drive the
 //!   panel through it.
 
-pub mod display;
 pub mod script;
 pub mod terminal;
 
 use taut_core::io::{Key, Keys, Outputs};
-use taut_core::machine::MachineState;
+use taut_core::machine::{FaultCode, MachineState};
 use taut_core::store::{RECORD_LEN, Record, Unit};
-use taut_sim::{StringKind, TwinConfig};
+use taut_sim::bench::{Bench, SessionError, commission, factory_config, kgf, state_name};
+use taut_sim::operator::{Page, page_shown};
+use taut_sim::{StringKind, StringState, TwinConfig};
 
-use crate::cycle::{Bench, commission, factory_config, kgf, state_name};
+pub use crate::cli::{Flash, PanelArgs};
+use crate::output::{Failure, Status};
+pub use taut_sim::operator::display;
 
-/// How long a key stays down after a key press from a terminal without release events, ms.
-pub const TAP_MS: u64 = 150;
+/// How long a queued tap holds its key down, ms (the panel debounces for 20 ms).
+pub const TAP_MS: u64 = 60;
+/// How long a queued tap leaves its key up before the next, ms.
+pub const TAP_GAP_MS: u64 = 40;
+/// How long a key the terminal auto-repeats stays down after each repeat, ms (longer than
+/// a terminal's repeat interval, so the key stays down between repeats).
+pub const HOLD_MS: u64 = 100;
 /// How long a "long press" key (`F`, `P`) holds Function or Preset down, ms (the machine
 /// needs 1.5 s after its 20 ms debounce).
 pub const LONG_PRESS_HOLD_MS: u64 = 1_700;
@@ -47,47 +58,6 @@ pub const LONG_PRESS_HOLD_MS: u64 = 1_700;
 pub const GAUGE_FULL_SCALE_KGF: f64 = 50.0;
 /// Width of the tension gauge's bar, characters.
 pub const GAUGE_WIDTH: usize = 50;
-
-/// What the machine's flash holds at power-up.
-#[derive(Clone, Copy, PartialEq, Eq, Debug, Default, clap::ValueEnum)]
-pub enum Flash {
-    /// The record a commissioning session leaves (4-point calibration, previous job's
-    /// settings), as the main job uses.
-    #[default]
-    Calibrated,
-    /// Factory defaults (25.0 kg, no calibration): calibrate it yourself in the `CAL?`
-    /// window with Function, reading the gauge.
-    Factory,
-    /// Erased flash: the machine starts on defaults and shows the `E-20` notice.
-    Blank,
-}
-
-/// `taut panel` options.
-#[derive(clap::Args, Clone, Debug)]
-pub struct PanelArgs {
-    /// String on the machine (badminton-soft … tennis-poly, none).
-    #[arg(long, default_value = "tennis-synthetic", value_name = "KIND")]
-    pub string: StringKind,
-    /// A Monte-Carlo scenario of the twin instead of the nominal machine.
-    #[arg(long)]
-    pub seed: Option<u64>,
-    /// What the machine's flash holds at power-up.
-    #[arg(long, value_enum, default_value_t = Flash::Calibrated)]
-    pub flash: Flash,
-    /// Run this script (`-` = standard input) instead of the interactive panel; prints a
-    /// transcript to stdout. See `taut panel --help-script`.
-    #[arg(long, value_name = "FILE")]
-    pub script: Option<std::path::PathBuf>,
-    /// Script mode: also print the whole panel after every command.
-    #[arg(long)]
-    pub frames: bool,
-    /// Interactive mode: machine milliseconds per real millisecond.
-    #[arg(long, default_value_t = 1.0, value_name = "FACTOR")]
-    pub rate: f64,
-    /// Print the script format and exit.
-    #[arg(long)]
-    pub help_script: bool,
-}
 
 /// The machine on the twin with a person's key levels.
 pub struct PanelSession {
@@ -99,20 +69,17 @@ pub struct PanelSession {
 }
 
 impl PanelSession {
-    /// A session on a twin of `string` (nominal, or scenario `seed`) whose machine powers up
+    /// A session on a twin of `string` (nominal, or machine `seed` of the family) whose
+    /// machine powers up
     /// from `flash`. [`Flash::Calibrated`] first runs a commissioning session on the same
     /// twin configuration (a fraction of a second).
     ///
     /// # Errors
     /// The commissioning failed.
-    pub fn new(
-        string: StringKind,
-        seed: Option<u64>,
-        flash: Flash,
-    ) -> Result<Self, crate::cycle::CycleError> {
+    pub fn new(string: StringKind, seed: Option<u64>, flash: Flash) -> Result<Self, SessionError> {
         let config = seed.map_or_else(
             || TwinConfig::nominal(string),
-            |seed| TwinConfig::sample_kind(string, seed),
+            |seed| TwinConfig::family_kind(string, seed),
         );
         let bytes = match flash {
             Flash::Calibrated => commission(&factory_config(&config), true, &mut |_| {})?.flash,
@@ -153,7 +120,7 @@ impl PanelSession {
     pub fn tick(&mut self) -> Outputs {
         let keys = self.keys;
         self.bench.twin_mut().set_keys(keys);
-        self.last_outputs = self.bench.tick(|_| {});
+        self.last_outputs = self.bench.tick();
         self.last_outputs
     }
 
@@ -215,6 +182,7 @@ impl PanelSession {
     /// The whole panel as lines of text (see the module docs).
     #[must_use]
     pub fn frame(&self) -> Vec<String> {
+        // The widest line is the keys line (94 characters); see [`FRAME_COLUMNS`].
         let out = &self.last_outputs;
         let truth = self.bench.twin().truth();
         let scenario = self.seed.map_or_else(|| "nominal".to_owned(), |s| format!("seed {s}"));
@@ -258,10 +226,33 @@ impl PanelSession {
             if unit == Unit::Pounds { "lb" } else { "kg" },
             width = GAUGE_WIDTH - 4
         ));
+        lines.push(format!("| shows: {}", page_text(self.state(), out)));
+        if let Some(hint) = self.hint() {
+            lines.push(format!("| next:  {hint}"));
+        }
         lines.push("| keys: Up/+  Down/-  Start: space/Enter  Function: f (F = hold)  Preset: p (P = hold)".to_owned());
-        lines.push("|       b breaks the string, q quits".to_owned());
+        lines.push("|       b breaks the string, n fits a new string, q quits".to_owned());
         lines.push("+--".to_owned());
         lines
+    }
+
+    /// What the operator can do next, when it is not obvious: after a string break.
+    #[must_use]
+    pub fn hint(&self) -> Option<&'static str> {
+        let broken = self.bench.twin().truth().string == StringState::Broken;
+        match (self.state(), broken) {
+            (MachineState::Fault(FaultCode::StringBreak), _) => Some(
+                "the string broke (E-15): Start clears the fault and the carriage returns home",
+            ),
+            (MachineState::Ready, true) => Some("n fits a new string, then Start pulls it"),
+            (MachineState::Fault(_), _) => Some("Start clears the fault once its cause is gone"),
+            _ => None,
+        }
+    }
+
+    /// Fits a new string (after a break, with the carriage home).
+    pub fn restring(&mut self) {
+        self.bench.twin_mut().fit_new_string();
     }
 }
 
@@ -309,62 +300,87 @@ pub fn gauge_bar(tension_kgf: f64, set_point_kgf: f64) -> String {
     bar
 }
 
-/// `taut panel`: the interactive panel, or the script; returns the process exit code.
+/// The columns and rows [`PanelSession::frame`] needs (plus the status line).
+pub const FRAME_COLUMNS: u16 = 96;
+/// The rows the interactive panel needs.
+pub const FRAME_ROWS: u16 = 15;
+
+/// What the display shows, in words: the Ready page and its range, or the state's reading.
 #[must_use]
-pub fn main(args: &PanelArgs) -> i32 {
+pub fn page_text(state: MachineState, outputs: &Outputs) -> String {
+    if state != MachineState::Ready {
+        return match state {
+            MachineState::Pulling | MachineState::Holding | MachineState::Releasing => {
+                "the measured tension".to_owned()
+            }
+            MachineState::CalibrationEntry { .. } => {
+                "calibration: key in the gauge's reading with Up/Down, then Start".to_owned()
+            }
+            MachineState::CalibrationWindow => {
+                "CAL? — Function calibrates, any other key skips".to_owned()
+            }
+            MachineState::Fault(_) => "the fault code".to_owned(),
+            other => state_name(other),
+        };
+    }
+    if display::text(&outputs.display).starts_with('P')
+        && display::page_value(&outputs.display, b"P ").is_some()
+    {
+        return "preset page (P n): Up/Down choose, Start loads, hold Preset stores".to_owned();
+    }
+    match page_shown(&outputs.display) {
+        Some((Page::Tension, _)) => {
+            "tension set point (Up/Down: 0.1 kg / 0.5 lb; Function: next page)".to_owned()
+        }
+        Some((Page::Speed, _)) => "SP n: pull speed 1 (gentlest) – 9 (fastest)".to_owned(),
+        Some((Page::PreStretch, _)) => "PSnn: pre-stretch, % above the tension (0–30)".to_owned(),
+        Some((Page::Knot, _)) => {
+            "Knnn: knot increase, % (0–20; knot mode: hold Function)".to_owned()
+        }
+        Some((Page::Unit, _)) => "unit: kg or lb (Up/Down converts the set point)".to_owned(),
+        None => "a notice (any key clears it)".to_owned(),
+    }
+}
+
+/// `taut panel`: the interactive panel, or the script. `Ok(false)` when a script's check
+/// failed.
+///
+/// # Errors
+/// Commissioning failed, the script cannot be read or parsed, or the terminal failed.
+pub fn main(args: &PanelArgs) -> Status {
     if args.help_script {
         println!("{}", script::FORMAT_HELP);
-        return 0;
+        return Ok(true);
     }
-    let mut session = match PanelSession::new(args.string, args.seed, args.flash) {
-        Ok(session) => session,
-        Err(error) => {
-            eprintln!("taut panel: {error}");
-            return 2;
-        }
-    };
-    match &args.script {
+    // The script is read and parsed first: a bad script fails before the machine powers up.
+    let script = match &args.script {
         Some(path) => {
+            let read = |error| Failure::Read { path: path.clone(), error };
             let text = if path.as_os_str() == "-" {
                 let mut text = String::new();
-                match std::io::Read::read_to_string(&mut std::io::stdin(), &mut text) {
-                    Ok(_) => text,
-                    Err(error) => {
-                        eprintln!("taut panel: reading the script: {error}");
-                        return 2;
-                    }
-                }
+                std::io::Read::read_to_string(&mut std::io::stdin(), &mut text).map_err(read)?;
+                text
             } else {
-                match std::fs::read_to_string(path) {
-                    Ok(text) => text,
-                    Err(error) => {
-                        eprintln!("taut panel: {}: {error}", path.display());
-                        return 2;
-                    }
-                }
+                std::fs::read_to_string(path).map_err(read)?
             };
-            let parsed = match script::Script::parse(&text) {
-                Ok(parsed) => parsed,
-                Err(error) => {
-                    eprintln!("taut panel: {}: {error}", path.display());
-                    return 2;
-                }
-            };
-            let mut stdout = std::io::stdout().lock();
-            match parsed.run(&mut session, args.frames, &mut stdout) {
-                Ok(()) => 0,
-                Err(failure) => {
-                    eprintln!("taut panel: {}: {failure}", path.display());
-                    1
-                }
-            }
+            let parsed = script::Script::parse(&text)
+                .map_err(|e| Failure::Usage(format!("{}: {e}", path.display())))?;
+            Some((path, parsed))
         }
-        None => match terminal::run(&mut session, args.rate) {
-            Ok(()) => 0,
-            Err(error) => {
-                eprintln!("taut panel: {error}");
-                2
-            }
-        },
+        None => None,
+    };
+    let mut session = PanelSession::new(args.string.into(), args.seed, args.flash)
+        .map_err(|e| Failure::Message(e.to_string()))?;
+    let Some((path, parsed)) = script else {
+        terminal::run(&mut session, args.rate).map_err(|e| Failure::Message(e.to_string()))?;
+        return Ok(true);
+    };
+    let mut stdout = std::io::stdout().lock();
+    match parsed.run(&mut session, args.frames, &mut stdout) {
+        Ok(()) => Ok(true),
+        Err(failure) => {
+            eprintln!("error: {}: {failure}", path.display());
+            Ok(false)
+        }
     }
 }

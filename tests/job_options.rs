@@ -13,10 +13,13 @@
 use std::process::Command;
 
 use clap::Parser;
-use taut::cycle::{CycleOptions, JobArgs, OptionError, Transition, parse_tension, with_timeline};
+use taut::cli::{JobArgs, parse_tension};
+use taut::job::CycleOptions;
+use taut::job::figure::timeline;
 use taut::plot::{Figure, Panel, Series};
 use taut_core::machine::MachineState;
 use taut_core::store::Unit;
+use taut_sim::bench::Transition;
 
 #[derive(Parser)]
 struct Cli {
@@ -27,7 +30,7 @@ struct Cli {
 fn args(line: &[&str]) -> Result<CycleOptions, String> {
     let cli = Cli::try_parse_from(std::iter::once("taut").chain(line.iter().copied()))
         .map_err(|e| e.to_string())?;
-    cli.job.options().map_err(|e| e.to_string())
+    Ok(CycleOptions::from_args(&cli.job))
 }
 
 #[test]
@@ -46,16 +49,15 @@ fn tensions_parse_in_kilograms_and_pounds() {
     ok("50", Unit::Kilograms, 500);
     ok("11.5lb", Unit::Pounds, 115);
     ok("110lb", Unit::Pounds, 1100);
-    let bad = |text: &str, error| assert_eq!(parse_tension(text), Err(error), "{text}");
-    bad("fifty", OptionError::TensionSyntax);
-    bad("25 stone", OptionError::TensionSyntax);
-    bad("4.9", OptionError::TensionOutOfRange);
-    bad("50.1", OptionError::TensionOutOfRange);
-    bad("25.05", OptionError::TensionOutOfRange);
-    bad("55.2lb", OptionError::TensionOutOfRange);
-    bad("111lb", OptionError::TensionOutOfRange);
-    bad("-3", OptionError::TensionOutOfRange);
-    bad("nan", OptionError::TensionOutOfRange);
+    let bad = |text: &str, says: &str| {
+        let error = parse_tension(text).expect_err(text);
+        assert!(error.contains(says), "{text}: {error}");
+    };
+    bad("fifty", "not a tension: a number");
+    bad("25 stone", "not a tension: a number");
+    for out_of_range in ["4.9", "50.1", "25.05", "55.2lb", "111lb", "-3", "nan", "inf"] {
+        bad(out_of_range, "5.0–50.0 kg in 0.1 kg steps");
+    }
 }
 
 #[test]
@@ -87,7 +89,7 @@ fn command_line_options_become_the_operators_settings() {
     assert_eq!((o.speed, o.pre_stretch_percent, o.knot_percent), (9, 10, Some(15)));
     assert_eq!((o.seed, o.hold_ms, o.calibrate), (Some(7), 2_500, false));
     assert_eq!(o.pull_kind(), taut_core::tension::PullKind::Knot);
-    assert_eq!(o.twin_config().seed, taut_sim::TwinConfig::sample_kind(o.string, 7).seed);
+    assert_eq!(o.twin_config(), taut_sim::TwinConfig::family_kind(o.string, 7));
     assert_eq!(args(&["--knot", "20"]).unwrap().knot_percent, Some(20));
 
     for (line, message) in [
@@ -106,46 +108,34 @@ fn command_line_options_become_the_operators_settings() {
     }
 }
 
-/// The x pixel of the first point of the first path in `svg`.
-fn first_path_x(svg: &str) -> f64 {
-    let start = svg.find("<path d=\"M").expect("a path") + "<path d=\"M".len();
-    svg[start..].split(',').next().unwrap().parse().unwrap()
-}
-
 #[test]
 fn the_state_timeline_shares_the_plots_time_axis() {
-    let figure = Figure::new(
-        "axis",
-        "time (s)",
-        vec![Panel::new("y", vec![Series::new("line", vec![(0.0, 1.0), (12.0, 2.0)])])],
-    );
-    let svg = figure.to_svg();
     let transitions = [
         Transition { t_ms: 0, state: MachineState::SelfTest },
         Transition { t_ms: 6_000, state: MachineState::Ready },
     ];
-    let combined = with_timeline(&svg, &transitions, 12.0);
-    assert!(combined.contains(&svg), "the figure is nested unchanged");
-    // The first band starts where the data's t = 0 is drawn; the second starts half way.
-    let band_x = |n: usize| -> f64 {
-        let tail = &combined[combined.find(&svg).unwrap() + svg.len()..];
-        let rect = tail.match_indices("<rect x=\"").nth(n).unwrap().0;
-        let rest = &tail[rect + "<rect x=\"".len()..];
-        rest[..rest.find('"').unwrap()].parse().unwrap()
-    };
-    let left = first_path_x(&svg);
-    let end = {
-        let path = &svg[svg.find("<path d=\"").unwrap() + "<path d=\"".len()..];
-        let last = path[..path.find('"').unwrap()].rsplit(' ').next().unwrap();
-        last.trim_start_matches('L').split(',').next().unwrap().parse::<f64>().unwrap()
-    };
-    assert!((band_x(0) - left).abs() < 0.11, "{} vs {left}", band_x(0));
-    assert!(
-        (band_x(1) - (left + end) / 2.0).abs() < 0.11,
-        "{} vs {}",
-        band_x(1),
-        (left + end) / 2.0
+    let figure = Figure::new(
+        "axis",
+        "what was run",
+        "time (s)",
+        vec![
+            Panel::new("y", vec![Series::new("line", vec![(0.0, 1.0), (12.0, 2.0)])]),
+            Panel::timeline("state", timeline(&transitions, 12.0)),
+        ],
     );
+    let (svg, geometry) = figure.render();
+    let (line, strip) = (geometry.panels[0], geometry.panels[1]);
+    // One time scale: the strip's t = 0, 6 and 12 s are the line panel's.
+    for t in [0.0, 6.0, 12.0] {
+        assert!((line.x.px(t) - strip.x.px(t)).abs() < 1e-9, "{t} s");
+    }
+    // The second band starts half way along the axis, drawn where the geometry says.
+    let x = strip.x.px(6.0);
+    assert!(
+        svg.contains(&format!("<rect x=\"{x:.1}\" y=\"{:.1}\"", strip.area.y)),
+        "band at {x:.1}"
+    );
+    assert_eq!(svg.matches("<svg").count(), 1, "one document, nothing nested");
 }
 
 #[test]

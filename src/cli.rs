@@ -1,0 +1,520 @@
+//! The command line: every subcommand's arguments, validated by clap itself.
+//!
+//! Every value-taking option has a `value_parser` that rejects what the command cannot run
+//! with — a range for numbers ([`ranged_f64`] also refuses NaN and infinities), a
+//! [`clap::ValueEnum`] for names — so a bad value is a usage error (exit 2) in clap's one
+//! message style (`error: invalid value 'nan' for '--hold <SECONDS>': …`) before anything
+//! runs. Failures while running (a file that cannot be written) are one line
+//! `error: …` and exit 1 ([`crate::output`]).
+
+use std::ops::RangeInclusive;
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use taut_core::store::{SetPoint, Unit};
+use taut_sim::{CurrentSenseParams, StringKind, TwinConfig};
+
+/// What `taut --help` says after the options.
+pub const AFTER_HELP: &str = "\
+With no subcommand, taut runs the main job: a whole machine cycle on the digital twin through
+the same machine the firmware links. A simulated operator commissions the machine (4-point
+calibration against the reference gauge), then powers it up, keys the settings in on the
+panel, presses Start, lets it hold while the string creeps and releases. Progress goes to
+stderr, the summary table to stdout, the plot to --svg (out/cycle.svg).
+Exit status: 0 the cycle completed, 1 it did not (a fault) or a file could not be written,
+2 a usage error.
+
+Examples:
+  taut                                   25 kg on tennis-synthetic, speed 5
+  taut --tension 55lb --string tennis-poly --speed 9
+  taut --pre-stretch 10 --knot --json out/cycle.json
+  taut panel                             the front panel in this terminal";
+
+/// `taut`: the host tool.
+#[derive(Parser, Debug)]
+#[command(name = "taut", about = "taut: the stringing machine's host tool (digital twin, reports)")]
+#[command(args_conflicts_with_subcommands = true, after_help = AFTER_HELP)]
+pub struct Cli {
+    /// No subcommand: the main job (a whole machine cycle on the twin, see `taut --help`).
+    #[command(subcommand)]
+    pub command: Option<Command>,
+    /// The main job's options.
+    #[command(flatten)]
+    pub job: JobArgs,
+}
+
+/// The subcommands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// The terminal front panel: the machine on the twin in real time (or from --script).
+    Panel(PanelArgs),
+    /// The paper's simulation (section 7.3) with taut-core's fixed-point laws.
+    Paper(PaperArgs),
+    /// Reports on the twin.
+    Report {
+        /// Which report.
+        #[command(subcommand)]
+        which: ReportKind,
+    },
+    /// One pull, hold and release with a tension controller alone on the twin.
+    Pull(PullArgs),
+}
+
+/// The reports.
+#[derive(Subcommand, Debug)]
+pub enum ReportKind {
+    /// Monte-Carlo accuracy over the family of machines, against the true tension.
+    Accuracy(AccuracyArgs),
+    /// taut with each improvement switched off in turn, on the accuracy report's scenarios.
+    Ablation(AblationArgs),
+    /// Each uncertainty axis of the family swept alone from its low to its high end.
+    Robustness(RobustnessArgs),
+    /// Whole machine cycles across the family, with injected string breaks and faults.
+    Machine(MachineArgs),
+}
+
+// ───────────────────────────── value parsers ─────────────────────────────
+
+/// A parser of finite `f64` values within `range` (NaN, infinities and values outside are
+/// rejected with the range in the message).
+pub fn ranged_f64(range: RangeInclusive<f64>) -> impl Fn(&str) -> Result<f64, String> + Clone {
+    move |text: &str| {
+        let value: f64 = text
+            .trim()
+            .parse()
+            .map_err(|_| format!("`{text}` is not a number ({}–{})", range.start(), range.end()))?;
+        if !value.is_finite() || !range.contains(&value) {
+            return Err(format!("{value} is not in {}–{}", range.start(), range.end()));
+        }
+        Ok(value)
+    }
+}
+
+/// A tension as the operator keys it: `25`, `25.5`, `25kg`, `55 lb` (kilograms unless `lb`):
+/// 5.0–50.0 kg in 0.1 kg steps, or 11.5–110.0 lb in 0.5 lb steps.
+///
+/// # Errors
+/// The text is not a number with an optional unit, or the value is not a set point.
+pub fn parse_tension(text: &str) -> Result<SetPoint, String> {
+    const RANGE: &str = "5.0–50.0 kg in 0.1 kg steps, or 11.5–110.0 lb in 0.5 lb steps";
+    let lower = text.trim().to_ascii_lowercase();
+    let (number, unit) = if let Some(n) = lower.strip_suffix("lbs").or(lower.strip_suffix("lb")) {
+        (n, Unit::Pounds)
+    } else if let Some(n) = lower.strip_suffix("kgf").or(lower.strip_suffix("kg")) {
+        (n, Unit::Kilograms)
+    } else {
+        (lower.as_str(), Unit::Kilograms)
+    };
+    let value: f64 = number.trim().parse().map_err(|_| {
+        format!("`{text}` is not a tension: a number with an optional unit (25, 25kg, 55lb)")
+    })?;
+    if !(0.0..=1_000.0).contains(&value) {
+        return Err(format!("{value} is not a tension: {RANGE}"));
+    }
+    let tenths = (value * 10.0).round();
+    if (value * 10.0 - tenths).abs() > 1e-6 {
+        return Err(format!("{value} is not a tension: {RANGE}"));
+    }
+    SetPoint::new(unit, tenths as u16).map_err(|_| format!("{value} is not a tension: {RANGE}"))
+}
+
+/// A percentage from 0 to `max` in steps of 5.
+fn percent_in_fives(max: u8) -> impl Fn(&str) -> Result<u8, String> + Clone {
+    move |text: &str| {
+        let value: u8 =
+            text.trim().parse().map_err(|_| format!("`{text}` is not 0–{max} in steps of 5"))?;
+        if value > max || value % 5 != 0 {
+            return Err(format!("{value} is not 0–{max} in steps of 5"));
+        }
+        Ok(value)
+    }
+}
+
+/// A parser of whole numbers within `lo..=hi` (signs, fractions, words and values outside
+/// are rejected with the range in the message).
+pub fn whole<T>(lo: T, hi: T) -> impl Fn(&str) -> Result<T, String> + Clone
+where
+    T: std::str::FromStr + PartialOrd + std::fmt::Display + Copy + Send + Sync + 'static,
+{
+    move |text: &str| {
+        let range = if hi_is_max(&hi) { format!("{lo} or more") } else { format!("{lo}–{hi}") };
+        let value: T =
+            text.trim().parse().map_err(|_| format!("`{text}` is not a whole number ({range})"))?;
+        if value < lo || value > hi {
+            return Err(format!("{value} is not in {range}"));
+        }
+        Ok(value)
+    }
+}
+
+/// Whether `hi` is its type's largest value (printed as "or more").
+fn hi_is_max<T: std::fmt::Display>(hi: &T) -> bool {
+    hi.to_string() == u64::MAX.to_string()
+}
+
+/// Counts from 1 (`--scenarios`, `--cycles`): at least one.
+fn count(max: u64) -> impl Fn(&str) -> Result<u64, String> + Clone {
+    whole(1, max)
+}
+
+/// A seed: any whole number from 0.
+fn seed(text: &str) -> Result<u64, String> {
+    whole(0, u64::MAX)(text)
+}
+
+// ───────────────────────────── value enums ─────────────────────────────
+
+/// A string kind on the command line.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, ValueEnum)]
+pub enum StringArg {
+    /// Soft badminton string (1.7 kgf/cm).
+    BadmintonSoft,
+    /// Hard badminton string (2.5 kgf/cm).
+    BadmintonHard,
+    /// Natural gut (5.4 kgf/cm).
+    TennisGut,
+    /// Synthetic gut (7.6 kgf/cm).
+    TennisSynthetic,
+    /// Polyester (12.5 kgf/cm).
+    #[value(alias = "tennis-polyester")]
+    TennisPoly,
+    /// No string in the gripper.
+    None,
+}
+
+impl From<StringArg> for StringKind {
+    fn from(value: StringArg) -> Self {
+        match value {
+            StringArg::BadmintonSoft => Self::BadmintonSoft,
+            StringArg::BadmintonHard => Self::BadmintonHard,
+            StringArg::TennisGut => Self::TennisGut,
+            StringArg::TennisSynthetic => Self::TennisSynthetic,
+            StringArg::TennisPoly => Self::TennisPolyester,
+            StringArg::None => Self::NoString,
+        }
+    }
+}
+
+/// A tension controller.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, ValueEnum)]
+pub enum ControllerArg {
+    /// taut's controller (the one the machine runs).
+    Taut,
+    /// The paper's RSMC with its published law and gains.
+    #[value(alias = "paper_rsmc")]
+    PaperRsmc,
+    /// The paper's PD baseline (kp = 100, kd = 20).
+    Pd,
+}
+
+impl ControllerArg {
+    /// The report name.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Taut => "taut",
+            Self::PaperRsmc => "paper_rsmc",
+            Self::Pd => "pd",
+        }
+    }
+}
+
+/// Which current-sensing board the sampled machines have.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default, ValueEnum)]
+pub enum SensingArg {
+    /// As the family draws it: ⅓ per-phase shunts, ⅓ DC link mid on-time, ⅓ DC link
+    /// RC-filtered; the DC link's amplifier half unidirectional, half bidirectional.
+    #[default]
+    Family,
+    /// taut's own board: a DC-link shunt sampled mid on-time, unidirectional amplifier.
+    DcLink,
+    /// Per-phase low-side shunts with bidirectional amplifiers.
+    PerPhase,
+}
+
+impl SensingArg {
+    /// `config` with this board.
+    #[must_use]
+    pub fn apply(self, mut config: TwinConfig) -> TwinConfig {
+        match self {
+            Self::Family => {}
+            Self::DcLink => config.current_sense = CurrentSenseParams::dc_link_mid_on_time(false),
+            Self::PerPhase => config.current_sense = CurrentSenseParams::per_phase_low_side(),
+        }
+        config
+    }
+}
+
+// ───────────────────────────── the main job ─────────────────────────────
+
+/// The main job's command-line options (`taut` with no subcommand).
+#[derive(Args, Clone, Debug)]
+pub struct JobArgs {
+    /// Tension to set on the panel: kilograms, or with a unit (25, 25.5kg, 55lb).
+    #[arg(long, allow_negative_numbers = true, default_value = "25", value_parser = parse_tension, value_name = "KGF")]
+    pub tension: SetPoint,
+    /// String on the machine.
+    #[arg(long, value_enum, default_value = "tennis-synthetic", value_name = "KIND")]
+    pub string: StringArg,
+    /// Speed setting, 1 (gentlest) to 9 (fastest).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 5, value_parser = whole(1_u8, 9))]
+    pub speed: u8,
+    /// Pre-stretch, percent above the tension (0–30, steps of 5).
+    #[arg(long = "pre-stretch", allow_negative_numbers = true, default_value_t = 0, value_name = "PCT", value_parser = percent_in_fives(30))]
+    pub pre_stretch: u8,
+    /// Make a knot pull: knot mode on, knot increase PCT (0–20, steps of 5; 15 if omitted).
+    #[arg(long, allow_negative_numbers = true, num_args = 0..=1, default_missing_value = "15", value_name = "PCT", value_parser = percent_in_fives(20))]
+    pub knot: Option<u8>,
+    /// Run machine N of the twin's family (`TwinConfig::family_kind`: motor, drivetrain,
+    /// sensors and board drawn from their ranges) instead of the nominal machine.
+    #[arg(long, allow_negative_numbers = true, value_name = "N", value_parser = seed)]
+    pub seed: Option<u64>,
+    /// Seconds the operator lets the machine hold before releasing (0–120).
+    #[arg(long, allow_negative_numbers = true, default_value = "5", value_name = "SECONDS", value_parser = ranged_f64(0.0..=120.0))]
+    pub hold: f64,
+    /// Skip the commissioning calibration: the machine runs on the tared, uncorrected sensor.
+    #[arg(long)]
+    pub uncalibrated: bool,
+    /// Where to write the plot.
+    #[arg(long, default_value = "out/cycle.svg", value_name = "FILE")]
+    pub svg: PathBuf,
+    /// Also write the summary as JSON here.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// No progress on stderr.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+// ───────────────────────────── panel ─────────────────────────────
+
+/// What the machine's flash holds at power-up.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default, ValueEnum)]
+pub enum Flash {
+    /// The record a commissioning session leaves (4-point calibration, previous job's
+    /// settings), as the main job uses.
+    #[default]
+    Calibrated,
+    /// Factory defaults (25.0 kg, no calibration): calibrate it yourself in the `CAL?`
+    /// window with Function, reading the gauge.
+    Factory,
+    /// Erased flash: the machine starts on defaults and shows the `E-20` notice.
+    Blank,
+}
+
+/// `taut panel` options.
+#[derive(Args, Clone, Debug)]
+pub struct PanelArgs {
+    /// String on the machine.
+    #[arg(long, value_enum, default_value = "tennis-synthetic", value_name = "KIND")]
+    pub string: StringArg,
+    /// Machine N of the twin's family instead of the nominal machine.
+    #[arg(long, allow_negative_numbers = true, value_name = "N", value_parser = seed)]
+    pub seed: Option<u64>,
+    /// What the machine's flash holds at power-up.
+    #[arg(long, value_enum, default_value_t = Flash::Calibrated)]
+    pub flash: Flash,
+    /// Run this script (`-` = standard input) instead of the interactive panel; prints a
+    /// transcript to stdout. See `taut panel --help-script`.
+    #[arg(long, value_name = "FILE")]
+    pub script: Option<PathBuf>,
+    /// Script mode: also print the whole panel after every command.
+    #[arg(long)]
+    pub frames: bool,
+    /// Interactive mode: machine milliseconds per real millisecond (0.1–100).
+    #[arg(long, allow_negative_numbers = true, default_value = "1", value_name = "FACTOR", value_parser = ranged_f64(0.1..=100.0))]
+    pub rate: f64,
+    /// Print the script format and exit.
+    #[arg(long)]
+    pub help_script: bool,
+}
+
+// ───────────────────────────── paper, pull ─────────────────────────────
+
+/// `taut paper` options.
+#[derive(Args, Clone, Debug)]
+pub struct PaperArgs {
+    /// Write the headline figures as JSON here.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Write the figure 18–20 plot here.
+    #[arg(long, value_name = "FILE")]
+    pub svg: Option<PathBuf>,
+}
+
+/// `taut pull` options.
+#[derive(Args, Clone, Debug)]
+pub struct PullArgs {
+    /// Target tension (5.0–50.0 kg in 0.1 kg steps, or with a unit: 55lb).
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_tension, value_name = "KGF", conflicts_with = "scenario")]
+    pub tension: Option<SetPoint>,
+    /// String kind.
+    #[arg(long, value_enum, value_name = "KIND", conflicts_with = "scenario")]
+    pub string: Option<StringArg>,
+    /// Controller.
+    #[arg(long, value_enum, default_value = "taut")]
+    pub controller: ControllerArg,
+    /// Speed setting, 1–9.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 9, value_parser = whole(1_u8, 9))]
+    pub speed: u8,
+    /// Seconds to hold after Start before releasing (1–120).
+    #[arg(long, allow_negative_numbers = true, default_value = "12", value_name = "SECONDS", value_parser = ranged_f64(1.0..=120.0))]
+    pub hold: f64,
+    /// Machine N of the twin's family instead of the nominal machine.
+    #[arg(long, allow_negative_numbers = true, value_name = "N", value_parser = seed, conflicts_with = "scenario")]
+    pub seed: Option<u64>,
+    /// Re-run scenario N of `taut report accuracy` (seed 1): its machine, string and target.
+    #[arg(long, allow_negative_numbers = true, value_name = "N", value_parser = seed)]
+    pub scenario: Option<u64>,
+    /// Write a plot (tension, hold error, carriage, duty, current) here.
+    #[arg(long, value_name = "FILE")]
+    pub svg: Option<PathBuf>,
+    /// Write every tick (time, true/measured/estimated tension, reference, duty, carriage,
+    /// current) as CSV here.
+    #[arg(long, value_name = "FILE")]
+    pub csv: Option<PathBuf>,
+}
+
+// ───────────────────────────── reports ─────────────────────────────
+
+/// `taut report accuracy` options.
+#[derive(Args, Clone, Debug)]
+pub struct AccuracyArgs {
+    /// Number of scenarios (machines of the family, each with a string and a target).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 200, value_parser = count(1_000_000))]
+    pub scenarios: u64,
+    /// Seed of the scenario draw.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = seed)]
+    pub seed: u64,
+    /// Controllers to run on every scenario (comma-separated).
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "taut")]
+    pub controllers: Vec<ControllerArg>,
+    /// The machines' current-sensing board.
+    #[arg(long, value_enum, default_value_t = SensingArg::Family)]
+    pub sensing: SensingArg,
+    /// Worker threads (default: the machine's cores).
+    #[arg(long, allow_negative_numbers = true, value_parser = whole(1_u16, 256))]
+    pub threads: Option<u16>,
+    /// Write the JSON summary here.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Write the SVG plots into this directory.
+    #[arg(long, value_name = "DIR")]
+    pub svg: Option<PathBuf>,
+    /// Also print one line per scenario.
+    #[arg(long)]
+    pub detail: bool,
+}
+
+/// `taut report ablation` options.
+#[derive(Args, Clone, Debug)]
+pub struct AblationArgs {
+    /// Number of scenarios.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 200, value_parser = count(1_000_000))]
+    pub scenarios: u64,
+    /// Seed of the scenario draw.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = seed)]
+    pub seed: u64,
+    /// The machines' current-sensing board.
+    #[arg(long, value_enum, default_value_t = SensingArg::Family)]
+    pub sensing: SensingArg,
+    /// Worker threads (default: the machine's cores).
+    #[arg(long, allow_negative_numbers = true, value_parser = whole(1_u16, 256))]
+    pub threads: Option<u16>,
+    /// Write the JSON summary here.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+}
+
+/// `taut report robustness` options.
+#[derive(Args, Clone, Debug)]
+pub struct RobustnessArgs {
+    /// Scenarios (string kind and target) per point of each axis.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 4, value_parser = count(10_000))]
+    pub scenarios: u64,
+    /// Points per axis, evenly from its low end (0) to its high end (1); at least 2.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 3, value_parser = whole(2_u64, 21))]
+    pub points: u64,
+    /// Only these axes (comma-separated names, e.g. inertia,friction); default all.
+    #[arg(long, value_delimiter = ',', value_parser = parse_axis)]
+    pub axes: Vec<taut_sim::Axis>,
+    /// Seed of the scenario draw.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = seed)]
+    pub seed: u64,
+    /// Worker threads (default: the machine's cores).
+    #[arg(long, allow_negative_numbers = true, value_parser = whole(1_u16, 256))]
+    pub threads: Option<u16>,
+    /// Write the JSON summary here.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Write the SVG plot here.
+    #[arg(long, value_name = "FILE")]
+    pub svg: Option<PathBuf>,
+}
+
+/// An uncertainty axis by name.
+fn parse_axis(text: &str) -> Result<taut_sim::Axis, String> {
+    text.parse().map_err(|_| {
+        let names: Vec<&str> = taut_sim::Axis::ALL.iter().map(|a| a.name()).collect();
+        format!("`{text}` is not an axis (one of: {})", names.join(", "))
+    })
+}
+
+/// `taut report machine` options.
+#[derive(Args, Clone, Debug)]
+pub struct MachineArgs {
+    /// Number of whole machine cycles (boot, set, pull, hold, release).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 100, value_parser = count(1_000_000))]
+    pub cycles: u64,
+    /// Seed of the machine draw.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = seed)]
+    pub seed: u64,
+    /// Break the string during the hold in every Kth cycle (0: never).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_name = "K", value_parser = seed)]
+    pub break_every: u64,
+    /// Inject a real fault (alternately a shorted phase and a stalled rotor) during the pull
+    /// in every Kth cycle (0: never).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 25, value_name = "K", value_parser = seed)]
+    pub fault_every: u64,
+    /// The machines' current-sensing board.
+    #[arg(long, value_enum, default_value_t = SensingArg::Family)]
+    pub sensing: SensingArg,
+    /// Worker threads (default: the machine's cores).
+    #[arg(long, allow_negative_numbers = true, value_parser = whole(1_u16, 256))]
+    pub threads: Option<u16>,
+    /// Write the JSON summary here.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Also print one line per cycle.
+    #[arg(long)]
+    pub detail: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tension_parser_accepts_units_and_rejects_off_step_values() {
+        assert_eq!(parse_tension("25").map(|s| s.tenths()), Ok(250));
+        assert_eq!(parse_tension("55 lb").map(|s| s.unit()), Ok(Unit::Pounds));
+        for bad in ["25.55", "4.9", "50.1", "nan", "inf", "-5", "abc", "55.3lb"] {
+            assert!(parse_tension(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn ranged_floats_refuse_nan_and_infinity() {
+        let parse = ranged_f64(0.0..=120.0);
+        assert_eq!(parse("5"), Ok(5.0));
+        for bad in ["nan", "inf", "-inf", "-1", "120.5", "abc", ""] {
+            assert!(parse(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn the_command_line_is_consistent() {
+        use clap::CommandFactory as _;
+        Cli::command().debug_assert();
+    }
+}

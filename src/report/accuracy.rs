@@ -1,0 +1,360 @@
+//! `taut report accuracy`: controllers on Monte-Carlo scenarios of the family of machines,
+//! against the true tension (see [`super`] for a scenario and the figures).
+
+use std::fmt::Write as _;
+
+use serde_json::{Value, json};
+use taut_core::sense::calibration::Calibration;
+use taut_core::tension::ControllerConfig;
+use taut_sim::bang_bang_reach_time;
+
+use super::{
+    AGGREGATE_HEADER, Failure, Metrics, ORACLE_LIMIT_MS, PULL_MS, Scenario, aggregate,
+    aggregate_json, aggregate_row, commissioned_calibration, failure_counts, metrics, pull_trace,
+};
+use crate::cli::{AccuracyArgs, ControllerArg, SensingArg};
+use crate::output::{
+    Progress, Status, check_writable, create_dir, parallel, threads, write_file, write_json,
+};
+use crate::plot::{DUTY_AXIS_PERCENT, Figure, Panel, Series, Stroke};
+
+/// The controller of a report entry.
+#[must_use]
+pub const fn controller_config(which: ControllerArg) -> ControllerConfig {
+    match which {
+        ControllerArg::Taut => ControllerConfig::TAUT,
+        ControllerArg::PaperRsmc => ControllerConfig::PAPER_RSMC,
+        ControllerArg::Pd => ControllerConfig::PD,
+    }
+}
+
+/// One controller of a report: its name, its configuration, and whether it pulls with the
+/// machine's calibration (or the identity: the uncalibrated sensor).
+#[derive(Clone, Copy, Debug)]
+pub struct Entry {
+    /// The row's name.
+    pub name: &'static str,
+    /// The controller.
+    pub config: ControllerConfig,
+    /// Pull with the machine's 4-point calibration (`false`: uncorrected sensor).
+    pub calibrated: bool,
+}
+
+/// The accuracy report's lineup for `controllers`, all calibrated.
+#[must_use]
+pub fn lineup(controllers: &[ControllerArg]) -> Vec<Entry> {
+    controllers
+        .iter()
+        .map(|&c| Entry { name: c.name(), config: controller_config(c), calibrated: true })
+        .collect()
+}
+
+/// One scenario's outcome for every entry of a lineup.
+#[derive(Clone, Debug)]
+pub struct ScenarioResult {
+    /// The scenario index.
+    pub index: u64,
+    /// Target, kgf.
+    pub target_kgf: f64,
+    /// String kind name.
+    pub string: &'static str,
+    /// The board's current sensing.
+    pub sensing: String,
+    /// Oracle reach time, s.
+    pub t_min: Option<f64>,
+    /// Metrics per entry, in the lineup's order.
+    pub metrics: Vec<Metrics>,
+}
+
+/// Runs `scenario` for every entry of `lineup`: one commissioning and one oracle run shared
+/// by all.
+#[must_use]
+pub fn run_scenario(scenario: &Scenario, lineup: &[Entry]) -> ScenarioResult {
+    let result = |metrics, t_min| ScenarioResult {
+        index: scenario.index,
+        target_kgf: scenario.target_kgf,
+        string: scenario.twin.string.kind.name(),
+        sensing: scenario.twin.current_sense.name(),
+        t_min,
+        metrics,
+    };
+    let calibration = match commissioned_calibration(&scenario.twin) {
+        Ok(calibration) => calibration,
+        Err(failure) => {
+            return result(lineup.iter().map(|_| Metrics::failed(failure.clone())).collect(), None);
+        }
+    };
+    let t_min = bang_bang_reach_time(&scenario.twin, scenario.target_kgf, ORACLE_LIMIT_MS);
+    let metrics = lineup
+        .iter()
+        .map(|entry| {
+            let correction = if entry.calibrated { calibration } else { Calibration::IDENTITY };
+            match pull_trace(scenario, &entry.config, correction, PULL_MS) {
+                Ok(trace) => metrics(&trace, scenario.target_kgf, t_min),
+                Err(failure) => Metrics::failed(failure),
+            }
+        })
+        .collect();
+    result(metrics, t_min)
+}
+
+/// Runs `count` scenarios of seed `seed` for `lineup` on `threads` threads with a progress
+/// counter.
+#[must_use]
+pub fn run_all(
+    seed: u64,
+    count: u64,
+    sensing: SensingArg,
+    lineup: &[Entry],
+    threads: usize,
+) -> Vec<ScenarioResult> {
+    let progress = Progress::new(count as usize, "scenarios");
+    parallel(count, threads, &progress, &|index| {
+        run_scenario(&Scenario::new(seed, index, sensing), lineup)
+    })
+}
+
+/// The sensing mix of `results`: board name and count.
+#[must_use]
+pub fn sensing_mix(results: &[ScenarioResult]) -> Vec<(String, usize)> {
+    let mut mix: Vec<(String, usize)> = Vec::new();
+    for r in results {
+        match mix.iter_mut().find(|(n, _)| *n == r.sensing) {
+            Some((_, c)) => *c += 1,
+            None => mix.push((r.sensing.clone(), 1)),
+        }
+    }
+    mix.sort();
+    mix
+}
+
+/// The Markdown table of a report over `lineup`, with each entry's failures by reason.
+#[must_use]
+pub fn markdown(results: &[ScenarioResult], lineup: &[Entry]) -> String {
+    let mut out =
+        format!("| controller {AGGREGATE_HEADER}\n|---|---|---|---|---|---|---|---|---|\n");
+    for (which, entry) in lineup.iter().enumerate() {
+        let all: Vec<&Metrics> = results.iter().map(|r| &r.metrics[which]).collect();
+        let _ = writeln!(out, "| {}{}", entry.name, aggregate_row(&aggregate(&all)));
+    }
+    out.push_str("\nQuantiles over the scenarios that did not fail; against the true tension.\n");
+    for (which, entry) in lineup.iter().enumerate() {
+        let counts = failure_counts(results.iter().map(|r| &r.metrics[which]));
+        if !counts.is_empty() {
+            let text: Vec<String> = counts.iter().map(|(n, c)| format!("{c} {n}")).collect();
+            let _ = writeln!(out, "{} failed: {}", entry.name, text.join(", "));
+        }
+    }
+    let mix: Vec<String> = sensing_mix(results).iter().map(|(n, c)| format!("{c} {n}")).collect();
+    let _ = writeln!(out, "current sensing: {}", mix.join(", "));
+    out
+}
+
+/// The JSON document of a report over `lineup`.
+#[must_use]
+pub fn to_json(
+    seed: u64,
+    sensing: SensingArg,
+    results: &[ScenarioResult],
+    lineup: &[Entry],
+) -> Value {
+    let mut controllers = serde_json::Map::new();
+    for (which, entry) in lineup.iter().enumerate() {
+        let all: Vec<&Metrics> = results.iter().map(|r| &r.metrics[which]).collect();
+        let mut doc = aggregate_json(&aggregate(&all));
+        let failures: serde_json::Map<String, Value> =
+            failure_counts(all.iter().copied()).into_iter().map(|(n, c)| (n, json!(c))).collect();
+        doc["failures"] = Value::Object(failures);
+        controllers.insert(entry.name.to_owned(), doc);
+    }
+    json!({
+        "scenarios": results.len(),
+        "seed": seed,
+        "family": "TwinConfig::family",
+        "sensing": format!("{sensing:?}").to_lowercase(),
+        "speed": 9,
+        "targets_kgf": [super::TARGETS_KGF.0, super::TARGETS_KGF.1],
+        "current_sensing": sensing_mix(results).into_iter().map(|(n, c)| json!({"board": n, "count": c})).collect::<Vec<_>>(),
+        "controllers": controllers,
+    })
+}
+
+/// One line per scenario (`--detail`).
+#[must_use]
+pub fn detail(results: &[ScenarioResult], lineup: &[Entry]) -> String {
+    let mut out = String::new();
+    for r in results {
+        let _ = write!(
+            out,
+            "{:5} {:16} {:5.1} kgf  t_min {}  {:28}",
+            r.index,
+            r.string,
+            r.target_kgf,
+            r.t_min.map_or_else(|| "—".to_owned(), |t| format!("{t:.3} s")),
+            r.sensing
+        );
+        for (entry, m) in lineup.iter().zip(&r.metrics) {
+            let state = m.failure.as_ref().map_or_else(
+                || format!("hold {:.3} over {:.3}", m.hold_error_kgf, m.overshoot_kgf),
+                Failure::name,
+            );
+            let _ = write!(out, "  {}: {state}", entry.name);
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// The subtitle of the report's plots: what was run.
+fn what_was_run(seed: u64, sensing: SensingArg, results: &[ScenarioResult]) -> String {
+    format!(
+        "{} scenarios of the family (seed {seed}, sensing {}), speed 9, targets 8–35 kgf, the machine's own calibration; errors against the true tension",
+        results.len(),
+        format!("{sensing:?}").to_lowercase()
+    )
+}
+
+/// The report's plots: the quantiles of hold error, overshoot (log scale) and settle/t_min
+/// per controller; and the first scenario the first controller pulled.
+#[must_use]
+pub fn figures(
+    seed: u64,
+    sensing: SensingArg,
+    results: &[ScenarioResult],
+    lineup: &[Entry],
+) -> Vec<(String, Figure)> {
+    let quantile = |which: usize, f: &dyn Fn(&Metrics) -> f64, floor: f64| {
+        let mut v: Vec<f64> = results
+            .iter()
+            .map(|r| &r.metrics[which])
+            .filter(|m| m.failure.is_none())
+            .map(f)
+            .filter(|e| e.is_finite())
+            .map(|e| e.max(floor))
+            .collect();
+        v.sort_by(f64::total_cmp);
+        // The empirical quantile function: the k-th smallest value over the k-th n-th of
+        // the percentile axis, a step each.
+        let n = v.len().max(1) as f64;
+        v.iter()
+            .enumerate()
+            .flat_map(|(k, e)| [(k as f64 / n * 100.0, *e), ((k + 1) as f64 / n * 100.0, *e)])
+            .collect::<Vec<_>>()
+    };
+    let series = |f: &dyn Fn(&Metrics) -> f64, floor: f64| {
+        lineup
+            .iter()
+            .enumerate()
+            .map(|(which, e)| {
+                let points = quantile(which, f, floor);
+                let label = format!("{} ({} of {})", e.name, points.len() / 2, results.len());
+                Series::new(&label, points)
+            })
+            .collect::<Vec<_>>()
+    };
+    let goal = |value: f64, label: &str| {
+        Series::new(label, vec![(0.0, value), (100.0, value)])
+            .stroke(Stroke::Dashed)
+            .colour("#555555")
+    };
+    let mut hold = series(&|m| m.hold_error_kgf, 1e-3);
+    hold.push(goal(0.05, "goal 0.05 kgf"));
+    let mut over = series(&|m| m.overshoot_kgf, 1e-3);
+    over.push(goal(0.05, "goal 0.05 kgf"));
+    let mut ratio = series(&|m| m.settle_ratio.unwrap_or(f64::NAN), 0.0);
+    ratio.push(goal(1.5, "goal p99 1.5"));
+    let mut out = vec![(
+        "accuracy_quantiles.svg".to_owned(),
+        Figure::new(
+            "taut report accuracy: each scenario's error, sorted (empirical quantiles)",
+            &what_was_run(seed, sensing, results),
+            "percentile of the scenarios that did not fail",
+            vec![
+                Panel::new("hold error |true − target| (kgf, log)", hold).log(),
+                Panel::new("overshoot above target (kgf, log; 0 shown at 0.001)", over).log(),
+                Panel::new("settle time / t_min", ratio),
+            ],
+        ),
+    )];
+    if let Some(r) = results.iter().find(|r| r.metrics.first().is_some_and(|m| m.failure.is_none()))
+    {
+        let scenario = Scenario::new(seed, r.index, sensing);
+        if let Ok(calibration) = commissioned_calibration(&scenario.twin) {
+            let mut tension = Vec::new();
+            let mut error = Vec::new();
+            let mut duty = Vec::new();
+            for entry in lineup {
+                let correction = if entry.calibrated { calibration } else { Calibration::IDENTITY };
+                let Ok(trace) = pull_trace(&scenario, &entry.config, correction, PULL_MS) else {
+                    continue;
+                };
+                let pts = |f: &dyn Fn(&taut_sim::bench::ControllerRow) -> f64| {
+                    trace.iter().map(|row| (row.t_s, f(row))).collect::<Vec<_>>()
+                };
+                tension.push(Series::new(entry.name, pts(&|row| row.truth.tension_kgf)));
+                error.push(Series::new(
+                    entry.name,
+                    pts(&|row| row.truth.tension_kgf - r.target_kgf),
+                ));
+                duty.push(Series::new(entry.name, pts(&|row| super::signed_duty(row) * 100.0)));
+            }
+            let end = f64::from(PULL_MS) / 1_000.0;
+            tension.push(
+                Series::new("target", vec![(0.0, r.target_kgf), (end, r.target_kgf)])
+                    .stroke(Stroke::Dashed)
+                    .colour("#555555"),
+            );
+            out.push((
+                format!("scenario_{}.svg", r.index),
+                Figure::new(
+                    &format!("taut report accuracy: scenario {}, {} at {:.1} kgf", r.index, r.string, r.target_kgf),
+                    &format!("family machine (seed {seed}), current sensing {}, speed 9, calibrated by the machine", r.sensing),
+                    "time since Start (s)",
+                    vec![
+                        Panel::new("true tension (kgf)", tension),
+                        Panel::new("true − target (kgf), ±0.2", error).with_y_range(-0.2, 0.2),
+                        Panel::new("duty (%, − = release)", duty)
+                            .with_y_range(-DUTY_AXIS_PERCENT, DUTY_AXIS_PERCENT)
+                            .with_height(120.0),
+                    ],
+                ),
+            ));
+        }
+    }
+    out
+}
+
+/// `taut report accuracy`.
+///
+/// # Errors
+/// An output file or directory cannot be written.
+pub fn main(args: &AccuracyArgs) -> Status {
+    if let Some(path) = &args.json {
+        check_writable(path)?;
+    }
+    if let Some(dir) = &args.svg {
+        create_dir(dir)?;
+    }
+    let mut controllers = args.controllers.clone();
+    controllers.dedup();
+    let lineup = lineup(&controllers);
+    let started = std::time::Instant::now();
+    let results = run_all(args.seed, args.scenarios, args.sensing, &lineup, threads(args.threads));
+    if args.detail {
+        print!("{}", detail(&results, &lineup));
+    }
+    println!("{}", markdown(&results, &lineup));
+    println!("wall clock: {:.1} s", started.elapsed().as_secs_f64());
+    if let Some(path) = &args.json {
+        write_json(path, &to_json(args.seed, args.sensing, &results, &lineup))?;
+        println!("summary: {}", path.display());
+    }
+    if let Some(dir) = &args.svg {
+        for (name, figure) in figures(args.seed, args.sensing, &results, &lineup) {
+            let path = dir.join(name);
+            write_file(&path, figure.to_svg())?;
+            println!("plot: {}", path.display());
+        }
+    }
+    Ok(true)
+}

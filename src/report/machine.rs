@@ -1,0 +1,419 @@
+//! `taut report machine`: whole machine cycles across the family of machines — the
+//! firmware's `Machine` on the bench, worked by the simulated operator — with string breaks
+//! and real faults injected in some of them.
+//!
+//! # A cycle
+//!
+//! Machine `i` of the family ([`TwinConfig::family`]: inertia 0.5–2×, friction, bus
+//! 20–30 V, both kinds of current sensing, …, or the board `--sensing` names) powers up with
+//! factory defaults; the operator runs the 4-point calibration in the machine's calibration
+//! states, keys a target drawn from 8–35 kg and a speed drawn from 1–9, presses Start, holds
+//! for [`HOLD_MS`] and releases: boot, homing, calibration, set, pull, hold, release.
+//!
+//! # Injections (deterministic by cycle index)
+//!
+//! - every `--break-every`th cycle (index `k−1`, `2k−1`, …): the string breaks
+//!   [`BREAK_AFTER_MS`] into the hold;
+//! - every `--fault-every`th cycle (index `k/2`, `k/2 + k`, …): a real fault
+//!   [`FAULT_AFTER_MS`] into the pull, alternately an 80 % inter-turn short of phase A and a
+//!   seized carriage (a stalled rotor under the pull's full duty command).
+//!
+//! A fault the machine latches in a cycle with nothing injected, or before the injection, is
+//! a **false fault**; the first fault latched after an injection is its **detection**, timed
+//! from the injection. The true peak winding current of every run without an injected
+//! electrical fault ([`taut_sim::Truth::peak_current_a`]) is reported as a share of the
+//! drive's 12 A trip, and the highest bus voltage of all runs.
+
+use std::fmt::Write as _;
+
+use serde_json::{Value, json};
+use taut_core::drive::Phase;
+use taut_core::machine::{FaultCode, MachineState};
+use taut_core::store::{Record, SetPoint, Settings, Unit};
+use taut_sim::bench::{Bench, Session, fault_name, run_session};
+use taut_sim::operator::{Operator, Plan};
+use taut_sim::twin::Fault;
+use taut_sim::{SimRng, TwinConfig};
+
+use super::{TARGETS_KGF, cell, number, percentile, scenario_seed};
+use crate::cli::MachineArgs;
+use crate::output::{Progress, Status, check_writable, parallel, threads, write_json};
+
+/// How long the operator holds before releasing, ms.
+pub const HOLD_MS: u32 = 2_000;
+/// A string break is injected this long after the machine enters Holding, ms.
+pub const BREAK_AFTER_MS: u64 = 500;
+/// A real fault is injected this long after the machine enters Pulling, ms.
+pub const FAULT_AFTER_MS: u64 = 300;
+/// The drive's software overcurrent trip, A.
+pub const TRIP_A: f64 = 12.0;
+
+/// What a cycle has injected.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Injection {
+    /// Nothing: a healthy machine.
+    None,
+    /// The string breaks during the hold.
+    StringBreak,
+    /// Phase A's winding is 80 % shorted during the pull.
+    ShortedPhase,
+    /// The carriage seizes during the pull (a stalled rotor at full duty command).
+    StalledRotor,
+}
+
+impl Injection {
+    /// A short name.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::None => "none",
+            Self::StringBreak => "string break",
+            Self::ShortedPhase => "shorted phase",
+            Self::StalledRotor => "stalled rotor",
+        }
+    }
+
+    /// What cycle `index` injects.
+    #[must_use]
+    pub const fn for_cycle(index: u64, break_every: u64, fault_every: u64) -> Self {
+        if fault_every > 0 && index % fault_every == fault_every / 2 {
+            if (index / fault_every) % 2 == 0 { Self::ShortedPhase } else { Self::StalledRotor }
+        } else if break_every > 0 && index % break_every == break_every - 1 {
+            Self::StringBreak
+        } else {
+            Self::None
+        }
+    }
+}
+
+/// One cycle's outcome.
+#[derive(Clone, Debug)]
+pub struct Cycle {
+    /// Index.
+    pub index: u64,
+    /// The board's current sensing.
+    pub sensing: String,
+    /// The supply voltage, V.
+    pub supply_v: f64,
+    /// What was injected.
+    pub injection: Injection,
+    /// When it was injected, ms since power-up (`None`: never reached the point).
+    pub injected_ms: Option<u64>,
+    /// The first fault latched, with its time (ms since power-up).
+    pub fault: Option<(FaultCode, u64)>,
+    /// The cycle completed: released home with no fault.
+    pub completed: bool,
+    /// The largest true winding current, A.
+    pub peak_current_a: f64,
+    /// The highest bus voltage, V.
+    pub bus_peak_v: f64,
+    /// The state the cycle ended in.
+    pub last_state: MachineState,
+}
+
+impl Cycle {
+    /// A fault on a healthy machine (nothing injected yet).
+    #[must_use]
+    pub fn false_fault(&self) -> Option<FaultCode> {
+        let (code, at) = self.fault?;
+        match self.injected_ms {
+            Some(injected) if at >= injected => None,
+            _ => Some(code),
+        }
+    }
+
+    /// The detection of the injection: code and time from the injection, ms.
+    #[must_use]
+    pub fn detection(&self) -> Option<(FaultCode, u64)> {
+        let (code, at) = self.fault?;
+        let injected = self.injected_ms?;
+        (at >= injected).then(|| (code, at - injected))
+    }
+}
+
+/// The settings of cycle `seed`: a target from 8–35 kg (0.1 kg) and a speed from 1–9.
+#[must_use]
+pub fn settings(seed: u64) -> Settings {
+    let mut rng = SimRng::substream(seed, 0x5E77);
+    let tenths = (rng.range(TARGETS_KGF.0, TARGETS_KGF.1) * 10.0).round() as u16;
+    let speed = (rng.range(1.0, 10.0).floor() as u8).clamp(1, 9);
+    SetPoint::new(Unit::Kilograms, tenths)
+        .and_then(|sp| Settings::new(sp, speed, 0, 0))
+        .unwrap_or_default()
+}
+
+/// Runs cycle `index`.
+#[must_use]
+pub fn run_cycle(args: &MachineArgs, index: u64) -> Cycle {
+    let seed = scenario_seed(args.seed, index);
+    let config = args.sensing.apply(TwinConfig::family(seed));
+    let injection = Injection::for_cycle(index, args.break_every, args.fault_every);
+    let mut bench = Bench::power_up(&config, &Record::default().encode());
+    let plan = Plan {
+        calibrate: true,
+        settings: settings(seed),
+        knot_mode: false,
+        pull_hold_ms: Some(HOLD_MS),
+    };
+    let mut operator = Operator::new(plan);
+    let mut entered: Option<(MachineState, u64)> = None;
+    let mut injected_ms = None;
+    let mut fault = None;
+    let (mut peak_current_a, mut bus_peak_v) = (0.0_f64, 0.0_f64);
+    let _ = run_session(&mut bench, &mut operator, Session::Job, &mut |_| {}, |bench, operator| {
+        let now = bench.twin().now_ms();
+        let truth = bench.twin().truth();
+        peak_current_a = peak_current_a.max(truth.peak_current_a.abs());
+        bus_peak_v = bus_peak_v.max(truth.bus_peak_volts);
+        let state = bench.machine().state();
+        if entered.is_none_or(|(s, _)| s != state) {
+            entered = Some((state, now));
+        }
+        if fault.is_none() {
+            if let Some(code) = bench.machine().fault() {
+                fault = Some((code, now));
+            }
+        }
+        if injected_ms.is_none() {
+            let since = |wanted: MachineState| {
+                entered.filter(|(s, _)| *s == wanted).map_or(0, |(_, t)| now - t)
+            };
+            let inject =
+                match injection {
+                    Injection::None => None,
+                    Injection::StringBreak => (since(MachineState::Holding) >= BREAK_AFTER_MS)
+                        .then_some(Fault::StringBreak),
+                    Injection::ShortedPhase => (since(MachineState::Pulling) >= FAULT_AFTER_MS)
+                        .then_some(Fault::ShortedPhase { phase: Phase::A, shorted_percent: 80 }),
+                    Injection::StalledRotor => (since(MachineState::Pulling) >= FAULT_AFTER_MS)
+                        .then_some(Fault::CarriageJam),
+                };
+            if let Some(f) = inject {
+                bench.twin_mut().inject(f);
+                injected_ms = Some(now);
+            }
+        }
+        operator.finished()
+    });
+    Cycle {
+        index,
+        sensing: config.current_sense.name(),
+        supply_v: config.bridge.bus_volts,
+        injection,
+        injected_ms,
+        fault,
+        completed: operator.finished() && !operator.stopped() && bench.machine().fault().is_none(),
+        peak_current_a,
+        bus_peak_v,
+        last_state: bench.machine().state(),
+    }
+}
+
+/// Counts by key, sorted by key.
+fn tally<K: Ord + Clone>(keys: impl Iterator<Item = K>) -> Vec<(K, usize)> {
+    let mut out: Vec<(K, usize)> = Vec::new();
+    for key in keys {
+        match out.iter_mut().find(|(k, _)| *k == key) {
+            Some((_, c)) => *c += 1,
+            None => out.push((key, 1)),
+        }
+    }
+    out.sort_by(|a, b| a.0.cmp(&b.0));
+    out
+}
+
+/// What became of one kind of injection.
+#[derive(Clone, Debug)]
+pub struct Detections {
+    /// The kind.
+    pub kind: Injection,
+    /// Cycles planned to have it (a cycle that faulted before the point of injection never
+    /// gets it).
+    pub planned: usize,
+    /// Cycles it was injected in.
+    pub injected: usize,
+    /// Cycles in which the machine latched a fault after it.
+    pub detected: usize,
+    /// The codes it latched, with counts.
+    pub codes: Vec<(String, usize)>,
+    /// The slowest detection, ms from the injection.
+    pub slowest_ms: Option<u64>,
+}
+
+/// The report's figures.
+#[derive(Clone, Debug)]
+pub struct Findings {
+    /// Cycles run.
+    pub cycles: usize,
+    /// Cycles that completed.
+    pub completed: usize,
+    /// False faults by code.
+    pub false_faults: Vec<(String, usize)>,
+    /// Per injection kind.
+    pub injections: Vec<Detections>,
+    /// Peak winding current over the runs without an electrical fault injected: max, p99, A.
+    pub peak_current_a: (f64, f64),
+    /// Highest bus voltage, V.
+    pub bus_max_v: f64,
+    /// Current-sensing mix.
+    pub sensing: Vec<(String, usize)>,
+}
+
+/// Aggregates `cycles`.
+#[must_use]
+pub fn findings(cycles: &[Cycle]) -> Findings {
+    let false_faults = tally(cycles.iter().filter_map(Cycle::false_fault).map(fault_name));
+    let injections = [Injection::StringBreak, Injection::ShortedPhase, Injection::StalledRotor]
+        .into_iter()
+        .map(|kind| {
+            let mine: Vec<&Cycle> =
+                cycles.iter().filter(|c| c.injection == kind && c.injected_ms.is_some()).collect();
+            let detected: Vec<(FaultCode, u64)> =
+                mine.iter().filter_map(|c| c.detection()).collect();
+            let codes = tally(detected.iter().map(|(code, _)| fault_name(*code)));
+            let slowest_ms = detected.iter().map(|(_, ms)| *ms).max();
+            let planned = cycles.iter().filter(|c| c.injection == kind).count();
+            Detections {
+                kind,
+                planned,
+                injected: mine.len(),
+                detected: detected.len(),
+                codes,
+                slowest_ms,
+            }
+        })
+        .collect();
+    let healthy: Vec<f64> = cycles
+        .iter()
+        .filter(|c| !matches!(c.injection, Injection::ShortedPhase | Injection::StalledRotor))
+        .map(|c| c.peak_current_a)
+        .collect();
+    Findings {
+        cycles: cycles.len(),
+        completed: cycles.iter().filter(|c| c.completed).count(),
+        false_faults,
+        injections,
+        peak_current_a: (percentile(&healthy, 100.0), percentile(&healthy, 99.0)),
+        bus_max_v: cycles.iter().map(|c| c.bus_peak_v).fold(0.0, f64::max),
+        sensing: tally(cycles.iter().map(|c| c.sensing.clone())),
+    }
+}
+
+/// The report as text.
+#[must_use]
+pub fn text(f: &Findings) -> String {
+    let mut out = String::new();
+    let healthy_faults: usize = f.false_faults.iter().map(|(_, c)| c).sum();
+    let _ = writeln!(
+        out,
+        "{} cycles, {} completed; false faults (a fault on a healthy machine): {healthy_faults}",
+        f.cycles, f.completed
+    );
+    out.push_str("\n| fault code | false faults |\n|---|---|\n");
+    for (code, count) in &f.false_faults {
+        let _ = writeln!(out, "| {code} | {count} |");
+    }
+    if f.false_faults.is_empty() {
+        out.push_str("| — | 0 |\n");
+    }
+    out.push_str(
+        "\n| injected | planned | cycles injected | detected | codes | slowest detection |\n|---|---|---|---|---|---|\n",
+    );
+    for d in &f.injections {
+        let (kind, injected, detected, slowest) = (d.kind, &d.injected, &d.detected, d.slowest_ms);
+        let codes: Vec<String> = d.codes.iter().map(|(c, n)| format!("{n} {c}")).collect();
+        let _ = writeln!(
+            out,
+            "| {} | {} | {injected} | {detected} ({}) | {} | {} |",
+            kind.name(),
+            d.planned,
+            if *injected > 0 {
+                format!("{:.0} %", *detected as f64 / *injected as f64 * 100.0)
+            } else {
+                "—".to_owned()
+            },
+            if codes.is_empty() { "—".to_owned() } else { codes.join(", ") },
+            slowest.map_or_else(|| "—".to_owned(), |ms| format!("{ms} ms"))
+        );
+    }
+    let (max, p99) = f.peak_current_a;
+    let _ = writeln!(
+        out,
+        "\ntrue peak winding current per run (runs without an injected electrical fault): max {} A ({} % of the {TRIP_A:.0} A trip), p99 {} A ({} %)",
+        cell(max, 2),
+        cell(max / TRIP_A * 100.0, 0),
+        cell(p99, 2),
+        cell(p99 / TRIP_A * 100.0, 0)
+    );
+    let _ = writeln!(out, "highest bus voltage: {} V", cell(f.bus_max_v, 2));
+    let mix: Vec<String> = f.sensing.iter().map(|(n, c)| format!("{c} {n}")).collect();
+    let _ = writeln!(out, "current sensing: {}", mix.join(", "));
+    out
+}
+
+/// The report as JSON.
+#[must_use]
+pub fn to_json(args: &MachineArgs, f: &Findings) -> Value {
+    json!({
+        "cycles": f.cycles,
+        "seed": args.seed,
+        "sensing": format!("{:?}", args.sensing).to_lowercase(),
+        "break_every": args.break_every,
+        "fault_every": args.fault_every,
+        "completed": f.completed,
+        "false_faults": f.false_faults.iter().map(|(c, n)| json!({"code": c, "count": n})).collect::<Vec<_>>(),
+        "injections": f.injections.iter().map(|d| json!({
+            "kind": d.kind.name(),
+            "planned": d.planned,
+            "cycles": d.injected,
+            "detected": d.detected,
+            "codes": d.codes.iter().map(|(c, n)| json!({"code": c, "count": n})).collect::<Vec<_>>(),
+            "slowest_detection_ms": d.slowest_ms,
+        })).collect::<Vec<_>>(),
+        "peak_current_max_a": number(f.peak_current_a.0),
+        "peak_current_p99_a": number(f.peak_current_a.1),
+        "peak_current_max_percent_of_trip": number(f.peak_current_a.0 / TRIP_A * 100.0),
+        "peak_current_p99_percent_of_trip": number(f.peak_current_a.1 / TRIP_A * 100.0),
+        "bus_max_v": number(f.bus_max_v),
+        "current_sensing": f.sensing.iter().map(|(n, c)| json!({"board": n, "count": c})).collect::<Vec<_>>(),
+    })
+}
+
+/// `taut report machine`.
+///
+/// # Errors
+/// The JSON file cannot be written.
+pub fn main(args: &MachineArgs) -> Status {
+    if let Some(path) = &args.json {
+        check_writable(path)?;
+    }
+    let started = std::time::Instant::now();
+    let progress = Progress::new(args.cycles as usize, "cycles");
+    let cycles = parallel(args.cycles, threads(args.threads), &progress, &|i| run_cycle(args, i));
+    if args.detail {
+        for c in &cycles {
+            println!(
+                "{:5} {:28} {:4.1} V  {:13} fault {:8} peak {:5.2} A  bus {:5.2} V  {}",
+                c.index,
+                c.sensing,
+                c.supply_v,
+                c.injection.name(),
+                c.fault.map_or_else(
+                    || "—".to_owned(),
+                    |(code, at)| format!("{} at {:.3} s", fault_name(code), at as f64 / 1e3)
+                ),
+                c.peak_current_a,
+                c.bus_peak_v,
+                if c.completed { "completed" } else { "not completed" }
+            );
+        }
+    }
+    let f = findings(&cycles);
+    print!("{}", text(&f));
+    println!("wall clock: {:.1} s", started.elapsed().as_secs_f64());
+    if let Some(path) = &args.json {
+        write_json(path, &to_json(args, &f))?;
+        println!("summary: {}", path.display());
+    }
+    Ok(true)
+}

@@ -1,0 +1,294 @@
+//! `taut report robustness`: each uncertainty axis of the family swept alone, from its low
+//! end (position 0) to its high end (1), everything else at the family's centre
+//! ([`TwinConfig::on_axis`]).
+//!
+//! At each point of each axis the report runs several scenarios — the string kinds in turn
+//! and targets drawn from 8–35 kgf — each commissioned through the machine's own calibration
+//! and pulled by taut's controller (speed 9), and keeps per axis the worst hold error,
+//! overshoot and settle/t_min of the runs that did not fail, and the failures (see
+//! [`super`] for the figures).
+
+use std::fmt::Write as _;
+
+use serde_json::{Value, json};
+use taut_sim::{Axis, StringKind, TwinConfig, bang_bang_reach_time};
+
+use super::{
+    Metrics, ORACLE_LIMIT_MS, PULL_MS, Scenario, cell, commissioned_calibration, draw_target,
+    failure_counts, metrics, number, pull_trace, scenario_seed,
+};
+use crate::cli::RobustnessArgs;
+use crate::output::{Progress, Status, check_writable, parallel, threads, write_file, write_json};
+use crate::plot::{Figure, Panel, Series, Stroke};
+use taut_core::tension::ControllerConfig;
+
+/// The string kinds the scenarios cycle through.
+pub const STRINGS: [StringKind; 5] = [
+    StringKind::TennisSynthetic,
+    StringKind::TennisPolyester,
+    StringKind::BadmintonSoft,
+    StringKind::TennisGut,
+    StringKind::BadmintonHard,
+];
+
+/// One run of the sweep.
+#[derive(Clone, Debug)]
+pub struct Point {
+    /// The axis.
+    pub axis: Axis,
+    /// Its position, 0–1.
+    pub position: f64,
+    /// The string.
+    pub string: StringKind,
+    /// The target, kgf.
+    pub target_kgf: f64,
+    /// The figures.
+    pub metrics: Metrics,
+}
+
+/// Runs one point of the sweep.
+#[must_use]
+pub fn run_point(axis: Axis, position: f64, index: u64, seed: u64) -> Point {
+    let string = STRINGS[(index % STRINGS.len() as u64) as usize];
+    let target_kgf = draw_target(scenario_seed(seed, index));
+    let scenario = Scenario::on(index, TwinConfig::on_axis(axis, position, string), target_kgf);
+    let metrics = match commissioned_calibration(&scenario.twin) {
+        Err(failure) => Metrics::failed(failure),
+        Ok(calibration) => {
+            let t_min = bang_bang_reach_time(&scenario.twin, target_kgf, ORACLE_LIMIT_MS);
+            match pull_trace(&scenario, &ControllerConfig::TAUT, calibration, PULL_MS) {
+                Ok(trace) => metrics(&trace, target_kgf, t_min),
+                Err(failure) => Metrics::failed(failure),
+            }
+        }
+    };
+    Point { axis, position, string, target_kgf, metrics }
+}
+
+/// The worst figures of some runs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Worst {
+    /// Runs.
+    pub runs: usize,
+    /// Largest hold error, kgf.
+    pub hold_kgf: f64,
+    /// Largest overshoot, kgf.
+    pub overshoot_kgf: f64,
+    /// Largest settle / t_min.
+    pub settle_ratio: f64,
+    /// Failed runs.
+    pub failed: usize,
+}
+
+/// The worst figures of `points` (failures counted, not in the maxima).
+#[must_use]
+pub fn worst<'a>(points: impl Iterator<Item = &'a Point>) -> Worst {
+    let mut w = Worst {
+        runs: 0,
+        hold_kgf: f64::NAN,
+        overshoot_kgf: f64::NAN,
+        settle_ratio: f64::NAN,
+        failed: 0,
+    };
+    for p in points {
+        w.runs += 1;
+        let m = &p.metrics;
+        if m.failure.is_some() {
+            w.failed += 1;
+            continue;
+        }
+        w.hold_kgf = w.hold_kgf.max(m.hold_error_kgf);
+        w.overshoot_kgf = w.overshoot_kgf.max(m.overshoot_kgf);
+        w.settle_ratio = w.settle_ratio.max(m.settle_ratio.unwrap_or(f64::NAN));
+    }
+    w
+}
+
+/// The positions of `points` points from 0 to 1.
+#[must_use]
+pub fn positions(points: u64) -> Vec<f64> {
+    let last = points.saturating_sub(1).max(1) as f64;
+    (0..points).map(|i| i as f64 / last).collect()
+}
+
+/// The sweep's table: per axis its span, the worst figures, failures and their reasons.
+#[must_use]
+pub fn markdown(axes: &[Axis], runs: &[Point]) -> String {
+    let mut out = String::from(
+        "| axis | low … high | worst hold kgf | worst overshoot kgf | worst settle/t_min | failed | failures |\n|---|---|---|---|---|---|---|\n",
+    );
+    for &axis in axes {
+        let mine: Vec<&Point> = runs.iter().filter(|p| p.axis == axis).collect();
+        let w = worst(mine.iter().copied());
+        let reasons: Vec<String> = failure_counts(mine.iter().map(|p| &p.metrics))
+            .into_iter()
+            .map(|(n, c)| format!("{c} {n}"))
+            .collect();
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {} | {} | {} of {} | {} |",
+            axis.name(),
+            axis.span(),
+            cell(w.hold_kgf, 3),
+            cell(w.overshoot_kgf, 3),
+            cell(w.settle_ratio, 2),
+            w.failed,
+            w.runs,
+            if reasons.is_empty() { "—".to_owned() } else { reasons.join(", ") }
+        );
+    }
+    out
+}
+
+/// The sweep as JSON: per axis, per position, the worst figures.
+#[must_use]
+pub fn to_json(args: &RobustnessArgs, axes: &[Axis], runs: &[Point]) -> Value {
+    let worst_json = |w: &Worst| {
+        json!({
+            "runs": w.runs,
+            "failed": w.failed,
+            "hold_error_max_kgf": number(w.hold_kgf),
+            "overshoot_max_kgf": number(w.overshoot_kgf),
+            "settle_over_t_min_max": number(w.settle_ratio),
+        })
+    };
+    let mut doc = serde_json::Map::new();
+    for &axis in axes {
+        let points: Vec<Value> = positions(args.points)
+            .into_iter()
+            .map(|position| {
+                let w = worst(runs.iter().filter(|p| p.axis == axis && p.position == position));
+                let mut v = worst_json(&w);
+                v["position"] = json!(position);
+                v["at"] = json!(axis.describe_at(position, StringKind::TennisSynthetic));
+                v
+            })
+            .collect();
+        let mut entry = worst_json(&worst(runs.iter().filter(|p| p.axis == axis)));
+        entry["span"] = json!(axis.span().to_string());
+        entry["points"] = Value::Array(points);
+        doc.insert(axis.name().to_owned(), entry);
+    }
+    json!({
+        "seed": args.seed,
+        "scenarios_per_point": args.scenarios,
+        "points_per_axis": args.points,
+        "controller": "taut",
+        "speed": 9,
+        "axes": doc,
+    })
+}
+
+/// The sweep's plot: per axis (x) the worst figure at each position (one colour per
+/// position).
+#[must_use]
+pub fn figure(args: &RobustnessArgs, axes: &[Axis], runs: &[Point]) -> Figure {
+    let positions = positions(args.points);
+    let per_position = |f: &dyn Fn(&Worst) -> f64, floor: f64| {
+        positions
+            .iter()
+            .map(|&position| {
+                let points = axes
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &axis)| {
+                        let w =
+                            worst(runs.iter().filter(|p| p.axis == axis && p.position == position));
+                        // Positions side by side around their axis, low end left; no
+                        // marker where every run failed (NaN: `max` would make it the floor).
+                        let v = f(&w);
+                        let v = if v.is_nan() { v } else { v.max(floor) };
+                        (i as f64 + (position - 0.5) * 0.4, v)
+                    })
+                    .collect();
+                Series::new(&format!("position {position:.2}"), points).stroke(Stroke::Markers)
+            })
+            .collect::<Vec<_>>()
+    };
+    let goal = |value: f64| {
+        Series::new(&format!("goal {value}"), vec![(-0.5, value), (axes.len() as f64 - 0.5, value)])
+            .stroke(Stroke::Dashed)
+            .colour("#555555")
+    };
+    let mut hold = per_position(&|w| w.hold_kgf, 1e-3);
+    hold.push(goal(0.05));
+    let mut over = per_position(&|w| w.overshoot_kgf, 1e-3);
+    over.push(goal(0.05));
+    let mut ratio = per_position(&|w| w.settle_ratio, 0.0);
+    ratio.push(goal(1.5));
+    let scenarios = args.scenarios.max(1) as f64;
+    let failed = per_position(&|w| w.failed as f64 / scenarios * 100.0, 0.0);
+    Figure::new(
+        "taut report robustness: each axis of the family alone, worst case per position",
+        &format!(
+            "taut's controller, speed 9, {} scenario(s) per point (string kinds in turn, targets 8–35 kgf, seed {}), the machine's own calibration; 0 = the axis's low end, 1 = its high end",
+            args.scenarios, args.seed
+        ),
+        "uncertainty axis",
+        vec![
+            Panel::new("worst hold error (kgf, log)", hold).log(),
+            Panel::new("worst overshoot (kgf, log)", over).log(),
+            Panel::new("worst settle / t_min", ratio),
+            Panel::new("failed runs (%)", failed)
+                .with_y_range(-5.0, 105.0)
+                .with_height(120.0),
+        ],
+    )
+    .with_categories(axes.iter().map(|a| a.name().to_owned()).collect())
+}
+
+/// The axes `args` ask for (all when none are named).
+#[must_use]
+pub fn axes(args: &RobustnessArgs) -> Vec<Axis> {
+    if args.axes.is_empty() { Axis::ALL.to_vec() } else { args.axes.clone() }
+}
+
+/// Runs every point of every axis of `args` ([`axes`]) with a progress counter.
+#[must_use]
+pub fn run_all(args: &RobustnessArgs) -> Vec<Point> {
+    let mut jobs: Vec<(Axis, f64, u64)> = Vec::new();
+    for axis in axes(args) {
+        for &position in &positions(args.points) {
+            for index in 0..args.scenarios {
+                jobs.push((axis, position, index));
+            }
+        }
+    }
+    let progress = Progress::new(jobs.len(), "runs");
+    parallel(jobs.len() as u64, threads(args.threads), &progress, &|i| {
+        let (axis, position, index) = jobs[i as usize];
+        run_point(axis, position, index, args.seed)
+    })
+}
+
+/// `taut report robustness`.
+///
+/// # Errors
+/// An output file cannot be written.
+pub fn main(args: &RobustnessArgs) -> Status {
+    for path in [&args.json, &args.svg].into_iter().flatten() {
+        check_writable(path)?;
+    }
+    let axes = axes(args);
+    let positions = positions(args.points);
+    let started = std::time::Instant::now();
+    let runs = run_all(args);
+    println!("{}", markdown(&axes, &runs));
+    println!(
+        "{} runs ({} axes × {} points × {} scenarios), wall clock {:.1} s",
+        runs.len(),
+        axes.len(),
+        positions.len(),
+        args.scenarios,
+        started.elapsed().as_secs_f64()
+    );
+    if let Some(path) = &args.json {
+        write_json(path, &to_json(args, &axes, &runs))?;
+        println!("summary: {}", path.display());
+    }
+    if let Some(path) = &args.svg {
+        write_file(path, figure(args, &axes, &runs).to_svg())?;
+        println!("plot: {}", path.display());
+    }
+    Ok(true)
+}

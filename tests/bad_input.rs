@@ -1,0 +1,229 @@
+//! Every subcommand and every option that takes a value, given bad input: out of range,
+//! NaN, infinite, negative, non-numeric, an unknown name, zero counts, an unwritable path,
+//! a missing or malformed script. Each run must end with exit status 2 (a usage error, in
+//! clap's message style) or 1 (a failure while running, one line `error: …`), a readable
+//! message naming the culprit — and never 101 (a panic).
+#![allow(
+    clippy::expect_used,
+    clippy::unwrap_used,
+    clippy::indexing_slicing,
+    clippy::print_stdout,
+    clippy::panic,
+    reason = "a test: a panic is how it reports"
+)]
+
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
+
+/// A usage error (clap's, or a script's syntax).
+const USAGE: i32 = 2;
+/// A failure while running.
+const RUNTIME: i32 = 1;
+
+/// A directory of this test's own with a plain file in it, so `file/x` can never be created
+/// (not even by root).
+fn scratch() -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("taut-bad-input-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("file"), "not a directory").unwrap();
+    std::fs::write(dir.join("bad.script"), "until ready 10000\npress up 0\n").unwrap();
+    std::fs::write(dir.join("nan.script"), "expect tension nan 30\n").unwrap();
+    dir
+}
+
+/// `(arguments, expected exit status, a word the message must contain)`. `UNWRITABLE` and
+/// `SCRIPTS` are replaced by paths in the scratch directory.
+const TABLE: &[(&[&str], i32, &str)] = &[
+    // ── the main job ──
+    (&["--tension", "500"], USAGE, "--tension"),
+    (&["--tension", "4.9"], USAGE, "5.0–50.0 kg"),
+    (&["--tension", "nan"], USAGE, "--tension"),
+    (&["--tension", "inf"], USAGE, "--tension"),
+    (&["--tension", "-5"], USAGE, "--tension"),
+    (&["--tension", "abc"], USAGE, "not a tension"),
+    (&["--tension", "25.55"], USAGE, "0.1 kg steps"),
+    (&["--string", "rope"], USAGE, "--string"),
+    (&["--speed", "0"], USAGE, "--speed"),
+    (&["--speed", "10"], USAGE, "--speed"),
+    (&["--speed", "-1"], USAGE, "--speed"),
+    (&["--speed", "abc"], USAGE, "--speed"),
+    (&["--pre-stretch", "12"], USAGE, "steps of 5"),
+    (&["--pre-stretch", "35"], USAGE, "--pre-stretch"),
+    (&["--pre-stretch", "-5"], USAGE, "--pre-stretch"),
+    (&["--knot", "25"], USAGE, "--knot"),
+    (&["--knot", "abc"], USAGE, "--knot"),
+    (&["--seed", "-1"], USAGE, "--seed"),
+    (&["--seed", "abc"], USAGE, "--seed"),
+    (&["--hold", "-1"], USAGE, "--hold"),
+    (&["--hold", "500"], USAGE, "--hold"),
+    (&["--hold", "nan"], USAGE, "--hold"),
+    (&["--hold", "inf"], USAGE, "--hold"),
+    (&["--hold", "abc"], USAGE, "--hold"),
+    (&["--svg", "UNWRITABLE/cycle.svg"], RUNTIME, "cannot write"),
+    (&["--json", "UNWRITABLE/cycle.json"], RUNTIME, "cannot write"),
+    // ── pull ──
+    (&["pull", "--tension", "500"], USAGE, "--tension"),
+    (&["pull", "--tension", "4.9"], USAGE, "--tension"),
+    (&["pull", "--tension", "50.1"], USAGE, "--tension"),
+    (&["pull", "--tension", "nan"], USAGE, "--tension"),
+    (&["pull", "--tension", "inf"], USAGE, "--tension"),
+    (&["pull", "--tension", "-5"], USAGE, "--tension"),
+    (&["pull", "--tension", "25.55"], USAGE, "--tension"),
+    (&["pull", "--string", "rope"], USAGE, "--string"),
+    (&["pull", "--controller", "foo"], USAGE, "--controller"),
+    (&["pull", "--controller", "PD"], USAGE, "--controller"),
+    (&["pull", "--speed", "0"], USAGE, "--speed"),
+    (&["pull", "--speed", "abc"], USAGE, "--speed"),
+    (&["pull", "--hold", "0"], USAGE, "--hold"),
+    (&["pull", "--hold", "nan"], USAGE, "--hold"),
+    (&["pull", "--hold", "-1"], USAGE, "--hold"),
+    (&["pull", "--hold", "abc"], USAGE, "--hold"),
+    (&["pull", "--seed", "-1"], USAGE, "--seed"),
+    (&["pull", "--scenario", "abc"], USAGE, "--scenario"),
+    (&["pull", "--tension", "10", "--scenario", "2"], USAGE, "cannot be used with"),
+    (&["pull", "--seed", "3", "--scenario", "2"], USAGE, "cannot be used with"),
+    (&["pull", "--svg", "UNWRITABLE/pull.svg"], RUNTIME, "cannot write"),
+    (&["pull", "--csv", "UNWRITABLE/pull.csv"], RUNTIME, "cannot write"),
+    // ── paper ──
+    (&["paper", "--json", "UNWRITABLE/paper.json"], RUNTIME, "cannot write"),
+    (&["paper", "--svg", "UNWRITABLE/paper.svg"], RUNTIME, "cannot write"),
+    // ── panel ──
+    (&["panel", "--string", "rope"], USAGE, "--string"),
+    (&["panel", "--seed", "abc"], USAGE, "--seed"),
+    (&["panel", "--flash", "erased"], USAGE, "--flash"),
+    (&["panel", "--rate", "0"], USAGE, "0.1–100"),
+    (&["panel", "--rate", "-1"], USAGE, "--rate"),
+    (&["panel", "--rate", "nan"], USAGE, "--rate"),
+    (&["panel", "--rate", "inf"], USAGE, "--rate"),
+    (&["panel", "--rate", "1000"], USAGE, "--rate"),
+    (&["panel", "--rate", "abc"], USAGE, "--rate"),
+    (&["panel", "--script", "SCRIPTS/missing.script"], RUNTIME, "cannot read"),
+    (&["panel", "--script", "SCRIPTS/bad.script"], USAGE, "count 0 is not in 1–1000"),
+    (&["panel", "--script", "SCRIPTS/nan.script"], USAGE, "tension NaN is not in 0–60 kgf"),
+    // ── report accuracy ──
+    (&["report", "accuracy", "--scenarios", "0"], USAGE, "--scenarios"),
+    (&["report", "accuracy", "--scenarios", "-1"], USAGE, "--scenarios"),
+    (&["report", "accuracy", "--scenarios", "1.5"], USAGE, "--scenarios"),
+    (&["report", "accuracy", "--scenarios", "abc"], USAGE, "--scenarios"),
+    (&["report", "accuracy", "--seed", "-1"], USAGE, "--seed"),
+    (&["report", "accuracy", "--controllers", "taut,foo"], USAGE, "--controllers"),
+    (&["report", "accuracy", "--sensing", "hall"], USAGE, "--sensing"),
+    (&["report", "accuracy", "--threads", "0"], USAGE, "--threads"),
+    (&["report", "accuracy", "--json", "UNWRITABLE/a.json"], RUNTIME, "cannot write"),
+    (&["report", "accuracy", "--svg", "UNWRITABLE/plots"], RUNTIME, "cannot write"),
+    // ── report ablation ──
+    (&["report", "ablation", "--scenarios", "0"], USAGE, "--scenarios"),
+    (&["report", "ablation", "--seed", "abc"], USAGE, "--seed"),
+    (&["report", "ablation", "--sensing", "hall"], USAGE, "--sensing"),
+    (&["report", "ablation", "--threads", "abc"], USAGE, "--threads"),
+    (&["report", "ablation", "--json", "UNWRITABLE/a.json"], RUNTIME, "cannot write"),
+    // ── report robustness ──
+    (&["report", "robustness", "--scenarios", "0"], USAGE, "--scenarios"),
+    (&["report", "robustness", "--points", "1"], USAGE, "--points"),
+    (&["report", "robustness", "--points", "nan"], USAGE, "--points"),
+    (&["report", "robustness", "--axes", "gravity"], USAGE, "not an axis"),
+    (&["report", "robustness", "--seed", "-3"], USAGE, "--seed"),
+    (&["report", "robustness", "--threads", "0"], USAGE, "--threads"),
+    (&["report", "robustness", "--json", "UNWRITABLE/r.json"], RUNTIME, "cannot write"),
+    (&["report", "robustness", "--svg", "UNWRITABLE/r.svg"], RUNTIME, "cannot write"),
+    // ── report machine ──
+    (&["report", "machine", "--cycles", "0"], USAGE, "--cycles"),
+    (&["report", "machine", "--cycles", "-1"], USAGE, "--cycles"),
+    (&["report", "machine", "--cycles", "abc"], USAGE, "--cycles"),
+    (&["report", "machine", "--seed", "abc"], USAGE, "--seed"),
+    (&["report", "machine", "--break-every", "-1"], USAGE, "--break-every"),
+    (&["report", "machine", "--fault-every", "abc"], USAGE, "--fault-every"),
+    (&["report", "machine", "--sensing", "hall"], USAGE, "--sensing"),
+    (&["report", "machine", "--threads", "0"], USAGE, "--threads"),
+    (&["report", "machine", "--json", "UNWRITABLE/m.json"], RUNTIME, "cannot write"),
+    // ── unknown subcommands and options ──
+    (&["report", "speed"], USAGE, "unrecognized subcommand"),
+    (&["pull", "--force", "9"], USAGE, "--force"),
+];
+
+#[test]
+fn every_bad_input_is_refused_with_a_message_and_the_right_status() {
+    let dir = scratch();
+    let unwritable = dir.join("file");
+    let mut failures = Vec::new();
+    for (args, status, says) in TABLE {
+        let args: Vec<String> = args
+            .iter()
+            .map(|a| {
+                a.replace("UNWRITABLE", &unwritable.to_string_lossy())
+                    .replace("SCRIPTS", &dir.to_string_lossy())
+            })
+            .collect();
+        let output = Command::new(env!("CARGO_BIN_EXE_taut"))
+            .args(&args)
+            .stdin(Stdio::null())
+            .output()
+            .expect("runs");
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        let code = output.status.code();
+        let first = stderr.lines().find(|l| l.starts_with("error:")).unwrap_or("");
+        let readable = first.contains(says) || stderr.contains(says);
+        println!("{:<70} → {code:?} {first}", args.join(" "));
+        if code != Some(*status)
+            || !readable
+            || stderr.contains("panicked")
+            || stderr.contains("RUST_BACKTRACE")
+        {
+            failures.push(format!("{args:?}: exit {code:?} (want {status}), stderr:\n{stderr}"));
+        }
+        if *status == RUNTIME {
+            let lines = stderr.lines().filter(|l| l.starts_with("error:")).count();
+            if lines != 1 {
+                failures.push(format!("{args:?}: {lines} error lines, want one:\n{stderr}"));
+            }
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+    assert!(
+        failures.is_empty(),
+        "{} of {} rows failed:\n{}",
+        failures.len(),
+        TABLE.len(),
+        failures.join("\n")
+    );
+}
+
+#[test]
+fn the_table_covers_every_subcommand_and_every_value_taking_option() {
+    use clap::CommandFactory as _;
+    let cli = taut::cli::Cli::command();
+    let subcommands: Vec<&str> = cli.get_subcommands().map(clap::Command::get_name).collect();
+    // A row is for the main job when it does not start with a subcommand's name.
+    let main_job = |args: &[&str]| args.first().is_none_or(|a| !subcommands.contains(a));
+    let mut missing = Vec::new();
+    let mut check = |path: &[&str], command: &clap::Command| {
+        for arg in command.get_arguments() {
+            let Some(long) = arg.get_long() else { continue };
+            if !arg.get_action().takes_values() || long == "help" {
+                continue;
+            }
+            let flag = format!("--{long}");
+            let covered = TABLE.iter().any(|(args, _, _)| {
+                args.len() > path.len()
+                    && args[..path.len()] == *path
+                    && (!path.is_empty() || main_job(args))
+                    && args[path.len()..].contains(&flag.as_str())
+            });
+            if !covered {
+                missing.push(format!("{} {flag}", path.join(" ")));
+            }
+        }
+    };
+    check(&[], &cli);
+    for sub in cli.get_subcommands() {
+        let name = sub.get_name();
+        if name == "report" {
+            for report in sub.get_subcommands() {
+                check(&["report", report.get_name()], report);
+            }
+        } else {
+            check(&[name], sub);
+        }
+    }
+    assert!(missing.is_empty(), "options without a bad-input row: {missing:?}");
+}

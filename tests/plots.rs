@@ -1,0 +1,219 @@
+//! Every plot the tool writes, rendered to PNG with `resvg` and checked to be a picture a
+//! person can read: the main job's cycle plot, the pull plot, the paper plot, the accuracy
+//! report's plots and the robustness plot.
+//!
+//! Each figure is built by the same library call its command uses, from a short run, then
+//! rasterised with the system's fonts. A figure passes when
+//! - the image is the size its geometry says, and not blank (enough ink overall);
+//! - it has colour: several distinct hues, i.e. the series and bands were drawn;
+//! - every panel's plot area holds coloured ink (its data, not just its grid);
+//! - its text was rendered: the title strip and the y-label column hold dark ink.
+//!
+//! The PNGs are left in `target/tmp/plots/` (`CARGO_TARGET_TMPDIR`) to be looked at.
+//! Text needs a font: on a machine without any (a bare container), install one, e.g.
+//! `apt-get install fonts-dejavu-core`; the test says so instead of passing blind.
+#![allow(
+    clippy::expect_used,
+    clippy::unwrap_used,
+    clippy::indexing_slicing,
+    clippy::arithmetic_side_effects,
+    clippy::float_arithmetic,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_precision_loss,
+    clippy::print_stdout,
+    clippy::panic,
+    reason = "a test: a panic is how it reports, and it prints what it measured"
+)]
+
+use std::collections::HashSet;
+use std::path::PathBuf;
+use std::sync::{Arc, OnceLock};
+
+use clap::Parser as _;
+use resvg::tiny_skia::{Pixmap, Transform};
+use resvg::usvg::{Options, Tree, fontdb};
+use taut::cli::{Cli, Command, ReportKind};
+use taut::job::{CycleOptions, CycleRun};
+use taut::plot::{Content, Figure, Geometry};
+use taut::report::accuracy;
+
+/// The system's fonts, loaded once.
+fn fonts() -> Arc<fontdb::Database> {
+    static FONTS: OnceLock<Arc<fontdb::Database>> = OnceLock::new();
+    FONTS
+        .get_or_init(|| {
+            let mut db = fontdb::Database::new();
+            db.load_system_fonts();
+            assert!(
+                !db.is_empty(),
+                "no fonts on this machine: the plots' text cannot be rendered (install one, \
+                 e.g. `apt-get install fonts-dejavu-core`)"
+            );
+            Arc::new(db)
+        })
+        .clone()
+}
+
+/// A rendered figure.
+struct Picture {
+    pixmap: Pixmap,
+    geometry: Geometry,
+}
+
+impl Picture {
+    /// RGB of pixel (x, y) (the background is opaque white, so alpha is 255).
+    fn rgb(&self, x: u32, y: u32) -> [u8; 3] {
+        let p = self.pixmap.pixel(x, y).unwrap();
+        [p.red(), p.green(), p.blue()]
+    }
+
+    /// Pixels in the rectangle `x0..x1 × y0..y1` that satisfy `f`.
+    fn count(&self, (x0, y0, x1, y1): (f64, f64, f64, f64), f: impl Fn([u8; 3]) -> bool) -> usize {
+        let clamp = |v: f64, max: u32| (v.max(0.0) as u32).min(max);
+        let (w, h) = (self.pixmap.width(), self.pixmap.height());
+        let mut n = 0;
+        for y in clamp(y0, h)..clamp(y1, h) {
+            for x in clamp(x0, w)..clamp(x1, w) {
+                if f(self.rgb(x, y)) {
+                    n += 1;
+                }
+            }
+        }
+        n
+    }
+}
+
+/// Ink: anything not (near) white.
+fn ink(rgb: [u8; 3]) -> bool {
+    rgb.iter().any(|&c| c < 235)
+}
+
+/// Dark ink: text and frames.
+fn dark(rgb: [u8; 3]) -> bool {
+    rgb.iter().all(|&c| c < 120)
+}
+
+/// Coloured ink: a clear hue (series, bands), not the greys of grid, frame and text.
+fn coloured(rgb: [u8; 3]) -> bool {
+    let max = *rgb.iter().max().unwrap();
+    let min = *rgb.iter().min().unwrap();
+    max - min > 40
+}
+
+/// Renders `figure` to PNG as `name` under `target/tmp/plots/` and checks it (see the
+/// module docs).
+fn check(name: &str, figure: &Figure) -> Picture {
+    let (svg, geometry) = figure.render();
+    let options = Options { fontdb: fonts(), ..Options::default() };
+    let tree = Tree::from_str(&svg, &options).expect("the SVG parses");
+    let size = tree.size().to_int_size();
+    assert_eq!(
+        (f64::from(size.width()), f64::from(size.height())),
+        (geometry.width, geometry.height)
+    );
+    let mut pixmap = Pixmap::new(size.width(), size.height()).unwrap();
+    resvg::render(&tree, Transform::default(), &mut pixmap.as_mut());
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("plots");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(format!("{name}.png"));
+    pixmap.save_png(&path).unwrap();
+    let picture = Picture { pixmap, geometry };
+
+    let (w, h) = (f64::from(size.width()), f64::from(size.height()));
+    let all = (0.0, 0.0, w, h);
+    let inked = picture.count(all, ink) as f64 / (w * h);
+    let hues: HashSet<[u8; 3]> = (0..size.height())
+        .flat_map(|y| (0..size.width()).map(move |x| (x, y)))
+        .map(|(x, y)| picture.rgb(x, y))
+        .filter(|&rgb| coloured(rgb))
+        .map(|rgb| rgb.map(|c| c / 32))
+        .collect();
+    let title = picture.count((0.0, 0.0, w, 48.0), dark);
+    let y_labels = picture.count((0.0, 48.0, 32.0, h), dark);
+    println!(
+        "{}: {}×{} px, {:.1} % inked, {} hues, title {title} dark px, y labels {y_labels} dark px",
+        path.display(),
+        size.width(),
+        size.height(),
+        inked * 100.0,
+        hues.len()
+    );
+    assert!(inked > 0.03, "{name}: almost blank ({:.2} % inked)", inked * 100.0);
+    assert!(hues.len() >= 5, "{name}: only {} hues", hues.len());
+    assert!(title > 400, "{name}: the title was not rendered ({title} dark px)");
+    assert!(y_labels > 100 * figure.panels.len(), "{name}: the y labels were not rendered");
+    for (index, (panel, area)) in
+        figure.panels.iter().zip(&picture.geometry.panels).map(|(p, g)| (p, g.area)).enumerate()
+    {
+        let rect = (area.x + 1.0, area.y + 1.0, area.x + area.w - 1.0, area.y + area.h - 1.0);
+        let drawn = picture.count(rect, coloured);
+        let needed = match panel.content {
+            Content::Lines(_) => 100,
+            Content::Timeline(_) => 500,
+        };
+        assert!(
+            drawn >= needed,
+            "{name}: panel {index} ({}) shows no data ({drawn} coloured px)",
+            panel.y_label
+        );
+    }
+    picture
+}
+
+fn parse(args: &[&str]) -> Cli {
+    Cli::try_parse_from(std::iter::once("taut").chain(args.iter().copied())).unwrap()
+}
+
+#[test]
+fn the_main_jobs_plot() {
+    let cli = parse(&["--hold", "4"]);
+    let options = CycleOptions::from_args(&cli.job);
+    let run: CycleRun = taut::job::run(&options, None, &mut |_| {}).expect("the job runs");
+    let figure = taut::job::figure::figure(&run);
+    let picture = check("cycle", &figure);
+    assert!(picture.geometry.panels.len() >= 6, "tension … state timeline and the zoomed hold");
+}
+
+#[test]
+fn the_pull_plot() {
+    let cli = parse(&["pull", "--tension", "25", "--hold", "3"]);
+    let Some(Command::Pull(args)) = &cli.command else { panic!("pull") };
+    let pull = taut::pull::run(args).expect("the pull runs");
+    check("pull", &pull.figure(args));
+}
+
+#[test]
+fn the_paper_plot() {
+    let (rsmc, pd, _) = taut::paper::run();
+    check("paper", &taut::paper::figure(&rsmc, &pd));
+}
+
+#[test]
+fn the_accuracy_plots() {
+    let cli = parse(&["report", "accuracy", "--scenarios", "6", "--controllers", "taut,pd"]);
+    let Some(Command::Report { which: ReportKind::Accuracy(args) }) = &cli.command else {
+        panic!("report accuracy")
+    };
+    let lineup = accuracy::lineup(&args.controllers);
+    let results = accuracy::run_all(args.seed, args.scenarios, args.sensing, &lineup, 2);
+    let figures = accuracy::figures(args.seed, args.sensing, &results, &lineup);
+    assert_eq!(figures.len(), 2, "the quantiles and one scenario");
+    for (file, figure) in &figures {
+        let stem = file.trim_end_matches(".svg");
+        let name =
+            if stem.starts_with("accuracy") { stem.to_owned() } else { format!("accuracy_{stem}") };
+        check(&name, figure);
+    }
+}
+
+#[test]
+fn the_robustness_plot() {
+    let cli = parse(&["report", "robustness", "--scenarios", "1", "--axes", "inertia,friction"]);
+    let Some(Command::Report { which: ReportKind::Robustness(args) }) = &cli.command else {
+        panic!("report robustness")
+    };
+    let runs = taut::report::robustness::run_all(args);
+    let axes = taut::report::robustness::axes(args);
+    check("robustness", &taut::report::robustness::figure(args, &axes, &runs));
+}

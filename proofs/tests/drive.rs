@@ -22,7 +22,7 @@ use taut_core::sense::current;
 use taut_proofs::drive::{
     CheckedDrive, CommandInput, Observer, StepInput, apply, bounded_duty, check_all,
     commutation_is_consistent, no_shoot_through, pattern_is_safe, sequencer_step_is_safe,
-    six_step_entry_is_well_formed,
+    six_step_entry_is_well_formed, window_bounds_current,
 };
 
 /// The lowest current code that is an overcurrent, found from the conversion (not from the
@@ -68,7 +68,7 @@ fn alphabet() -> Vec<StepInput> {
     inputs
 }
 
-/// REQ-DRV-01…08: every state reachable from power-up in up to `DEPTH` calls over the
+/// REQ-DRV-01…08, 10: every state reachable from power-up in up to `DEPTH` calls over the
 /// representative alphabet, every property on every transition.
 #[test]
 fn drive_properties_exhaustive_three_calls_deep() {
@@ -96,7 +96,7 @@ fn drive_properties_exhaustive_three_calls_deep() {
     }
     println!(
         "drive_properties_exhaustive_three_calls_deep: {} inputs per call, {} distinct states, \
-         {transitions} transitions checked against REQ-DRV-01…08",
+         {transitions} transitions checked against REQ-DRV-01…08, 10",
         alphabet.len(),
         seen.len()
     );
@@ -267,7 +267,7 @@ fn rotor_walk() -> impl Strategy<Value = Vec<StepInput>> {
     })
 }
 
-/// REQ-DRV-01…08 over long sequences of full-range inputs.
+/// REQ-DRV-01…08, 10 over long sequences of full-range inputs.
 #[test]
 fn drive_properties_random_sequences() {
     let sequences = proptest::collection::vec(step_input(), 1..200);
@@ -279,7 +279,7 @@ fn drive_properties_random_sequences() {
     });
 }
 
-/// REQ-DRV-01…08 with a rotor that turns like a real one (so the drive actually drives,
+/// REQ-DRV-01…08, 10 with a rotor that turns like a real one (so the drive actually drives,
 /// commutates and reverses).
 #[test]
 fn drive_properties_rotor_walk() {
@@ -329,4 +329,18 @@ fn properties_see_real_driving() {
             record.output.pattern == taut_core::drive::six_step(Sector::S0, Direction::Release);
     }
     assert!(reversed, "the drive reversed once the rotor's back-EMF allowed it");
+}
+
+/// REQ-DRV-10 on the window alone: every bus code × back-EMF from −61 V to +61 V in 7 mV
+/// steps (and the extremes of the type).
+#[test]
+fn window_bounds_current_every_bus_code() {
+    let mut cases = 0u64;
+    for bus in 0..=4_095u16 {
+        for emf in (-61_000..=61_000).step_by(7).chain([i32::MIN, i32::MAX]) {
+            window_bounds_current(bus, emf);
+            cases += 1;
+        }
+    }
+    println!("window_bounds_current_every_bus_code: {cases} cases");
 }

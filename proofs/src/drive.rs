@@ -725,7 +725,7 @@ mod verification {
     #[kani::unwind(3)]
     fn verify_window_bounds_current() {
         let emf: i32 = kani::any();
-        for bus in [1_638u16, 2_185] {
+        for bus in [1_638u16, 2_595] {
             window_bounds_current(bus, emf);
         }
     }

@@ -47,7 +47,7 @@ fn alphabet() -> Vec<StepInput> {
             for (current, trip) in [(0, false), (over - 1, false), (over, false), (0, true)] {
                 for (home, end) in [(false, false), (true, false), (false, true), (true, true)] {
                     for elapsed in [0, DEAD_TIME.0 - 1, DEAD_TIME.0, REVERSAL_QUIET.0] {
-                        for (clear, bus) in [(false, 1_638), (true, 1_638), (false, 2_322)] {
+                        for (clear, bus) in [(false, 1_638), (true, 1_638), (false, 2_731)] {
                             inputs.push(StepInput {
                                 hall,
                                 command,

@@ -691,7 +691,7 @@ mod tests {
         let mut drive = settled(Sector::S0);
         drive.set_command(pull(3_000));
         assert!(!drive.step(sample(Sector::S0)).pattern.is_all_off());
-        let pumped = DriveSample { bus_voltage: AdcCode::new(2_322), ..sample(Sector::S0) };
+        let pumped = DriveSample { bus_voltage: AdcCode::new(2_731), ..sample(Sector::S0) };
         assert_eq!(drive.step(pumped), DriveOutput::OFF);
         assert_eq!(drive.fault(), Some(DriveFault::BusOvervoltage));
     }

@@ -406,8 +406,10 @@ impl Twin {
             fold_back_ma: 11_999,
             ..CurrentLimit::PAPER
         };
-        if let Ok(config) = taut_core::drive::DriveConfig::new(sense, BusSense::PAPER, open, 12_000)
-        {
+        // No bus rule and no zero check either: the physics under test must not be cut short.
+        let bus = BusSense { regen_mv: 59_000, max_mv: 59_900, ..BusSense::PAPER };
+        let sense = taut_core::drive::limit::CurrentSense { zero_tolerance: 4_095, ..sense };
+        if let Ok(config) = taut_core::drive::DriveConfig::new(sense, bus, open, 12_000) {
             self.drive = Drive::with_config(config);
         }
         self

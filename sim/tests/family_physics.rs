@@ -349,7 +349,11 @@ fn dc_link_filtered_reads_duty_times_the_winding_current_on_average() {
             // A stalled rotor: steady duty and current.
             twin.inject(Fault::CarriageJam);
             let trace = run(&mut twin, 60, at(0.3, Direction::Pull));
-            assert!(trace.rows.iter().all(|r| r.truth.drive_fault.is_none()));
+            assert!(
+                trace.rows.iter().all(|r| r.truth.drive_fault.is_none()),
+                "{:?}",
+                trace.rows.iter().find_map(|r| r.truth.drive_fault)
+            );
             let truth = twin.truth();
             // The bus carries the winding current during the high side's on-time, D·T − t_d.
             let on_share = truth.duty - config.bridge.dead_time_s * 20_000.0;
@@ -425,7 +429,13 @@ fn bus_voltage_code_follows_the_divider_through_the_oversampler() {
         let trace = run(&mut twin, 40, at(0.5 * speed, Direction::Pull));
         for pair in trace.rows.windows(3) {
             let read = twin.bus_sense().volts_of(pair[2].inputs.bus_voltage);
-            let low = pair[0].truth.bus_volts.min(pair[1].truth.bus_volts) - 0.02;
+            // The code read in tick 2 averages the last complete 16-period block, which can
+            // reach back into tick 0; the truth records each tick's end value and peak, not
+            // its minimum, so the lower bound allows the within-tick ripple of a bus being
+            // pumped and drained by PWM braking (≈ 0.1 V).
+            let low =
+                pair[0].truth.bus_volts.min(pair[1].truth.bus_volts).min(pair[2].truth.bus_volts)
+                    - 0.1;
             let high = pair[0].truth.bus_peak_volts.max(pair[1].truth.bus_peak_volts) + 0.02;
             assert!(read >= low && read <= high, "{read} outside {low}..{high}");
         }

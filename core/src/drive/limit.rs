@@ -54,8 +54,9 @@
 //! (per-phase low-side shunts, or a DC-link shunt sampled in the middle of the on-time) or the
 //! **link average** (a DC-link shunt behind an RC filter: `≈ duty × I`). Its zero — 0 for a
 //! unidirectional amplifier, mid-rail for a bidirectional one — is tared by the drive while
-//! the bridge is off ([`TARE_SETTLE`]); the overcurrent threshold is the same *winding*
-//! current on both kinds ([`CurrentSense::overcurrent`]).
+//! the bridge is off ([`TARE_SETTLE`]); the overcurrent threshold is 12 A of the reading on
+//! both kinds ([`DriveConfig::overcurrent`]): the winding current itself, or a link average
+//! that never exceeds it.
 //!
 //! Every quantity is an integer in mV, mA, converter codes or duty raw units, with the
 //! divisions done in `u32`; the conversions are precomputed by [`DriveConfig::new`], which
@@ -368,22 +369,17 @@ impl DriveConfig {
         })
     }
 
-    /// Whether the sampled current code is an overcurrent: a winding current at or above the
-    /// trip, with the sense's zero at `zero`. A link-average reading is `duty × I`, so it is
-    /// compared with the trip scaled by the last applied duty (at least ¼: below that the
-    /// link carries too little of the winding current to read, and the duty window alone
-    /// bounds the current).
+    /// Whether the sampled current code is an overcurrent: a reading at or above the trip's
+    /// codes from the zero `zero`. A winding reading is the winding current. A link-average
+    /// reading lies between `duty × I` (a long RC) and `I` itself (a short RC sampled in the
+    /// on-time), so it is compared with the trip as it is: it never trips falsely, and on such
+    /// a board the duty window bounds the winding current while the hardware comparator on the
+    /// unfiltered shunt is the backstop. (`applied` is kept for boards that state their
+    /// filter; none does yet.)
     #[must_use]
     pub fn overcurrent(&self, code: AdcCode, zero: AdcCode, applied: Duty) -> bool {
-        let from_zero = u32::from(code.get().abs_diff(zero.get()));
-        let trip = u32::from(self.trip_codes);
-        match self.sense.reading {
-            CurrentReading::Winding => from_zero >= trip,
-            CurrentReading::LinkAverage => {
-                let duty = u32::from(applied.raw()).max(QUARTER_DUTY);
-                from_zero.saturating_mul(DUTY_ONE_RAW) >= trip.saturating_mul(duty)
-            }
-        }
+        let _ = applied;
+        u32::from(code.get().abs_diff(zero.get())) >= u32::from(self.trip_codes)
     }
 
     /// Whether the sampled winding current is at or above the fold-back threshold (winding
@@ -409,11 +405,6 @@ impl DriveConfig {
         zero.get().abs_diff(self.sense.design_zero.get()) <= self.sense.zero_tolerance
     }
 }
-
-/// A quarter of the duty scale, raw.
-const QUARTER_DUTY: u32 = 16_384;
-/// The duty scale, raw.
-const DUTY_ONE_RAW: u32 = 65_536;
 
 /// `mv / bus_mv` as a duty, rounded up (`round_up`, for a lower edge) or down (an upper
 /// edge), at most [`DUTY_MAX`]. `mv ≤ 2 × EMF_MAX_MV`, so `mv × 4 096` fits a `u32`; the
@@ -525,7 +516,7 @@ mod tests {
     }
 
     #[test]
-    fn the_trip_is_the_same_winding_current_on_every_kind_of_sense() {
+    fn the_trip_is_twelve_amps_of_reading_on_every_kind_of_sense() {
         for sense in [
             CurrentSense::PAPER,
             CurrentSense::PER_PHASE_BIDIRECTIONAL,
@@ -537,10 +528,10 @@ mod tests {
             let amps = |code: u16| {
                 f64::from(code.abs_diff(zero.get())) * f64::from(sense.na_per_code) * 1e-9
             };
-            // At full duty a link average reads 0.95 of the winding current; either way the
-            // trip is 12 A of winding current, to within one code of the threshold's rounding.
+            // The trip is 12 A of the reading, to within the threshold's rounding (a link
+            // average reads at most the winding current, so it never trips falsely).
             let duty = Duty::from_raw_clamped(65_535);
-            let seen = if sense.reading == CurrentReading::Winding { 1.0 } else { 0.949_997 };
+            let seen = 1.0;
             let code_amps = f64::from(sense.na_per_code) * 1e-9;
             for raw in zero.get()..=4_095 {
                 let trips = config.overcurrent(AdcCode::new(raw), zero, duty);

@@ -226,8 +226,9 @@ pub struct World {
 }
 
 /// Model-check property `tension_faults_stop_the_pull` (REQ-SAFE-09): a string-tension
-/// state that sees an overload, a negative (reversed) reading or a load-cell rail for 30 ms
-/// has latched a fault by then — the rules' persistence (≤ 20 ticks) is shorter.
+/// state that sees an overload, a negative (reversed) reading or a load-cell rail for
+/// [`TENSION_FAULT_MS`] has latched a fault by then — the rules track the tension at 1 kgf a
+/// tick (≤ 54 ticks from any band to another) and confirm within 20 ticks.
 pub fn tension_faults_stop_the_pull(before: MachineState, band: Band, after: MachineState) {
     let tensioned = matches!(
         before,
@@ -240,10 +241,15 @@ pub fn tension_faults_stop_the_pull(before: MachineState, band: Band, after: Mac
     if tensioned && faulty {
         assert!(
             matches!(after, MachineState::Fault(_)),
-            "REQ-SAFE-09: {band:?} for 30 ms in {before:?} left the machine in {after:?}"
+            "REQ-SAFE-09: {band:?} for {TENSION_FAULT_MS} ms in {before:?} left the machine in {after:?}"
         );
     }
 }
+
+/// How long a tension band is held before [`tension_faults_stop_the_pull`] is checked, ms:
+/// the tracking from the highest band to a negative reading (54 ticks) plus the longest
+/// persistence (20), with margin.
+pub const TENSION_FAULT_MS: u32 = 80;
 
 /// Whether `state` has a timeout longer than 6 s (the pull and release timeouts).
 fn has_long_timer(state: MachineState) -> bool {
@@ -384,7 +390,7 @@ impl World {
             Action::Tension(band) => {
                 let before = self.machine.state();
                 self.env.band = band;
-                run(self, Keys::NONE, 30);
+                run(self, Keys::NONE, TENSION_FAULT_MS);
                 tension_faults_stop_the_pull(before, band, self.machine.state());
             }
             Action::ToggleWiring => {

@@ -53,7 +53,8 @@ fn checkpoints() -> Vec<CheckpointInput> {
                         view: index,
                         tare: 41,
                         peak_tenths: if release { 250 } else { 0 },
-                        counters: [0, 0, 0],
+                        tracked_tenths: if release { [250, 250] } else { [0, 0] },
+                        counters: [0, 0, 0, 0],
                         knot: release,
                         integrators: [0; 5],
                         key_bits: (0, 0),
@@ -155,7 +156,12 @@ fn any_checkpoint() -> impl Strategy<Value = CheckpointInput> {
             any::<bool>(),
         ),
         (40u16..600, any::<bool>(), any::<bool>(), 0u16..120, any::<u8>(), 0u16..420, 0u16..600),
-        (prop::array::uniform3(0u8..25), any::<bool>(), prop::array::uniform5(0u8..25)),
+        (
+            prop::array::uniform4(0u8..25),
+            any::<bool>(),
+            prop::array::uniform5(0u8..25),
+            prop::array::uniform2(-600i16..600),
+        ),
         (any::<u8>(), any::<u8>(), any::<u16>(), any::<bool>(), 0u8..25),
     )
         .prop_map(|(a, b, c, d)| CheckpointInput {
@@ -173,6 +179,7 @@ fn any_checkpoint() -> impl Strategy<Value = CheckpointInput> {
             view: b.4,
             tare: b.5,
             peak_tenths: b.6,
+            tracked_tenths: c.3,
             counters: c.0,
             knot: c.1,
             integrators: c.2,

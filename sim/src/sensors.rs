@@ -219,6 +219,13 @@ impl CurrentSense {
             .clamp(0.0, self.full_scale_amps)
     }
 
+    /// The output at zero current without noise, in output amperes: what the converter holds
+    /// before the first PWM period (the amplifier's offset, mid-rail on a bidirectional board).
+    #[must_use]
+    pub fn at_rest(&self) -> f64 {
+        (self.params.offset_amps + self.offset_amps).clamp(0.0, self.full_scale_amps)
+    }
+
     /// The current the board's shunt carries at its sampling instant in the period just
     /// solved (see [`CurrentSensing`]), before the amplifier, A — except for a filtered DC
     /// link, whose filter this advances and whose output it returns (`None` then).
@@ -302,6 +309,12 @@ impl CurrentSense {
             None => (self.last_filtered_sample + rng.gaussian(self.params.noise_amps))
                 .clamp(0.0, self.full_scale_amps),
         }
+    }
+
+    /// The converter code at zero current without noise.
+    #[must_use]
+    pub fn rest_code(&self) -> AdcCode {
+        self.code(self.at_rest())
     }
 
     /// The converter code for an amplifier output in output amperes.

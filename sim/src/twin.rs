@@ -499,7 +499,9 @@ impl Twin {
             load_cell_force_n: 0.0,
             bus_volts,
             string_travel_m: 0.0,
-            current_code: AdcCode::MIN,
+            // The converter holds the amplifier's rest output before the first period (not
+            // code 0, which a mid-rail board reads as −25 A).
+            current_code: CurrentSense::new(&c.current_sense).rest_code(),
             comparator_flag: false,
             last_pattern: SwitchPattern::ALL_OFF,
             last_duty: 0.0,

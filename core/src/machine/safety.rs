@@ -336,6 +336,66 @@ mod tests {
     }
 
     #[test]
+    fn stall_needs_duty_time_driven_and_no_step_each_at_its_threshold() {
+        let at = |duty: Duty| DriveCommand::Drive { direction: Direction::Pull, duty };
+        let mut inputs = Inputs::default();
+        inputs.drive.quiet_for = STALL_QUIET;
+        // 500 ms without a step is 500 000 µs of PWM-timer ticks.
+        assert_eq!(STALL_QUIET, PwmTicks::from_micros(500_000));
+        assert!(stall(at(STALL_DUTY), &inputs, STALL_QUIET_MS));
+        // Each condition one unit short of its threshold: no stall.
+        let below = Duty::from_raw_clamped(STALL_DUTY.raw() - 1);
+        assert!(!stall(at(below), &inputs, STALL_QUIET_MS));
+        assert!(!stall(at(STALL_DUTY), &inputs, STALL_QUIET_MS - 1));
+        inputs.drive.quiet_for = PwmTicks(STALL_QUIET.0 - 1);
+        assert!(!stall(at(STALL_DUTY), &inputs, STALL_QUIET_MS));
+        // Only one condition met: no stall.
+        inputs.drive.quiet_for = PwmTicks(0);
+        assert!(!stall(at(crate::drive::DUTY_MAX), &inputs, u32::MAX));
+        inputs.drive.quiet_for = PwmTicks(u32::MAX);
+        assert!(!stall(DriveCommand::Coast, &inputs, u32::MAX));
+        assert!(!stall(at(crate::drive::DUTY_MAX), &inputs, 0));
+    }
+
+    #[test]
+    fn load_cell_rails_at_their_codes() {
+        assert_eq!(load_cell_rail(AdcCode::new(0)), Some(FaultCode::LoadCellOpen));
+        assert_eq!(load_cell_rail(LOAD_CELL_BOTTOM_RAIL), Some(FaultCode::LoadCellOpen));
+        assert_eq!(load_cell_rail(AdcCode::new(LOAD_CELL_BOTTOM_RAIL.get() + 1)), None);
+        assert_eq!(load_cell_rail(AdcCode::new(2_048)), None);
+        assert_eq!(load_cell_rail(AdcCode::new(LOAD_CELL_TOP_RAIL.get() - 1)), None);
+        assert_eq!(load_cell_rail(LOAD_CELL_TOP_RAIL), Some(FaultCode::LoadCellShort));
+        assert_eq!(load_cell_rail(AdcCode::MAX), Some(FaultCode::LoadCellShort));
+    }
+
+    #[test]
+    fn watch_validity_is_its_invariant() {
+        let fresh = TensionWatch::new(7);
+        assert!(fresh.is_valid());
+        let kgf = Kgf::from_int;
+        let watch = |peak, tension, raw, counters| {
+            TensionWatch::from_parts(0, [kgf(peak), kgf(tension), kgf(raw)], counters)
+        };
+        assert!(watch(60, 60, -60, [3, 5, 20, 10]).is_valid());
+        assert!(!watch(61, 0, 0, [0; 4]).is_valid());
+        assert!(!watch(-1, -2, 0, [0; 4]).is_valid());
+        assert!(!watch(10, 11, 0, [0; 4]).is_valid());
+        assert!(!watch(10, -61, 0, [0; 4]).is_valid());
+        assert!(!watch(10, 0, 61, [0; 4]).is_valid());
+        assert!(!watch(10, 0, -61, [0; 4]).is_valid());
+        assert!(!watch(10, 0, 0, [4, 0, 0, 0]).is_valid());
+        assert!(!watch(10, 0, 0, [0, 6, 0, 0]).is_valid());
+        assert!(!watch(10, 0, 0, [0, 0, 21, 0]).is_valid());
+        assert!(!watch(10, 0, 0, [0, 0, 0, 11]).is_valid());
+        // Every tick keeps a valid watch valid, whatever the sample.
+        let mut running = watch(60, 60, -60, [3, 5, 20, 10]);
+        for tension in [i16::MIN, -61, 0, 61, i16::MAX] {
+            running.check(&sample(tension, 0));
+            assert!(running.is_valid(), "{running:?}");
+        }
+    }
+
+    #[test]
     fn limit_guard_blocks_only_toward_the_active_switch() {
         let pull = DriveCommand::Drive { direction: Direction::Pull, duty: STALL_DUTY };
         let release = DriveCommand::Drive { direction: Direction::Release, duty: STALL_DUTY };

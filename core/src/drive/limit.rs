@@ -374,11 +374,9 @@ impl DriveConfig {
     /// reading lies between `duty × I` (a long RC) and `I` itself (a short RC sampled in the
     /// on-time), so it is compared with the trip as it is: it never trips falsely, and on such
     /// a board the duty window bounds the winding current while the hardware comparator on the
-    /// unfiltered shunt is the backstop. (`applied` is kept for boards that state their
-    /// filter; none does yet.)
+    /// unfiltered shunt is the backstop.
     #[must_use]
-    pub fn overcurrent(&self, code: AdcCode, zero: AdcCode, applied: Duty) -> bool {
-        let _ = applied;
+    pub fn overcurrent(&self, code: AdcCode, zero: AdcCode) -> bool {
         u32::from(code.get().abs_diff(zero.get())) >= u32::from(self.trip_codes)
     }
 
@@ -530,12 +528,10 @@ mod tests {
             };
             // The trip is 12 A of the reading, to within the threshold's rounding (a link
             // average reads at most the winding current, so it never trips falsely).
-            let duty = Duty::from_raw_clamped(65_535);
-            let seen = 1.0;
             let code_amps = f64::from(sense.na_per_code) * 1e-9;
             for raw in zero.get()..=4_095 {
-                let trips = config.overcurrent(AdcCode::new(raw), zero, duty);
-                let winding = amps(raw) / seen;
+                let trips = config.overcurrent(AdcCode::new(raw), zero);
+                let winding = amps(raw);
                 if trips {
                     assert!(winding >= 12.0 - 2.0 * code_amps, "{sense:?} {raw}");
                 } else {
@@ -543,7 +539,7 @@ mod tests {
                 }
             }
             // A bidirectional zero reads no current at all.
-            assert!(!config.overcurrent(zero, zero, Duty::ZERO));
+            assert!(!config.overcurrent(zero, zero));
         }
     }
 

@@ -440,7 +440,7 @@ impl Drive {
         self.trip_active = sample.overcurrent_trip;
         if sample.overcurrent_trip {
             self.latch(DriveFault::OvercurrentTrip);
-        } else if self.config.overcurrent(sample.current, self.current_zero(), self.applied) {
+        } else if self.config.overcurrent(sample.current, self.current_zero()) {
             self.latch(DriveFault::Overcurrent);
         } else if self.config.bus_over(sample.bus_voltage) {
             self.latch(DriveFault::BusOvervoltage);

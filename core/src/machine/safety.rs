@@ -537,6 +537,13 @@ mod tests {
     fn reversed_reading_latches_after_persisting() {
         let mut watch = TensionWatch::new(0);
         let negative = TensionSample { raw: Kgf::from_int(-1), ..sample(0, 10) };
+        // Exactly at the threshold is not reversed.
+        let at = TensionSample { raw: REVERSED_TENSION, ..sample(0, 10) };
+        let mut level =
+            TensionWatch::from_parts(0, [Kgf::ZERO, Kgf::ZERO, REVERSED_TENSION], [0; 4]);
+        for _ in 0..u32::from(REVERSED_PERSIST) * 2 {
+            assert_eq!(level.check(&at), None);
+        }
         // The tracked raw tension is below −0.3 from the first tick.
         for _ in 0..REVERSED_PERSIST - 1 {
             assert_eq!(watch.check(&negative), None);

@@ -18,7 +18,7 @@ struct Input {
     laws: Vec<LawCase>,
     estimators: Vec<EstimatorCase>,
     slips: Vec<SlipCase>,
-    maps: Vec<(bool, i32, i32)>,
+    maps: Vec<(bool, i32, i32, i32)>,
     reciprocals: Vec<i32>,
     track_paper: bool,
     track_fast: bool,
@@ -39,8 +39,8 @@ fuzz_target!(|input: Input| {
     for case in input.slips.iter().take(64) {
         slip_damper_bounded(case);
     }
-    for &(current_map, force, speed) in input.maps.iter().take(64) {
-        force_to_duty_bounded(current_map, force, speed);
+    for &(current_map, force, speed, bus) in input.maps.iter().take(64) {
+        force_to_duty_bounded(current_map, force, speed, bus);
     }
     for &x in input.reciprocals.iter().take(64) {
         reciprocal_accurate(x);

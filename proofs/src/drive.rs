@@ -34,12 +34,12 @@
 
 use taut_core::drive::{
     ClearRefused, DEAD_TIME, DUTY_MAX, Direction, Drive, DriveCommand, DriveOutput, DriveSample,
-    Duty, HallCode, HallState, LegState, OVERCURRENT_LIMIT, Phase, PwmTicks, Sector, SectorStep,
-    SwitchPattern, six_step,
+    Duty, HALL_CONFIRM_READS, HallCode, HallState, LegState, OVERCURRENT_LIMIT, Phase, PwmTicks,
+    Sector, SectorStep, SwitchPattern, six_step,
 };
 use taut_core::io::LimitSwitches;
 use taut_core::sense::current;
-use taut_core::units::AdcCode;
+use taut_core::units::{AdcCode, Q16};
 
 /// The command part of a [`StepInput`].
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
@@ -163,6 +163,25 @@ pub fn bounded_duty(record: &StepRecord) {
     }
     if !matches!(record.after.hall(), HallState::Sector(_)) {
         assert!(out.duty.is_zero(), "REQ-DRV-01: duty with no valid Hall sector");
+    }
+}
+
+/// REQ-DRV-01 at the type: every way of making a [`Duty`] — from any raw value, from any
+/// Q15.16 fraction — gives one within [`DUTY_MAX`], and its PWM compare value is at most
+/// 95 % of any timer period. (The drive's window clamps again; this is the layer beneath it.)
+pub fn duty_constructors_bounded(raw: u16, fraction: i32, period_ticks: u16) {
+    for duty in [Duty::from_raw_clamped(raw), Duty::from_fraction_clamped(Q16::from_bits(fraction))]
+    {
+        assert!(
+            duty <= DUTY_MAX && duty.is_valid(),
+            "REQ-DRV-01: duty {} above DUTY_MAX",
+            duty.raw()
+        );
+        let compare = u32::from(duty.compare_ticks(period_ticks));
+        assert!(
+            compare * 100 <= u32::from(period_ticks) * 95,
+            "REQ-DRV-01: compare {compare} above 95 % of {period_ticks}"
+        );
     }
 }
 
@@ -351,6 +370,44 @@ pub fn hall_fault_turns_off(observer: &Observer, record: &StepRecord) {
     if invalid || skipped {
         assert_eq!(record.output, DriveOutput::OFF, "REQ-DRV-04: bridge on after a Hall fault");
         assert!(record.after.fault().is_some(), "REQ-DRV-04: Hall fault not latched");
+    }
+}
+
+/// A drive that has accepted `sector` from a rotor at rest (coasting, 24 V, no current), and
+/// the observer that watched it: three calls from reset cannot accept two sectors one after
+/// the other (each takes [`HALL_CONFIRM_READS`] reads), so the skipped-sector half of
+/// REQ-DRV-04 starts here.
+#[must_use]
+pub fn at_rest_in(sector: Sector) -> (Drive, Observer) {
+    let mut drive = Drive::new();
+    let mut observer = Observer::new();
+    let rest = StepInput {
+        hall: sector.hall_code().raw(),
+        command: CommandInput::Coast,
+        clear: false,
+        current: 0,
+        trip: false,
+        home: false,
+        end: false,
+        elapsed: 8_500,
+        bus: 1_638,
+    };
+    for _ in 0..HALL_CONFIRM_READS {
+        let record = apply(&mut drive, &rest);
+        observer.observe(&record);
+    }
+    assert_eq!(drive.hall(), HallState::Sector(sector), "the prefix accepts {sector:?}");
+    (drive, observer)
+}
+
+/// REQ-DRV-04 from a rotor accepted in `sector`: after any inputs, every call whose Hall
+/// state is invalid or skipped a sector has the bridge off and a latched fault.
+pub fn hall_fault_after(sector: Sector, inputs: &[StepInput]) {
+    let (mut drive, mut observer) = at_rest_in(sector);
+    for input in inputs {
+        let record = apply(&mut drive, input);
+        hall_fault_turns_off(&observer, &record);
+        observer.observe(&record);
     }
 }
 
@@ -624,6 +681,11 @@ mod verification {
     }
 
     #[kani::proof]
+    fn verify_duty_type_bounded() {
+        duty_constructors_bounded(kani::any(), kani::any(), kani::any());
+    }
+
+    #[kani::proof]
     #[kani::unwind(8)]
     fn verify_no_shoot_through() {
         three_calls(|_, record| no_shoot_through(record));
@@ -674,6 +736,14 @@ mod verification {
     #[kani::unwind(8)]
     fn verify_hall_fault_all_off() {
         three_calls(hall_fault_turns_off);
+    }
+
+    /// REQ-DRV-04's skipped sector: two arbitrary calls from a rotor accepted in S0 (see
+    /// [`at_rest_in`]; the sectors are symmetric under the table's rotation).
+    #[kani::proof]
+    #[kani::unwind(8)]
+    fn verify_hall_skip_latches() {
+        hall_fault_after(Sector::S0, &[kani::any(), kani::any()]);
     }
 
     #[kani::proof]

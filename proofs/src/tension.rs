@@ -50,7 +50,7 @@ use taut_core::tension::law::{
 };
 use taut_core::tension::motor::{DutyMap, ForceToDuty, MotorModel};
 use taut_core::tension::{ControllerConfig, Measurement, MmPerSecond, PullPhase};
-use taut_core::units::{Amps, Kgf, KgfPerSecond, Q16, Seconds};
+use taut_core::units::{Amps, Kgf, KgfPerSecond, Q16, Seconds, Volts};
 
 /// A saturation flag from a selector (`% 3`).
 #[must_use]
@@ -157,17 +157,31 @@ fn duty_stage(current_map: bool) -> ForceToDuty {
 /// force brakes) with a duty within `DUTY_MAX` and within the current-limit window around
 /// the measured back-EMF (or, when the window lies wholly outside `[0, DUTY_MAX]`, its
 /// nearest end). The window is the stage's own ([`ForceToDuty::current_window`], whose
-/// formula is a unit test in `core`).
-pub fn force_to_duty_bounded(current_map: bool, force: i32, speed: i32) {
-    let window = duty_stage(current_map).current_window(MmPerSecond(Q16::from_bits(speed)));
-    force_to_duty_within(current_map, force, speed, window);
+/// formula is a unit test in `core`) on the measured bus `bus` (Q15.16 volts, any value).
+pub fn force_to_duty_bounded(current_map: bool, force: i32, speed: i32, bus: i32) {
+    let mut stage = duty_stage(current_map);
+    stage.set_bus(Volts::from_bits(bus));
+    let scale = stage.bus_scale();
+    assert!(
+        scale >= Q16::lit("0.5") && scale <= Q16::const_from_int(2),
+        "REQ-TEN-16: bus scale {scale} outside [½, 2]"
+    );
+    let window = stage.current_window(MmPerSecond(Q16::from_bits(speed)));
+    force_to_duty_within(current_map, force, speed, bus, window);
 }
 
 /// REQ-TEN-02/09 for a given current-limit `(low, high)` window (duty, Q15.16 bits, `low ≥
 /// 0`, `high ≤ DUTY_MAX` as every window is): the command is `Pull`, its duty within
 /// `DUTY_MAX` and inside the window, or at its nearest end when the window is empty.
-pub fn force_to_duty_within(current_map: bool, force: i32, speed: i32, window: (i64, i64)) {
-    let stage = duty_stage(current_map);
+pub fn force_to_duty_within(
+    current_map: bool,
+    force: i32,
+    speed: i32,
+    bus: i32,
+    window: (i64, i64),
+) {
+    let mut stage = duty_stage(current_map);
+    stage.set_bus(Volts::from_bits(bus));
     let (command, _) =
         stage.command_within(Kgf::from_bits(force), MmPerSecond(Q16::from_bits(speed)), window);
     assert_eq!(command.direction(), Some(Direction::Pull), "REQ-TEN-09: a pull never reverses");
@@ -390,6 +404,8 @@ pub struct StepCase {
     pub home: bool,
     /// Measurement: end switch.
     pub end: bool,
+    /// Measurement: bus voltage (bits).
+    pub bus: i32,
 }
 
 /// The controller in the case's state (its invariant not yet checked).
@@ -465,6 +481,7 @@ pub fn controller_step_bounded(case: &StepCase) -> bool {
         drive: DriveStatus { steps: case.steps, ..DriveStatus::default() },
         current: Amps::from_bits(case.current),
         limits: LimitSwitches { home: case.home, end: case.end },
+        bus: Volts::from_bits(case.bus),
     };
     let out = controller.step(&measurement);
     let duty = out.command.duty();
@@ -510,7 +527,7 @@ mod verification {
     fn verify_force_to_duty_bounded() {
         let (low, high): (i64, i64) = (kani::any(), kani::any());
         kani::assume(low >= 0 && high <= i64::from(DUTY_MAX.raw()));
-        force_to_duty_within(kani::any(), kani::any(), kani::any(), (low, high));
+        force_to_duty_within(kani::any(), kani::any(), kani::any(), kani::any(), (low, high));
     }
 
     /// REQ-TEN-01/03/10, the estimator: every valid state and input, clip and observer on

@@ -21,8 +21,8 @@ use taut_core::drive::{
 use taut_core::sense::current;
 use taut_proofs::drive::{
     CheckedDrive, CommandInput, Observer, StepInput, apply, bounded_duty, check_all,
-    commutation_is_consistent, no_shoot_through, pattern_is_safe, sequencer_step_is_safe,
-    six_step_entry_is_well_formed, window_bounds_current,
+    commutation_is_consistent, duty_constructors_bounded, hall_fault_after, no_shoot_through,
+    pattern_is_safe, sequencer_step_is_safe, six_step_entry_is_well_formed, window_bounds_current,
 };
 
 /// The lowest current code that is an overcurrent, found from the conversion (not from the
@@ -66,6 +66,52 @@ fn alphabet() -> Vec<StepInput> {
         }
     }
     inputs
+}
+
+/// Mirror of `verify_duty_type_bounded` (Kani): every raw duty, fractions across and
+/// beyond the range, a spread of timer periods.
+#[test]
+fn duty_constructors_bounded_exhaustive() {
+    for raw in 0..=u16::MAX {
+        let fraction = i32::from(raw) * 3 - 65_536;
+        for period in [0, 1, 999, 8_500, u16::MAX] {
+            duty_constructors_bounded(raw, fraction, period);
+        }
+    }
+    for fraction in [i32::MIN, -1, 0, 62_259, 62_260, 65_536, i32::MAX] {
+        duty_constructors_bounded(0, fraction, u16::MAX);
+    }
+}
+
+/// Mirror of `verify_hall_skip_latches` (Kani): from a rotor accepted in each sector, every
+/// pair of Hall codes over two calls, with the bridge driven either way or coasting.
+#[test]
+fn hall_skip_latches_from_every_sector() {
+    let mut cases = 0_u32;
+    for sector in (0..6).map(|k| Sector::S0.advanced(k)) {
+        for first in 0..8_u8 {
+            for second in 0..8_u8 {
+                for command in
+                    [CommandInput::Coast, CommandInput::Pull(30_000), CommandInput::Release(30_000)]
+                {
+                    let input = |hall| StepInput {
+                        hall,
+                        command,
+                        clear: false,
+                        current: 0,
+                        trip: false,
+                        home: false,
+                        end: false,
+                        elapsed: 8_500,
+                        bus: 1_638,
+                    };
+                    hall_fault_after(sector, &[input(first), input(second)]);
+                    cases += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(cases, 6 * 64 * 3);
 }
 
 /// REQ-DRV-01…08, 10: every state reachable from power-up in up to `DEPTH` calls over the

@@ -86,7 +86,14 @@ fn step_case() -> impl Strategy<Value = StepCase> {
         (0..=50 * KGF, 0..=50 * KGF, 0..=50 * KGF, any::<i32>()),
         (0_i64..=(50_i64 << 32), any::<i32>(), any::<i32>(), any::<u32>()),
         (any::<bool>(), any::<u8>(), any::<bool>()),
-        (-5 * KGF..=70 * KGF, any::<i32>(), any::<i32>(), any::<bool>(), any::<bool>()),
+        (
+            -5 * KGF..=70 * KGF,
+            any::<i32>(),
+            any::<i32>(),
+            any::<bool>(),
+            any::<bool>(),
+            any::<i32>(),
+        ),
     )
         .prop_map(|(a, b, c, d, e, f)| {
             let (peak, final_target) = if c.0 >= c.1 { (c.0, c.1) } else { (c.1, c.0) };
@@ -115,6 +122,7 @@ fn step_case() -> impl Strategy<Value = StepCase> {
                 current: f.2,
                 home: f.3,
                 end: f.4,
+                bus: f.5,
             }
         })
 }
@@ -144,8 +152,8 @@ proptest! {
 
     /// Mirror of `verify_force_to_duty_bounded` (Kani).
     #[test]
-    fn force_to_duty_bounded_sampled(current_map in any::<bool>(), force in any::<i32>(), speed in any::<i32>()) {
-        force_to_duty_bounded(current_map, force, speed);
+    fn force_to_duty_bounded_sampled(current_map in any::<bool>(), force in any::<i32>(), speed in any::<i32>(), bus in any::<i32>()) {
+        force_to_duty_bounded(current_map, force, speed, bus);
     }
 
     /// Mirror of `verify_estimator_step_bounded` (Kani), over the valid domain.
@@ -179,14 +187,18 @@ fn force_to_duty_bounded_swept() {
     for current_map in [false, true] {
         for force in (-2_000 * KGF..=2_000 * KGF).step_by(478_412) {
             for speed in (-300 * KGF..=300 * KGF).step_by(111_411) {
-                force_to_duty_bounded(current_map, force, speed);
-                cases += 1;
+                for bus in [0, 20 * KGF, 24 * KGF, 35 * KGF] {
+                    force_to_duty_bounded(current_map, force, speed, bus);
+                    cases += 1;
+                }
             }
         }
         for force in [i32::MIN, -1, 0, 1, i32::MAX] {
             for speed in [i32::MIN, -1, 0, 1, i32::MAX] {
-                force_to_duty_bounded(current_map, force, speed);
-                cases += 1;
+                for bus in [i32::MIN, 0, 12 * KGF - 1, 12 * KGF, 48 * KGF, i32::MAX] {
+                    force_to_duty_bounded(current_map, force, speed, bus);
+                    cases += 1;
+                }
             }
         }
     }

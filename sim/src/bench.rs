@@ -170,6 +170,7 @@ pub fn measurement(
         drive: inputs.drive,
         current: Amps(current::amps(inputs.motor_current).0),
         limits: inputs.limits,
+        bus: taut_core::drive::BusSense::PAPER.volts(inputs.bus_voltage),
     }
 }
 

@@ -64,7 +64,7 @@
 
 use crate::drive::duty::{DUTY_MAX, Duty};
 use crate::drive::{PWM_TIMER_HZ, PwmTicks};
-use crate::units::AdcCode;
+use crate::units::{AdcCode, Volts};
 
 /// The converter's full-scale code count (12 bit).
 const ADC_COUNTS: u32 = 4_096;
@@ -156,6 +156,12 @@ impl BusSense {
     #[must_use]
     pub fn millivolts(&self, code: AdcCode) -> u32 {
         u32::from(code.get()).saturating_mul(self.full_scale_mv) / ADC_COUNTS
+    }
+
+    /// The bus voltage a code stands for.
+    #[must_use]
+    pub fn volts(&self, code: AdcCode) -> Volts {
+        Volts::from_milli(i32::try_from(self.millivolts(code)).unwrap_or(i32::MAX))
     }
 
     /// The lowest code that reads at least `mv`.

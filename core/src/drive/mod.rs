@@ -57,8 +57,8 @@ pub mod limit;
 pub use commutation::{Gates, LegState, Phase, SwitchPattern, six_step};
 pub use dead_time::{DEAD_TIME, DeadTimeSequencer};
 pub use duty::{DUTY_MAX, Duty};
-pub use hall::{HallCode, HallFilter, HallState, Sector, SectorStep};
-pub use limit::{DriveConfig, DutyWindow, TARE_SETTLE};
+pub use hall::{HALL_CONFIRM_READS, HallCode, HallFilter, HallState, Sector, SectorStep};
+pub use limit::{BusSense, DriveConfig, DutyWindow, TARE_SETTLE};
 
 use crate::io::LimitSwitches;
 use crate::units::{AdcCode, Amps};

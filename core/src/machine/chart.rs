@@ -272,6 +272,7 @@ impl Chart {
             drive: sample.inputs.drive,
             current: Amps(crate::sense::current::amps(sample.inputs.motor_current).0),
             limits: sample.inputs.limits,
+            bus: crate::drive::BusSense::PAPER.volts(sample.inputs.bus_voltage),
         }
     }
 

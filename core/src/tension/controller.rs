@@ -79,7 +79,7 @@ use crate::tension::law::{
 };
 use crate::tension::motor::{DutyMap, ForceToDuty, MotorError, MotorModel, SpeedEstimator};
 use crate::tension::settings::{MmPerSecond, PullKind, PullSettings, TENSION_MAX};
-use crate::units::{Amps, Kgf, KgfPerSecond, Q16, Seconds};
+use crate::units::{Amps, Kgf, KgfPerSecond, Q16, Seconds, Volts};
 
 /// The most duty a release (homing) move uses: 60 %.
 pub const RELEASE_DUTY_MAX: Duty = Duty::from_raw_clamped(39_322);
@@ -304,6 +304,9 @@ pub struct Measurement {
     pub current: Amps,
     /// The carriage limit switches.
     pub limits: LimitSwitches,
+    /// The DC bus voltage (the power board's divider); below half the motor model's bus it
+    /// counts as no reading and the nominal bus is assumed ([`ForceToDuty::set_bus`]).
+    pub bus: Volts,
 }
 
 /// Where in a pull the controller is.
@@ -847,6 +850,7 @@ impl TensionController {
     /// One control tick.
     pub fn step(&mut self, m: &Measurement) -> ControlOutput {
         let speed = self.speed.update(m.drive.steps);
+        self.map.set_bus(m.bus);
         let est = self.estimator.update(m.tension, m.drive.steps);
         self.shown = est.tension;
         let holding = self.profile.phase == PullPhase::Hold;

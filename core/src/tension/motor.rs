@@ -29,6 +29,17 @@
 //! duty is then clamped to `[0, DUTY_MAX]`; zero duty with the pull pattern shorts the two
 //! windings through the low sides, the hardest braking there is.
 //!
+//! # The measured bus
+//!
+//! The coefficients are derived for the nameplate bus (24 V), but a real supply sits
+//! anywhere in 20–30 V and regenerative braking pumps the bus toward the board's clamp
+//! (≈ 35 V). A duty puts `duty·V_bus` on the windings, so every duty the mapping returns is
+//! multiplied by `V_nominal/V_bus` with the bus measured this tick
+//! ([`ForceToDuty::set_bus`]): the force the law asks for, the back-EMF it cancels and the
+//! current window all stay what they are at the nominal bus. Without it a 30 V bus makes
+//! every duty 25 % stronger — and the braking that the approach plans 25 % weaker, because
+//! the duty that should sit below the back-EMF sits at it.
+//!
 //! # Speed from Hall steps
 //!
 //! One Hall step is 1/24 motor turn = 1/480 screw turn = 25.4 mm / 480 ≈ 52.9 µm of
@@ -45,9 +56,11 @@
 //! (construction only; the per-tick path uses 32 × 32 → 64-bit products).
 
 use crate::drive::{DUTY_MAX, Direction, DriveCommand, Duty};
-use crate::tension::law::{Coef, Saturation, filter_gain, mul_wide, narrow, saturate_i32};
+use crate::tension::law::{
+    Coef, Saturation, filter_gain, mul_wide, narrow, reciprocal_q24, saturate_i32,
+};
 use crate::tension::settings::MmPerSecond;
-use crate::units::{Amps, Kgf, Q16, Seconds};
+use crate::units::{Amps, Kgf, Q16, Seconds, Volts};
 
 /// Fraction bits of the duty coefficients.
 pub const DUTY_COEF_FRAC: u32 = 24;
@@ -131,6 +144,12 @@ pub struct ForceToDuty {
     force_limit: i32,
     /// Whether to compensate back-EMF.
     compensate: bool,
+    /// The bus voltage the coefficients were derived for, V (Q15.16 bits).
+    nominal_bus: i32,
+    /// `V_nominal / V_measured` (Q15.16 bits), set every tick by [`ForceToDuty::set_bus`]:
+    /// every duty the mapping returns is multiplied by it, so the same duty-derived voltage
+    /// reaches the windings whatever the bus is (see the module docs).
+    bus_scale: i32,
 }
 
 fn q24_ratio(num: i128, den: i128) -> Result<i32, MotorError> {
@@ -148,8 +167,14 @@ const G_1E5: i128 = 980_665;
 
 impl ForceToDuty {
     /// All coefficients zero: every command is zero duty.
-    pub(crate) const ZERO: Self =
-        Self { duty_per_kgf: 0, duty_per_mm_s: 0, force_limit: 0, compensate: true };
+    pub(crate) const ZERO: Self = Self {
+        duty_per_kgf: 0,
+        duty_per_mm_s: 0,
+        force_limit: 0,
+        compensate: true,
+        nominal_bus: 24 << 16,
+        bus_scale: 1 << 16,
+    };
 
     /// Precomputes the mapping.
     ///
@@ -218,7 +243,44 @@ impl ForceToDuty {
                 i32::try_from(limit).map_err(|_| MotorError::Range)?
             }
         };
-        Ok(Self { duty_per_kgf, duty_per_mm_s, force_limit, compensate })
+        // bus_mv ≤ 60 000 was checked above: 60 V is 3.9 × 10⁶ bits.
+        let nominal_bus = i32::try_from((bus << 16) / 1_000).map_err(|_| MotorError::Range)?;
+        Ok(Self {
+            duty_per_kgf,
+            duty_per_mm_s,
+            force_limit,
+            compensate,
+            nominal_bus,
+            bus_scale: 1 << 16,
+        })
+    }
+
+    /// Takes the bus voltage measured this tick: from now on every duty is scaled by
+    /// `V_nominal / V_bus`. A reading below half the nominal bus is no reading (the board's
+    /// undervoltage lockout holds the gates off there, so the duty does nothing; a missing
+    /// divider reads 0) and leaves the nominal scale; a reading above twice the nominal is
+    /// taken as twice (the drive faults at its configured maximum long before). So the scale
+    /// is always within `[½, 2]` — never a division by a small number. Division-free: one reciprocal ([`reciprocal_q24`]).
+    pub fn set_bus(&mut self, bus: Volts) {
+        let nominal = self.nominal_bus;
+        let measured = bus.to_bits();
+        let measured =
+            if measured < nominal / 2 { nominal } else { measured.min(nominal.saturating_mul(2)) };
+        // Q15.16 × Q8.24 = Q.40 → Q15.16.
+        let scale = mul_wide(nominal, reciprocal_q24(measured)) >> 24;
+        self.bus_scale = saturate_i32(scale).clamp(1 << 15, 1 << 17);
+    }
+
+    /// The present bus scale `V_nominal / V_bus`, Q15.16 (1 until a bus is measured).
+    #[must_use]
+    pub const fn bus_scale(&self) -> Q16 {
+        Q16::from_bits(self.bus_scale)
+    }
+
+    /// A duty (Q15.16 bits) at the nominal bus → the duty that puts the same voltage on the
+    /// windings at the measured bus.
+    fn on_bus(&self, bits: i64) -> i64 {
+        bits.saturating_mul(i64::from(self.bus_scale)) >> 16
     }
 
     /// Duty per kgf at stall, Q7.24.
@@ -249,7 +311,7 @@ impl ForceToDuty {
         let from_force = mul_wide(force, self.duty_per_kgf);
         let from_speed = if self.compensate { mul_wide(speed, self.duty_per_mm_s) } else { 0 };
         // Q15.16 × Q7.24 = Q?.40 → Q15.16.
-        from_force.saturating_add(from_speed) >> (DUTY_COEF_FRAC)
+        self.on_bus(from_force.saturating_add(from_speed) >> (DUTY_COEF_FRAC))
     }
 
     /// The drive command for `force` at carriage speed `speed`, and whether it saturated:
@@ -293,8 +355,9 @@ impl ForceToDuty {
     /// the speed is beyond the motor's reach; see [`ForceToDuty::command`]).
     #[must_use]
     pub fn current_window(&self, speed: MmPerSecond) -> (i64, i64) {
-        let back_emf = mul_wide(speed.0.to_bits(), self.duty_per_mm_s) >> DUTY_COEF_FRAC;
-        let room = mul_wide(self.force_limit, self.duty_per_kgf) >> DUTY_COEF_FRAC;
+        let back_emf =
+            self.on_bus(mul_wide(speed.0.to_bits(), self.duty_per_mm_s) >> DUTY_COEF_FRAC);
+        let room = self.on_bus(mul_wide(self.force_limit, self.duty_per_kgf) >> DUTY_COEF_FRAC);
         let high = back_emf.saturating_add(room).min(i64::from(DUTY_MAX.raw()));
         let low = back_emf.saturating_sub(room).max(0);
         (low, high)
@@ -305,9 +368,11 @@ impl ForceToDuty {
     /// `[0, DUTY_MAX]` (full duty from rest would draw the stall current).
     #[must_use]
     pub fn current_limited_duty(&self, speed: MmPerSecond) -> Duty {
-        let bits = mul_wide(speed.0.to_bits(), self.duty_per_mm_s)
-            .saturating_add(mul_wide(self.force_limit, self.duty_per_kgf))
-            >> DUTY_COEF_FRAC;
+        let bits = self.on_bus(
+            mul_wide(speed.0.to_bits(), self.duty_per_mm_s)
+                .saturating_add(mul_wide(self.force_limit, self.duty_per_kgf))
+                >> DUTY_COEF_FRAC,
+        );
         Duty::from_fraction_clamped(Q16::from_bits(saturate_i32(bits)))
     }
 
@@ -316,9 +381,11 @@ impl ForceToDuty {
     /// `[0, ceiling]`.
     #[must_use]
     pub fn velocity_duty(&self, speed: MmPerSecond, load: Kgf, ceiling: Duty) -> Duty {
-        let bits = mul_wide(speed.0.to_bits(), self.duty_per_mm_s)
-            .saturating_add(mul_wide(load.to_bits(), self.duty_per_kgf))
-            >> DUTY_COEF_FRAC;
+        let bits = self.on_bus(
+            mul_wide(speed.0.to_bits(), self.duty_per_mm_s)
+                .saturating_add(mul_wide(load.to_bits(), self.duty_per_kgf))
+                >> DUTY_COEF_FRAC,
+        );
         let duty = Duty::from_fraction_clamped(Q16::from_bits(saturate_i32(bits)));
         if duty > ceiling { ceiling } else { duty }
     }
@@ -424,6 +491,50 @@ mod tests {
     /// A Q7.24 coefficient in millionths.
     fn f_q24(bits: i32) -> i64 {
         (i64::from(bits) * 1_000_000) >> 24
+    }
+
+    #[test]
+    fn every_duty_is_scaled_to_the_measured_bus() {
+        for map in [
+            DutyMap::Proportional { current_limit: Amps::from_int(8) },
+            DutyMap::BackEmf { current_limit: Amps::from_int(8) },
+        ] {
+            let nominal = valid(ForceToDuty::new(&MotorModel::PAPER, map));
+            let speed = MmPerSecond::from_int(30);
+            let duties = |m: &ForceToDuty| {
+                let (low, high) = m.current_window(speed);
+                [
+                    i64::from(m.command(Kgf::from_int(20), speed).0.duty().raw()),
+                    low,
+                    high,
+                    i64::from(m.current_limited_duty(speed).raw()),
+                    i64::from(m.velocity_duty(speed, Kgf::from_int(10), DUTY_MAX).raw()),
+                ]
+            };
+            let at_24 = duties(&nominal);
+            assert!(at_24.iter().all(|&d| d > 0 && d < 60_000), "{at_24:?}");
+            // (measured volts, expected scale in 1/1000): 30 V → 0.8, 20 V → 1.2; below half
+            // the nominal is no reading (1); above twice the nominal is taken as twice (0.5).
+            for (volts, scale_milli) in [
+                (24, 1_000),
+                (30, 800),
+                (20, 1_200),
+                (12, 2_000),
+                (11, 1_000),
+                (0, 1_000),
+                (-5, 1_000),
+                (100, 500),
+            ] {
+                let mut map = nominal;
+                map.set_bus(Volts::from_int(volts));
+                let scale = (i64::from(map.bus_scale().to_bits()) * 1_000 + (1 << 15)) >> 16;
+                assert_eq!(scale, scale_milli, "{volts} V");
+                for (scaled, base) in duties(&map).into_iter().zip(at_24) {
+                    let expected = (base * scale_milli / 1_000).min(i64::from(DUTY_MAX.raw()));
+                    assert!((scaled - expected).abs() <= 2, "{volts} V: {scaled} vs {expected}");
+                }
+            }
+        }
     }
 
     #[test]

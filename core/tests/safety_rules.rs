@@ -1,0 +1,294 @@
+//! The machine's safety rules (`machine::safety`) pinned at their thresholds, under plain
+//! `cargo test`.
+//!
+//! A fault threshold is a number with a side: "overload" is *above* the limit, "string break"
+//! is *below* half the peak, a rail is *at or beyond* its code. The whole-machine model check
+//! and the scenario tests drive tensions well past each threshold, so they cannot tell `<`
+//! from `<=`; a threshold that no test pins can drift by one step without anything going red.
+//! Each test here puts a sample exactly on a threshold and one resolution step either side
+//! (2⁻¹⁶ kgf for tensions, one converter code, one tick, one millisecond) and states which
+//! side faults. The precedence of the tension faults and the tension watch's invariant
+//! (including deliberately invalid watches) are stated too.
+#![allow(
+    clippy::arithmetic_side_effects,
+    clippy::indexing_slicing,
+    reason = "a test: bookkeeping on small constants; a panic fails the test, as it should"
+)]
+
+use taut_core::drive::{Direction, DriveCommand, DriveFault, Duty, PwmTicks};
+use taut_core::io::{Inputs, LimitSwitches};
+use taut_core::machine::FaultCode;
+use taut_core::machine::safety::{
+    BREAK_MIN_PEAK, BREAK_PERSIST, LOAD_CELL_BOTTOM_RAIL, LOAD_CELL_TOP_RAIL, NO_STRING_TENSION,
+    NO_STRING_TRAVEL_STEPS, OVERCURRENT_CODE, OVERLOAD_ABSOLUTE, OVERLOAD_MARGIN, OVERLOAD_PERSIST,
+    REVERSED_PERSIST, REVERSED_TENSION, STALL_DUTY, STALL_QUIET, STALL_QUIET_MS, TensionSample,
+    TensionWatch, global_fault, load_cell_rail, overload_limit, stall,
+};
+use taut_core::units::{AdcCode, Kgf};
+
+/// One resolution step of a tension (2⁻¹⁶ kgf).
+const STEP: i32 = 1;
+
+fn kgf_bits(kgf: Kgf, steps: i32) -> Kgf {
+    Kgf::from_bits(kgf.to_bits() + steps)
+}
+
+/// A quiet sample: `tension` (corrected and raw), no travel, no limit, a 25 kgf pull.
+fn sample(tension: Kgf) -> TensionSample {
+    TensionSample {
+        tension,
+        raw: tension,
+        steps: 0,
+        limits: LimitSwitches::default(),
+        peak_target: Kgf::from_int(25),
+    }
+}
+
+/// Runs `ticks` identical samples through a fresh watch; the last tick's verdict.
+fn after(ticks: u8, watch: &mut TensionWatch, sample: &TensionSample) -> Option<FaultCode> {
+    let mut verdict = None;
+    for _ in 0..ticks {
+        verdict = watch.check(sample);
+    }
+    verdict
+}
+
+#[test]
+fn overload_is_strictly_above_the_limit() {
+    let limit = overload_limit(Kgf::from_int(25));
+    assert_eq!(limit, Kgf::from_int(30));
+    let at = sample(limit);
+    assert_eq!(after(OVERLOAD_PERSIST + 5, &mut TensionWatch::new(0), &at), None);
+    let above = sample(kgf_bits(limit, STEP));
+    assert_eq!(after(OVERLOAD_PERSIST - 1, &mut TensionWatch::new(0), &above), None);
+    assert_eq!(
+        after(OVERLOAD_PERSIST, &mut TensionWatch::new(0), &above),
+        Some(FaultCode::Overload)
+    );
+}
+
+#[test]
+fn overload_limit_is_the_margin_above_the_peak_target_capped_at_the_absolute_limit() {
+    for target_tenths in [0, 50, 250, 479, 480, 481, 500, 550, 1_000] {
+        let target = Kgf::from_tenths(target_tenths);
+        let relative = target.saturating_add(OVERLOAD_MARGIN);
+        let expected = relative.min(OVERLOAD_ABSOLUTE);
+        assert_eq!(overload_limit(target), expected, "target {target_tenths} tenths");
+    }
+    assert_eq!(
+        overload_limit(kgf_bits(Kgf::from_int(48), -STEP)),
+        kgf_bits(OVERLOAD_ABSOLUTE, -STEP)
+    );
+    assert_eq!(overload_limit(Kgf::MAX), OVERLOAD_ABSOLUTE, "saturates, then caps");
+}
+
+#[test]
+fn an_interrupted_overload_starts_counting_again() {
+    let mut watch = TensionWatch::new(0);
+    let over = sample(Kgf::from_int(31));
+    assert_eq!(after(OVERLOAD_PERSIST - 1, &mut watch, &over), None);
+    assert_eq!(watch.check(&sample(Kgf::from_int(30))), None);
+    assert_eq!(after(OVERLOAD_PERSIST - 1, &mut watch, &over), None);
+    assert_eq!(watch.check(&over), Some(FaultCode::Overload));
+}
+
+#[test]
+fn string_break_is_strictly_below_half_the_peak() {
+    let peak = Kgf::from_int(20);
+    let half = Kgf::from_int(10);
+    let primed = || {
+        let mut watch = TensionWatch::new(0);
+        assert_eq!(watch.check(&sample(peak)), None);
+        watch
+    };
+    assert_eq!(after(BREAK_PERSIST + 5, &mut primed(), &sample(half)), None);
+    let below = sample(kgf_bits(half, -STEP));
+    assert_eq!(after(BREAK_PERSIST - 1, &mut primed(), &below), None);
+    assert_eq!(after(BREAK_PERSIST, &mut primed(), &below), Some(FaultCode::StringBreak));
+}
+
+#[test]
+fn string_break_needs_the_peak_to_have_reached_the_minimum() {
+    // Peak exactly at BREAK_MIN_PEAK: a collapse is a break.
+    let mut watch = TensionWatch::new(0);
+    watch.check(&sample(BREAK_MIN_PEAK));
+    assert_eq!(after(BREAK_PERSIST, &mut watch, &sample(Kgf::ZERO)), Some(FaultCode::StringBreak));
+    // One step below it: slack being taken up, never a break.
+    let mut watch = TensionWatch::new(0);
+    watch.check(&sample(kgf_bits(BREAK_MIN_PEAK, -STEP)));
+    assert_eq!(after(BREAK_PERSIST + 5, &mut watch, &sample(Kgf::ZERO)), None);
+}
+
+#[test]
+fn the_peak_is_the_highest_tension_seen() {
+    let mut watch = TensionWatch::new(0);
+    for tenths in [10, 80, 30, 80, 79, 0] {
+        watch.check(&sample(Kgf::from_tenths(tenths)));
+    }
+    assert_eq!(watch.peak, Kgf::from_tenths(80));
+    // Negative readings never lower it below zero (it starts at zero).
+    let mut watch = TensionWatch::new(0);
+    watch.check(&sample(Kgf::from_int(-2)));
+    assert_eq!(watch.peak, Kgf::ZERO);
+}
+
+#[test]
+fn reversed_load_cell_is_strictly_below_the_reversed_tension() {
+    let at = TensionSample { raw: REVERSED_TENSION, ..sample(Kgf::ZERO) };
+    assert_eq!(after(REVERSED_PERSIST + 5, &mut TensionWatch::new(0), &at), None);
+    let below = TensionSample { raw: kgf_bits(REVERSED_TENSION, -STEP), ..sample(Kgf::ZERO) };
+    assert_eq!(after(REVERSED_PERSIST - 1, &mut TensionWatch::new(0), &below), None);
+    assert_eq!(
+        after(REVERSED_PERSIST, &mut TensionWatch::new(0), &below),
+        Some(FaultCode::LoadCellReversed)
+    );
+    // The sign check reads the uncorrected reading, not the corrected tension.
+    let corrected_only = TensionSample { tension: Kgf::from_int(-1), ..sample(Kgf::ZERO) };
+    assert_eq!(after(REVERSED_PERSIST + 5, &mut TensionWatch::new(0), &corrected_only), None);
+}
+
+#[test]
+fn no_string_is_beyond_the_travel_with_the_peak_strictly_below_the_tension() {
+    let start = -40;
+    let at_travel = |peak: Kgf, travel: i32| {
+        let mut watch = TensionWatch::new(start);
+        watch.check(&sample(peak));
+        watch.check(&TensionSample { steps: start + travel, ..sample(Kgf::ZERO) })
+    };
+    let below = kgf_bits(NO_STRING_TENSION, -STEP);
+    assert_eq!(at_travel(below, NO_STRING_TRAVEL_STEPS), None);
+    assert_eq!(at_travel(below, NO_STRING_TRAVEL_STEPS + 1), Some(FaultCode::NoString));
+    assert_eq!(at_travel(NO_STRING_TENSION, NO_STRING_TRAVEL_STEPS + 1), None);
+    assert_eq!(at_travel(NO_STRING_TENSION, 100_000), None);
+    // Travel is counted from the pull's start, in the pulling direction only.
+    assert_eq!(at_travel(Kgf::ZERO, -(NO_STRING_TRAVEL_STEPS + 1)), None);
+}
+
+#[test]
+fn travel_is_measured_from_the_start_and_wraps_with_the_step_counter() {
+    let watch = TensionWatch::new(1_000);
+    assert_eq!(watch.travel(1_000), 0);
+    assert_eq!(watch.travel(3_835), NO_STRING_TRAVEL_STEPS);
+    assert_eq!(watch.travel(-1_000), -2_000);
+    let near_wrap = TensionWatch::new(i32::MAX - 10);
+    assert_eq!(near_wrap.travel(i32::MIN + 10), 21, "the Hall step counter wraps");
+}
+
+#[test]
+fn end_of_travel_needs_the_end_switch_alone() {
+    let end = TensionSample {
+        limits: LimitSwitches { home: false, end: true },
+        ..sample(Kgf::from_int(3))
+    };
+    assert_eq!(TensionWatch::new(0).check(&end), Some(FaultCode::EndOfTravel));
+    // Both switches at once is a wiring fault, reported by the global rule, not here.
+    let both = TensionSample { limits: LimitSwitches { home: true, end: true }, ..end };
+    assert_eq!(TensionWatch::new(0).check(&both), None);
+    let home = TensionSample { limits: LimitSwitches { home: true, end: false }, ..end };
+    assert_eq!(TensionWatch::new(0).check(&home), None);
+}
+
+/// End of travel, then overload, string break, reversed load cell, no string.
+#[test]
+fn tension_faults_in_order_of_precedence() {
+    let end = LimitSwitches { home: false, end: true };
+    // Overload and end of travel together: end of travel.
+    let mut watch = TensionWatch::new(0);
+    let over = sample(Kgf::from_int(45));
+    after(OVERLOAD_PERSIST - 1, &mut watch, &over);
+    assert_eq!(watch.check(&TensionSample { limits: end, ..over }), Some(FaultCode::EndOfTravel));
+    // Overload and a reversed reading together (a corrected overload, a negative raw): overload.
+    let mut watch = TensionWatch::new(0);
+    let both = TensionSample { raw: Kgf::from_int(-1), ..over };
+    assert_eq!(after(REVERSED_PERSIST, &mut watch, &both), Some(FaultCode::Overload));
+    // A break with a negative raw reading: the break first.
+    let mut watch = TensionWatch::new(0);
+    watch.check(&sample(Kgf::from_int(20)));
+    let collapsed = TensionSample { raw: Kgf::from_int(-1), ..sample(Kgf::ZERO) };
+    assert_eq!(after(BREAK_PERSIST, &mut watch, &collapsed), Some(FaultCode::StringBreak));
+    // Reversed and no string together: reversed.
+    let mut watch = TensionWatch::new(0);
+    let far = TensionSample { steps: NO_STRING_TRAVEL_STEPS + 1, ..collapsed };
+    assert_eq!(watch.check(&far), Some(FaultCode::NoString));
+    let mut watch = TensionWatch::new(0);
+    assert_eq!(after(REVERSED_PERSIST, &mut watch, &far), Some(FaultCode::LoadCellReversed));
+}
+
+/// The watch's invariant: peak within 0–60 kgf, counters at most their persistence; exactly
+/// at each bound is valid, one step beyond is not.
+#[test]
+fn tension_watch_invariant_at_its_bounds() {
+    let sixty = Kgf::from_int(60);
+    let valid = |peak: Kgf, overload: u8, broken: u8, reversed: u8| {
+        TensionWatch::from_parts(7, peak, overload, broken, reversed).is_valid()
+    };
+    assert!(valid(Kgf::ZERO, 0, 0, 0));
+    assert!(valid(sixty, OVERLOAD_PERSIST, BREAK_PERSIST, REVERSED_PERSIST));
+    assert!(!valid(kgf_bits(Kgf::ZERO, -STEP), 0, 0, 0));
+    assert!(!valid(kgf_bits(sixty, STEP), 0, 0, 0));
+    assert!(!valid(Kgf::ZERO, OVERLOAD_PERSIST + 1, 0, 0));
+    assert!(!valid(Kgf::ZERO, 0, BREAK_PERSIST + 1, 0));
+    assert!(!valid(Kgf::ZERO, 0, 0, REVERSED_PERSIST + 1));
+    assert!(TensionWatch::new(-5).is_valid());
+    assert_eq!(TensionWatch::new(-5), TensionWatch::from_parts(-5, Kgf::ZERO, 0, 0, 0));
+    // A watch part-way through an overload latches after the remaining ticks only.
+    let mut watch = TensionWatch::from_parts(0, Kgf::from_int(31), OVERLOAD_PERSIST - 1, 0, 0);
+    assert_eq!(watch.check(&sample(Kgf::from_int(31))), Some(FaultCode::Overload));
+}
+
+#[test]
+fn load_cell_rails_are_at_or_beyond_their_codes() {
+    let code = |raw: u16| load_cell_rail(AdcCode::new(raw));
+    assert_eq!(code(0), Some(FaultCode::LoadCellOpen));
+    assert_eq!(code(LOAD_CELL_BOTTOM_RAIL.get()), Some(FaultCode::LoadCellOpen));
+    assert_eq!(code(LOAD_CELL_BOTTOM_RAIL.get() + 1), None);
+    assert_eq!(code(LOAD_CELL_TOP_RAIL.get() - 1), None);
+    assert_eq!(code(LOAD_CELL_TOP_RAIL.get()), Some(FaultCode::LoadCellShort));
+    assert_eq!(code(4_095), Some(FaultCode::LoadCellShort));
+}
+
+#[test]
+fn overcurrent_is_at_or_above_its_code() {
+    let with_current = |raw: u16| Inputs { motor_current: AdcCode::new(raw), ..Inputs::default() };
+    assert_eq!(global_fault(&with_current(OVERCURRENT_CODE.get() - 1)), None);
+    assert_eq!(global_fault(&with_current(OVERCURRENT_CODE.get())), Some(FaultCode::Overcurrent));
+    // Every latched drive fault is reported with its own code, before overcurrent.
+    for (fault, code) in [
+        (DriveFault::Overcurrent, FaultCode::Overcurrent),
+        (DriveFault::OvercurrentTrip, FaultCode::OvercurrentTrip),
+        (DriveFault::HallInvalid, FaultCode::HallInvalid),
+        (DriveFault::SectorSkipped, FaultCode::HallSequence),
+    ] {
+        let mut inputs = with_current(4_095);
+        inputs.drive.fault = Some(fault);
+        assert_eq!(global_fault(&inputs), Some(code), "{fault:?}");
+        assert_eq!(FaultCode::from_drive(fault), code);
+        inputs.limits = LimitSwitches { home: true, end: true };
+        assert_eq!(global_fault(&inputs), Some(FaultCode::LimitsBoth));
+    }
+    // One switch alone is not a global fault.
+    for limits in
+        [LimitSwitches { home: true, end: false }, LimitSwitches { home: false, end: true }]
+    {
+        assert_eq!(global_fault(&Inputs { limits, ..Inputs::default() }), None);
+    }
+}
+
+#[test]
+fn stall_needs_the_duty_the_time_and_the_quiet_each_at_their_threshold() {
+    let command = |duty: Duty| DriveCommand::Drive { direction: Direction::Pull, duty };
+    let quiet = |ticks: u32| {
+        let mut inputs = Inputs::default();
+        inputs.drive.quiet_for = PwmTicks(ticks);
+        inputs
+    };
+    let duty = STALL_DUTY;
+    let below_duty = Duty::from_raw_clamped(STALL_DUTY.raw() - 1);
+    let q = STALL_QUIET.0;
+    assert!(stall(command(duty), &quiet(q), STALL_QUIET_MS));
+    assert!(!stall(command(below_duty), &quiet(q), STALL_QUIET_MS));
+    assert!(!stall(command(duty), &quiet(q - 1), STALL_QUIET_MS));
+    assert!(!stall(command(duty), &quiet(q), STALL_QUIET_MS - 1));
+    assert!(!stall(DriveCommand::Coast, &quiet(u32::MAX), u32::MAX));
+    assert!(stall(command(Duty::from_raw_clamped(u16::MAX)), &quiet(u32::MAX), u32::MAX));
+}

@@ -312,3 +312,17 @@ fn duty_zero_and_validity() {
     assert!(DUTY_MAX.is_valid());
     assert!(Duty::ZERO.is_valid());
 }
+
+/// `Gates::leg` reads back the two gate signals of the named leg, as `SwitchPattern::gates`
+/// sets them — the shoot-through proofs check legs through it, so it must not hide one.
+#[test]
+fn gates_read_back_each_leg_of_every_pattern() {
+    for pattern in patterns() {
+        let gates = pattern.gates();
+        for phase in Phase::ALL {
+            let state = pattern.leg(phase);
+            let expected = (state == LegState::High, state == LegState::Low);
+            assert_eq!(gates.leg(phase), expected, "{pattern:?} {phase:?}");
+        }
+    }
+}

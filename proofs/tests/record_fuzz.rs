@@ -1,7 +1,8 @@
 //! The record-decoder fuzz oracle (`REQ-STORE-01`, `REQ-UI-08`) under `cargo test`: the
 //! independent CRC agrees with the core's, every seed input reaches an accepted record, the
 //! committed seed corpus is the one the seeds generate, and proptest mutates the seeds in both
-//! modes. Each test prints how many cases it covered.
+//! modes; the decoder's field and reserved-byte rules are checked behind a good CRC. Each test
+//! prints how many cases it covered.
 //!
 //! Regenerate the seed corpus after a record format change with
 //! `TAUT_WRITE_SEEDS=1 cargo test -p taut-proofs --test record_fuzz`.
@@ -143,4 +144,87 @@ fn record_fuzz_mutated_seeds_proptest() {
     let accepted = accepted.into_inner();
     println!("record_fuzz_mutated_seeds_proptest: {accepted} mutated inputs accepted");
     assert!(accepted > 100, "the mutations should often keep a valid record: {accepted}");
+}
+
+/// An edit of the settings block that starts at the given offset.
+type BlockEdit = fn(&mut [u8; RECORD_LEN], usize);
+
+/// `record` with `edit` applied and its CRC resealed, decoded.
+fn decode_edited(
+    record: &Record,
+    edit: impl FnOnce(&mut [u8; RECORD_LEN]),
+) -> Result<Record, StoreError> {
+    let mut bytes = record.encode();
+    edit(&mut bytes);
+    reseal(&mut bytes);
+    decoder_is_sound(&bytes);
+    Record::decode(&bytes)
+}
+
+/// REQ-STORE-03: the reserved bytes (3 and 105–123) must be zero even when the CRC is good, so
+/// a later format that uses them cannot be misread as this one.
+#[test]
+fn record_rules_reserved_bytes_are_refused_behind_a_good_crc() {
+    for (name, record) in seed_records() {
+        for index in std::iter::once(3).chain(105..CRC_OFFSET) {
+            for value in [1u8, 0x80, 0xFF] {
+                let decoded = decode_edited(&record, |bytes| bytes[index] = value);
+                assert_eq!(
+                    decoded,
+                    Err(StoreError::ReservedNotZero),
+                    "{name}: byte {index} = {value}"
+                );
+            }
+        }
+    }
+}
+
+/// REQ-STORE-03: every settings block (the current one and the nine presets) is checked field
+/// by field behind a good CRC, at each field's first invalid value; the calibration block's
+/// presence flag is 0 or 1, and an absent calibration is all zeros.
+#[test]
+fn record_rules_fields_are_refused_behind_a_good_crc() {
+    let record = seed_records()[0].1;
+    for block in 0..10 {
+        let at = 4 + 6 * block;
+        let edits: [(&str, BlockEdit); 9] = [
+            ("tenths 49 kg", |b, at| b[at..at + 2].copy_from_slice(&49u16.to_le_bytes())),
+            ("tenths 501 kg", |b, at| b[at..at + 2].copy_from_slice(&501u16.to_le_bytes())),
+            ("unit 2", |b, at| b[at + 2] = 2),
+            ("lb off the 0.5 step", |b, at| {
+                b[at..at + 2].copy_from_slice(&251u16.to_le_bytes());
+                b[at + 2] = 1;
+            }),
+            ("speed 0", |b, at| b[at + 3] = 0),
+            ("speed 10", |b, at| b[at + 3] = 10),
+            ("pre-stretch 31", |b, at| b[at + 4] = 31),
+            ("knot 21", |b, at| b[at + 5] = 21),
+            ("knot 255", |b, at| b[at + 5] = 255),
+        ];
+        for (what, edit) in edits {
+            let decoded = decode_edited(&record, |bytes| edit(bytes, at));
+            assert_eq!(decoded, Err(StoreError::InvalidSettings), "block {block}: {what}");
+        }
+        // The last valid values of each field pass.
+        let decoded = decode_edited(&record, |b| {
+            b[at..at + 2].copy_from_slice(&1_100u16.to_le_bytes());
+            b[at + 2] = 1;
+            b[at + 3] = 9;
+            b[at + 4] = 30;
+            b[at + 5] = 20;
+        });
+        assert!(decoded.is_ok(), "block {block}: the largest valid values were refused");
+    }
+    let calibration_flag = 64;
+    for flag in [2u8, 0xFF] {
+        let decoded = decode_edited(&record, |b| b[calibration_flag] = flag);
+        assert_eq!(decoded, Err(StoreError::InvalidCalibration), "flag {flag}");
+    }
+    for index in calibration_flag + 1..calibration_flag + 33 {
+        let decoded = decode_edited(&record, |b| b[index] = 1);
+        assert_eq!(decoded, Err(StoreError::InvalidCalibration), "stray calibration byte {index}");
+    }
+    // Flag 1 takes the 32 bytes as the four points, whatever they hold (validated at boot).
+    let decoded = decode_edited(&record, |b| b[calibration_flag] = 1);
+    assert_eq!(decoded.map(|r| r.calibration.is_some()), Ok(true));
 }

@@ -326,3 +326,15 @@ fn gates_read_back_each_leg_of_every_pattern() {
         }
     }
 }
+
+/// `Sector::advanced(steps)` is `steps` sectors on, modulo 6, for every `u8` (the commutation
+/// table's reverse direction is `advanced(3)`; callers may pass any count).
+#[test]
+fn sectors_advance_modulo_six_for_every_step_count() {
+    for sector in Sector::ALL {
+        for steps in 0..=u8::MAX {
+            let expected = (u16::from(sector.index()) + u16::from(steps)) % 6;
+            assert_eq!(u16::from(sector.advanced(steps).index()), expected, "{sector:?} + {steps}");
+        }
+    }
+}

@@ -15,7 +15,7 @@
     reason = "a test: bookkeeping on small constants; a panic fails the test, as it should"
 )]
 
-use taut_core::drive::{Direction, DriveCommand, DriveFault, Duty, PwmTicks};
+use taut_core::drive::{Direction, DriveCommand, DriveFault, Duty, PWM_TIMER_HZ, PwmTicks};
 use taut_core::io::{Inputs, LimitSwitches};
 use taut_core::machine::FaultCode;
 use taut_core::machine::safety::{
@@ -290,5 +290,8 @@ fn stall_needs_the_duty_the_time_and_the_quiet_each_at_their_threshold() {
     assert!(!stall(command(duty), &quiet(q - 1), STALL_QUIET_MS));
     assert!(!stall(command(duty), &quiet(q), STALL_QUIET_MS - 1));
     assert!(!stall(DriveCommand::Coast, &quiet(u32::MAX), u32::MAX));
+    // The quiet time is the same 500 ms as the command time, in 170 MHz timer ticks.
+    assert_eq!(STALL_QUIET_MS, 500);
+    assert_eq!(STALL_QUIET, PwmTicks(500 * (PWM_TIMER_HZ / 1_000)));
     assert!(stall(command(Duty::from_raw_clamped(u16::MAX)), &quiet(u32::MAX), u32::MAX));
 }

@@ -65,6 +65,7 @@ impl Key {
     /// Every key.
     pub const ALL: [Self; 5] = [Self::Start, Self::Up, Self::Down, Self::Function, Self::Preset];
 
+    #[inline(always)]
     const fn mask(self) -> u8 {
         match self {
             Self::Start => 1,
@@ -99,18 +100,21 @@ impl Keys {
 
     /// Whether `key` is down.
     #[must_use]
+    #[inline(always)]
     pub const fn contains(self, key: Key) -> bool {
         self.0 & key.mask() != 0
     }
 
     /// This set with `key` down.
     #[must_use]
+    #[inline]
     pub const fn with(self, key: Key) -> Self {
         Self(self.0 | key.mask())
     }
 
     /// Whether no key is down.
     #[must_use]
+    #[inline]
     pub const fn is_empty(self) -> bool {
         self.0 == 0
     }
@@ -151,6 +155,9 @@ pub struct Inputs {
     pub load_cell: AdcCode,
     /// The motor (bus) current converter code, averaged over the tick.
     pub motor_current: AdcCode,
+    /// The DC bus voltage's converter code, through the power board's divider (averaged over
+    /// the tick; its scale is part of the board's configuration).
+    pub bus_voltage: AdcCode,
     /// The fast loop's report: fault, Hall step count, rotation.
     pub drive: DriveStatus,
     /// The string-length counter: the quadrature timer's count (wraps at 65 536).

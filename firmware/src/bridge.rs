@@ -56,10 +56,10 @@
 //! as [`taut_core::drive::DriveSample::overcurrent_trip`]; `MOE` is set again only while the
 //! core reports no latched fault ([`main_output_enabled`]).
 
-use taut_core::drive::{
-    DEAD_TIME, DriveOutput, Duty, LegState, PWM_FREQUENCY_HZ, PWM_PERIOD_TICKS, PWM_TIMER_HZ,
-    PwmTicks, SwitchPattern,
+use crate::timing::{
+    CR2_TRGO2_IS_OC5REF, DEAD_TIME, PWM_FREQUENCY_HZ, PWM_PERIOD_TICKS, PWM_TIMER_HZ,
 };
+use taut_core::drive::{DriveOutput, Duty, LegState, PwmTicks, SwitchPattern};
 
 /// The low-side gate inputs are active low (L6398 `LIN`).
 pub const LOW_SIDE_ACTIVE_LOW: bool = true;
@@ -94,11 +94,12 @@ fn ccmr_channel_bits(mode: u32, second_in_register: bool) -> u32 {
 }
 
 /// Control register 2: `CCPC = 1` (mode and enable bits preloaded, applied by `COMG`),
-/// `CCUS = 0` (only software `COMG` applies them), idle levels off on every gate.
+/// `CCUS = 0` (only software `COMG` applies them), idle levels off on every gate, and TRGO2 =
+/// channel 5's reference, the trigger of the slow ADC samples ([`crate::timing`]).
 pub const CR2: u32 = {
     let ois_low = if LOW_SIDE_ACTIVE_LOW { 1 } else { 0 };
     // OIS1 bit 8, OIS1N bit 9, OIS2 bit 10, OIS2N bit 11, OIS3 bit 12, OIS3N bit 13.
-    1 | (ois_low << 9) | (ois_low << 11) | (ois_low << 13)
+    1 | (ois_low << 9) | (ois_low << 11) | (ois_low << 13) | CR2_TRGO2_IS_OC5REF
 };
 
 /// Break and dead-time register without `MOE`: dead time, `OSSI = OSSR = 1` (disabled outputs

@@ -21,6 +21,8 @@
 //!   the power-safe store (sequential-storage) that keeps it there.
 //! - [`panel`]: the TM1637 7-segment driver that shifts the core's
 //!   [`taut_core::io::Segments`] out on two wires.
+//! - [`timing`]: the PWM period and dead time from the core, and where in the period the ADCs
+//!   sample (checked against them at compile time).
 //! - [`log`]: the one place that knows about defmt.
 #![no_std]
 #![cfg_attr(
@@ -45,3 +47,4 @@ pub mod log;
 pub mod panel;
 pub mod pins;
 pub mod settings;
+pub mod timing;

@@ -112,6 +112,8 @@ pub const PHASE_C_LOW: Pin = Pin::new(Port::B, 1);
 pub const OVERCURRENT: Pin = Pin::new(Port::A, 6);
 /// PA0: bus-current amplifier.
 pub const MOTOR_CURRENT: Pin = Pin::new(Port::A, 0);
+/// PA1: DC bus voltage divider.
+pub const BUS_VOLTAGE: Pin = Pin::new(Port::A, 1);
 /// PA15: Hall sensor A.
 pub const HALL_A: Pin = Pin::new(Port::A, 15);
 /// PB3: Hall sensor B.
@@ -146,7 +148,7 @@ pub const DISPLAY_DATA: Pin = Pin::new(Port::B, 9);
 pub const BEEPER: Pin = Pin::new(Port::B, 11);
 
 /// The wiring table: every pin the firmware drives or reads.
-pub const ASSIGNMENTS: [Assignment; 24] = [
+pub const ASSIGNMENTS: [Assignment; 25] = [
     row("phase A high side", PHASE_A_HIGH, "TIM1_CH1 (AF6)", "IHM08M1 L6398 U HIN, active high"),
     row("phase B high side", PHASE_B_HIGH, "TIM1_CH2 (AF6)", "IHM08M1 L6398 V HIN, active high"),
     row("phase C high side", PHASE_C_HIGH, "TIM1_CH3 (AF6)", "IHM08M1 L6398 W HIN, active high"),
@@ -162,8 +164,14 @@ pub const ASSIGNMENTS: [Assignment; 24] = [
     row(
         "motor (bus) current",
         MOTOR_CURRENT,
-        "ADC1_IN1 + ADC2_IN1 (analog)",
+        "ADC1_IN1 (analog, injected)",
         "IHM08M1 current amplifier, single-shunt setting",
+    ),
+    row(
+        "DC bus voltage",
+        BUS_VOLTAGE,
+        "ADC1_IN2 (analog, regular)",
+        "IHM08M1 bus divider, gain 0.0522 (48 V reads 2.51 V)",
     ),
     row("Hall A", HALL_A, "TIM2_CH1 (AF1)", "motor Hall H1, IHM08M1 Hall/encoder connector"),
     row("Hall B", HALL_B, "TIM2_CH2 (AF1)", "motor Hall H2, IHM08M1 Hall/encoder connector"),
@@ -171,7 +179,7 @@ pub const ASSIGNMENTS: [Assignment; 24] = [
     row(
         "load cell",
         LOAD_CELL,
-        "ADC2_IN15 (analog)",
+        "ADC2_IN15 (analog, regular)",
         "instrumentation amplifier 0–5 V through 17.4 kΩ / 33.2 kΩ divider",
     ),
     row("string encoder A", ENCODER_A, "TIM4_CH1 (AF2)", "quadrature encoder A, pull-up"),
@@ -209,7 +217,7 @@ pub const ASSIGNMENTS: [Assignment; 24] = [
 ];
 
 /// Pins the firmware must leave alone, with their owner.
-pub const RESERVED: [(Pin, &str); 22] = [
+pub const RESERVED: [(Pin, &str); 21] = [
     (Pin::new(Port::A, 13), "SWDIO (ST-LINK)"),
     (Pin::new(Port::A, 14), "SWCLK (ST-LINK)"),
     (Pin::new(Port::A, 2), "LPUART1 TX (ST-LINK virtual COM port)"),
@@ -222,7 +230,6 @@ pub const RESERVED: [(Pin, &str); 22] = [
     (Pin::new(Port::F, 1), "HSE crystal"),
     (Pin::new(Port::G, 10), "NRST"),
     (Pin::new(Port::B, 8), "BOOT0"),
-    (Pin::new(Port::A, 1), "IHM08M1 bus voltage"),
     (Pin::new(Port::A, 4), "IHM08M1 potentiometer"),
     (Pin::new(Port::B, 2), "IHM08M1 LED"),
     (Pin::new(Port::C, 0), "IHM08M1 phase W current (3-shunt)"),

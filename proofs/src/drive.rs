@@ -101,6 +101,7 @@ impl StepInput {
             hall: HallCode::from_raw(self.hall),
             current: AdcCode::new(self.current),
             overcurrent_trip: self.trip,
+            bus_voltage: AdcCode::MIN,
             limits: LimitSwitches { home: self.home, end: self.end },
             elapsed: PwmTicks(self.elapsed),
         }

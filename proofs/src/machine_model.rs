@@ -305,6 +305,7 @@ impl World {
             now_ms: self.now_ms,
             load_cell,
             motor_current,
+            bus_voltage: AdcCode::MIN,
             drive: DriveStatus {
                 fault: self.drive_fault.then_some(DriveFault::HallInvalid),
                 steps: self.steps,

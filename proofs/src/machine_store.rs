@@ -102,11 +102,43 @@ impl RecordInput {
 }
 
 #[cfg(kani)]
+#[allow(
+    dead_code,
+    reason = "the stubs are referenced only from `#[kani::stub]` attributes, which rustc's \
+              dead-code analysis does not see"
+)]
 mod verification {
     use super::*;
 
+    // Kani 0.65 cannot compile the `crc` crate (its code generator panics at `place.rs:771:
+    // assertion failed: length >= min_length` on the slice pattern in
+    // `crc::crc32::update_table`), so every store harness replaces the record's checksum,
+    // `taut_core::store::checksum`, with a stand-in. The CRC is not what these harnesses
+    // prove (its known answer is a unit test in `core/src/store.rs`). Remove the stubs when a
+    // Kani release compiles `crc` (check with
+    // `cargo kani -p taut-proofs --harness verify_store_round_trips` without the stub).
+
+    /// A cheap stand-in checksum: the XOR of the body's little-endian words. It is a
+    /// function (the same body always gives the same value, as decode-then-re-encode needs)
+    /// and the solver can meet or miss it with any bytes, so both the "CRC matches" and the
+    /// "CRC mismatch" paths of decoding are explored for every byte string.
+    fn xor_checksum(body: &[u8]) -> u32 {
+        let mut sum = 0_u32;
+        let mut word = [0_u8; 4];
+        for (index, byte) in body.iter().enumerate() {
+            if let Some(slot) = word.get_mut(index % 4) {
+                *slot = *byte;
+            }
+            if index % 4 == 3 {
+                sum ^= u32::from_le_bytes(word);
+            }
+        }
+        sum
+    }
+
     #[kani::proof]
     #[kani::unwind(130)]
+    #[kani::stub(taut_core::store::checksum, xor_checksum)]
     fn verify_store_decode_is_total() {
         let bytes: [u8; RECORD_LEN] = kani::any();
         decode_is_total(&bytes);
@@ -114,6 +146,7 @@ mod verification {
 
     #[kani::proof]
     #[kani::unwind(130)]
+    #[kani::stub(taut_core::store::checksum, xor_checksum)]
     fn verify_store_round_trips() {
         let input: RecordInput = kani::any();
         if let Some(record) = input.record() {

@@ -18,7 +18,8 @@ use taut_core::tension::controller::{TAUT_GAINS, TAUT_PLANT};
 use taut_core::tension::law::RsmcGains;
 use taut_proofs::tension::{
     EstimatorCase, LawCase, SlipCase, StepCase, controller_step_bounded, estimator_step_bounded,
-    force_to_duty_bounded, reciprocal_accurate, rsmc_step_bounded, slip_damper_bounded,
+    force_to_duty_bounded, reciprocal_accurate, reciprocal_total, rsmc_step_bounded,
+    slip_damper_bounded,
 };
 use taut_proofs::tension_reference::{TrackStep, coefficient_errors, law_tracks_reference};
 
@@ -191,6 +192,13 @@ fn force_to_duty_bounded_swept() {
     }
     println!("force_to_duty_bounded_swept: {cases} (force, speed, map) cases");
     assert!(cases > 100_000);
+}
+
+proptest! {
+    #[test]
+    fn reciprocal_total_for_any_x(x in any::<i32>()) {
+        reciprocal_total(x);
+    }
 }
 
 #[test]

@@ -6,7 +6,12 @@
 //! to the home switch. The figure printed is wall-clock seconds per simulated 30 s cycle,
 //! which must be well under one second in release builds for Monte-Carlo use.
 //!
-//! `cargo run -p taut-sim --release --example speed [CYCLES]`
+//! `cargo run -p taut-sim --release --example speed [CYCLES] [--family]`
+//!
+//! With `--family` the scenarios are machines of the family (`TwinConfig::family_kind`:
+//! backlash, gripper ringing, clamp, every current-sensing kind), each board's amplifier
+//! made unidirectional at taut-core's gain so the core's drive, which does not read a
+//! mid-rail zero yet, keeps running.
 #![allow(
     clippy::float_arithmetic,
     clippy::print_stdout,
@@ -19,7 +24,7 @@ use std::time::Instant;
 use taut_core::drive::Direction;
 use taut_core::io::{Inputs, Outputs};
 use taut_core::sense::load_cell::LoadCellScale;
-use taut_sim::{StringKind, Twin, TwinConfig, drive_at, run};
+use taut_sim::{CurrentSenseParams, StringKind, Twin, TwinConfig, drive_at, run};
 
 /// The benchmark's simple controller: state and one step per tick.
 struct Cycle {
@@ -57,12 +62,22 @@ impl Cycle {
 }
 
 fn main() {
-    let cycles: u32 = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(5);
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let family = args.iter().any(|a| a == "--family");
+    let cycles: u32 = args.iter().find_map(|a| a.parse().ok()).unwrap_or(5);
     let mut total = 0.0;
     let mut last = None;
     for cycle in 0..cycles {
         // Monte-Carlo scenarios (every noise source on, Hall reads voted) on a synthetic.
-        let config = TwinConfig::sample_kind(StringKind::TennisSynthetic, u64::from(cycle));
+        let config = if family {
+            let mut config = TwinConfig::family_kind(StringKind::TennisSynthetic, u64::from(cycle));
+            let nominal = CurrentSenseParams::nominal();
+            config.current_sense.offset_volts = nominal.offset_volts;
+            config.current_sense.volts_per_amp = nominal.volts_per_amp;
+            config
+        } else {
+            TwinConfig::sample_kind(StringKind::TennisSynthetic, u64::from(cycle))
+        };
         let mut twin = Twin::new(&config);
         let mut controller =
             Cycle { target_kgf: 25.0, integral: 0.0, held_since: None, releasing: None };
@@ -74,8 +89,9 @@ fn main() {
     }
     let per_cycle = total / f64::from(cycles.max(1));
     println!(
-        "twin speed: {per_cycle:.3} s wall-clock per 30 s pull/hold/release cycle \
+        "twin speed{}: {per_cycle:.3} s wall-clock per 30 s pull/hold/release cycle \
          ({:.0}× real time; 600 000 PWM periods, 30 000 ticks; mean of {cycles})",
+        if family { " (family)" } else { "" },
         30.0 / per_cycle
     );
     if let Some((trace, held)) = last {

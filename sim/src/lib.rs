@@ -23,10 +23,17 @@
 //! assert!(trace.last().unwrap().truth.carriage_mm > 5.0);
 //! ```
 //!
-//! Modules: [`params`] (every number and its Monte-Carlo range), [`motor`] (back-EMF,
-//! Hall, three-phase currents with the complementary bridge and body diodes), [`string`] (slack, creep, break),
-//! [`sensors`] (load cell, current, encoder), [`twin`] (the machine), [`trace`] (run a
-//! controller, record, CSV; the bang-bang oracle), [`rng`] (the seeded generator).
+//! Modules: [`params`] (every number and its Monte-Carlo range), [`family`] (the family of
+//! machines sharing the nameplate: every hidden parameter's range, [`TwinConfig::family`],
+//! [`Axis`] sweeps with [`TwinConfig::on_axis`]), [`motor`] (back-EMF, Hall, three-phase
+//! currents with the complementary bridge and body diodes), [`string`] (slack, creep,
+//! break), [`sensors`] (load cell, current, bus voltage, encoder), [`twin`] (the machine:
+//! backlash, gripper, bus clamp, faults), [`trace`] (run a controller, record, CSV; the
+//! bang-bang oracle), [`rng`] (the seeded generator).
+//!
+//! The sections below derive the **nominal** machine ([`TwinConfig::nominal`]); the
+//! family's ranges around it, with their reasoning, are in [`family::ranges`] and
+//! `sim/README.md`.
 //!
 //! # Where every parameter comes from
 //!
@@ -139,7 +146,11 @@
 //!   (≈ 0.016 kgf, 1.2 LSB); spikes of 40 mV + 15 mV/A with probability 5 % per sample
 //!   while the PWM switches and 50 % after a commutation (paper figure 22); 12-bit ADC
 //!   at 5 V through `AdcCode::from_volts`.
-//! - **Current**: bus shunt sampled each on-time, taut-core's 0.2 V/A, 30 mA noise.
+//! - **Current**: bus shunt sampled each on-time, taut-core's 0.2 V/A, 30 mA noise (the
+//!   family adds per-phase low-side shunts, an RC-filtered DC link and bidirectional
+//!   amplifiers: [`params::CurrentSensing`]).
+//! - **Bus voltage**: a 1:12 divider, converted once per PWM period and averaged over 16 by
+//!   the ADC's oversampler, as the firmware does ([`params::BusSenseParams`]).
 //! - **Reference gauge**: true tension + N(0, 0.02 kgf).
 //! - **Encoder**: 400 counts per turn of a 50 mm-circumference wheel on the string:
 //!   **8 counts/mm**, 16-bit wrapping counter.
@@ -180,6 +191,7 @@
     )
 )]
 
+pub mod family;
 pub mod motor;
 pub mod params;
 pub mod rng;
@@ -188,9 +200,10 @@ pub mod string;
 pub mod trace;
 pub mod twin;
 
-pub use params::{StringKind, TwinConfig};
+pub use family::{Axis, AxisSpan, Span};
+pub use params::{CurrentSenseParams, CurrentSensing, DcLinkSampling, StringKind, TwinConfig};
 pub use rng::SimRng;
-pub use sensors::LoadCellFault;
+pub use sensors::{CurrentSense, LoadCellFault};
 pub use string::StringState;
 pub use trace::{Trace, TraceRow, bang_bang_reach_time, run, run_until};
 pub use twin::{Fault, LimitSwitch, Truth, Twin, drive_at};

@@ -61,6 +61,13 @@
 //! leg off for the rest of the period). Each is found analytically and the integration
 //! restarts from it, so the solution is exact for piecewise-constant EMF and the step
 //! is unconditionally stable.
+//!
+//! **An inter-turn short** (an injected fault) leaves a fraction `s` of one phase's turns
+//! in circuit. Its resistance, inductance and back-EMF are taken as `s` times the healthy
+//! phase's, so every branch keeps the time constant `L/R` and the star point becomes the
+//! `1/s`-weighted mean of `v − e` — the solution stays exact. (A real short scales the
+//! inductance nearer `s²`, and the shorted turns carry a circulating current that drags the
+//! rotor; both make the real fault's current rise faster than the twin's, not slower.)
 
 use taut_core::drive::{HallCode, LegState, Phase, SwitchPattern};
 
@@ -128,6 +135,19 @@ pub fn hall_code(theta_e_deg: f64) -> HallCode {
     HallCode::from_lines(high(30.0), high(150.0), high(270.0))
 }
 
+/// The Hall code of sensors mounted `common_deg` electrical degrees late as a group, and
+/// each of A, B, C a further `sensors_deg` late (per-sensor placement error).
+#[must_use]
+pub fn hall_code_placed(theta_e_deg: f64, common_deg: f64, sensors_deg: [f64; 3]) -> HallCode {
+    if sensors_deg == [0.0; 3] {
+        return hall_code(theta_e_deg - common_deg);
+    }
+    let [a, b, c] = sensors_deg;
+    let theta = theta_e_deg - common_deg;
+    let high = |start: f64, late: f64| wrap_degrees(theta - late - start) < 180.0;
+    HallCode::from_lines(high(30.0, a), high(150.0, b), high(270.0, c))
+}
+
 /// The parts of a PWM period, as the switched leg sees them.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 enum Part {
@@ -163,6 +183,20 @@ pub struct Circuit {
     pub comparator_amps: f64,
     /// Hardware dead time at every rising gate edge of the switched leg, s.
     pub dead_time: f64,
+    /// Per phase, the fraction of the winding's turns in circuit (1 = healthy): an
+    /// inter-turn short leaves `s < 1` of the turns, scaling that phase's resistance,
+    /// inductance and back-EMF by `s` (see [`Circuit::HEALTHY`] and the module docs).
+    pub phase_scale: [f64; 3],
+}
+
+/// One part of a PWM period as the DC link sees it: how long it lasted and the charge the
+/// bridge drew from the bus in it.
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct BusSegment {
+    /// Length of the part, s.
+    pub duration: f64,
+    /// Charge drawn from the bus in the part, C (negative while regenerating).
+    pub charge: f64,
 }
 
 /// What happened during one PWM period.
@@ -182,6 +216,34 @@ pub struct PeriodResult {
     /// Charge drawn from the DC bus over the period, C (A·s): the high switches' current
     /// plus the current returned through high body diodes; negative when regenerating.
     pub bus_charge: f64,
+    /// Time-average of each phase current over the high side's on-time (what a sample taken
+    /// mid on-time reads), A; equal to [`PeriodResult::mean_current`] when there was no
+    /// on-time.
+    pub on_mean_current: [f64; 3],
+    /// The parts of the period in order (dead time, on, dead time, off; or dead time, on,
+    /// break), with the charge each drew from the bus: the DC-link current's waveform at the
+    /// resolution of the parts, for an RC-filtered DC-link shunt. Unused entries are zero.
+    pub bus_segments: [BusSegment; 4],
+}
+
+/// The parts of a period recorded as they are solved.
+#[derive(Default)]
+struct Segments {
+    parts: [BusSegment; 4],
+    count: usize,
+    /// The bus charge accumulated before the part being recorded.
+    charge_before: f64,
+}
+
+impl Segments {
+    /// Records a part of `duration` that ended with the accumulator at `acc`.
+    fn push(&mut self, duration: f64, acc: &Accumulator) {
+        if let Some(part) = self.parts.get_mut(self.count) {
+            *part = BusSegment { duration, charge: acc.bus_integral - self.charge_before };
+            self.count = self.count.saturating_add(1);
+        }
+        self.charge_before = acc.bus_integral;
+    }
 }
 
 /// Accumulates integrals while a PWM period is solved.
@@ -196,6 +258,9 @@ struct Accumulator {
 }
 
 impl Circuit {
+    /// [`Circuit::phase_scale`] of a healthy winding.
+    pub const HEALTHY: [f64; 3] = [1.0; 3];
+
     /// Solves one PWM period of length `period_s`: the `pattern` with its switched (`High`)
     /// leg complementary at `duty` — dead time, high side, dead time, low side (see the
     /// module docs) — with `emf` the phase back-EMFs (V), held over the period. `currents`
@@ -224,43 +289,59 @@ impl Circuit {
         let off_time = (period_s - lead_dead - on_time - trail_dead).max(0.0);
         let mut acc = Accumulator::default();
         let mut result = PeriodResult::default();
+        let mut segments = Segments::default();
 
         let dead_legs = self.terminals(pattern, Part::Dead);
         if lead_dead > 0.0 {
             self.solve(currents, dead_legs, emf, lead_dead, false, &mut acc);
+            segments.push(lead_dead, &acc);
         }
         let mut applied_on = on_time;
         if on_time > 0.0 {
             let on_legs = self.terminals(pattern, Part::On);
             let before = acc.shunt_integral;
+            let currents_before = acc.current_integral;
             let (elapsed, tripped) = self.solve(currents, on_legs, emf, on_time, true, &mut acc);
             applied_on = elapsed;
             result.comparator_tripped = tripped;
             if applied_on > 0.0 {
                 result.on_bus_current = (acc.shunt_integral - before) / applied_on;
+                for ((mean, after), before) in
+                    result.on_mean_current.iter_mut().zip(acc.current_integral).zip(currents_before)
+                {
+                    *mean = (after - before) / applied_on;
+                }
             }
+            segments.push(applied_on, &acc);
         }
         if result.comparator_tripped {
             // The break: every gate off for the rest of the period.
             let rest = period_s - lead_dead - applied_on;
             if rest > 0.0 {
                 self.solve(currents, [Terminal::Diode; 3], emf, rest, false, &mut acc);
+                segments.push(rest, &acc);
             }
         } else {
             if trail_dead > 0.0 {
                 self.solve(currents, dead_legs, emf, trail_dead, false, &mut acc);
+                segments.push(trail_dead, &acc);
             }
             if off_time > 0.0 {
                 let off_legs = self.terminals(pattern, Part::Off);
                 self.solve(currents, off_legs, emf, off_time, false, &mut acc);
+                segments.push(off_time, &acc);
             }
         }
         for (mean, integral) in result.mean_current.iter_mut().zip(acc.current_integral) {
             *mean = integral / period_s;
         }
+        if applied_on <= 0.0 {
+            result.on_mean_current = result.mean_current;
+        }
         result.on_time = applied_on;
         result.peak_current = acc.peak;
         result.bus_charge = acc.bus_integral;
+        result.bus_segments = segments.parts;
         result
     }
 
@@ -290,6 +371,7 @@ impl Circuit {
         acc: &mut Accumulator,
     ) -> (f64, bool) {
         let tau = self.inductance / self.resistance;
+        let healthy = self.phase_scale == Self::HEALTHY;
         let mut remaining = duration;
         // Constant bound: MAX_EVENTS topology changes per part.
         for _ in 0..MAX_EVENTS {
@@ -301,11 +383,15 @@ impl Circuit {
                 *currents = [0.0; 3];
                 break;
             };
-            let neutral = neutral_point(volts, emf);
+            let neutral = self.neutral_point(volts, emf);
             // Asymptotes of the conducting branches; a floating branch has no current.
             let asymptote: [f64; 3] =
                 core::array::from_fn(|k| match (volts.get(k).copied().flatten(), emf.get(k)) {
-                    (Some(v), Some(&e)) => (v - e - neutral) / self.resistance,
+                    (Some(v), Some(&e)) if healthy => (v - e - neutral) / self.resistance,
+                    (Some(v), Some(&e)) => {
+                        let scale = self.phase_scale.get(k).copied().unwrap_or(1.0);
+                        (v - e - neutral) / (self.resistance * scale)
+                    }
                     _ => 0.0,
                 });
 
@@ -412,7 +498,7 @@ impl Circuit {
         if conducting >= 2 {
             // A floating phase whose terminal (e + neutral) leaves the rails starts
             // conducting through the diode it forward-biases.
-            let neutral = neutral_point(volts, emf);
+            let neutral = self.neutral_point(volts, emf);
             for (v, &e) in volts.iter_mut().zip(emf.iter()) {
                 if v.is_none() {
                     let terminal = e + neutral;
@@ -468,6 +554,28 @@ impl Circuit {
     }
 }
 
+impl Circuit {
+    /// The star point's voltage for the conducting legs: Kirchhoff's current law. With
+    /// equal branch impedances it is the mean of `v − e` over the conducting legs; with an
+    /// inter-turn short (branch `k` has `s_k` of the impedance, the same time constant) the
+    /// mean weighted by `1/s_k`, which keeps every branch a first-order circuit of its own.
+    fn neutral_point(&self, volts: [Option<f64>; 3], emf: [f64; 3]) -> f64 {
+        if self.phase_scale == Self::HEALTHY {
+            return neutral_point(volts, emf);
+        }
+        let mut sum = 0.0;
+        let mut weight = 0.0;
+        for ((v, e), s) in volts.iter().zip(emf).zip(self.phase_scale) {
+            if let Some(v) = v {
+                let w = 1.0 / s;
+                sum += (v - e) * w;
+                weight += w;
+            }
+        }
+        if weight > 0.0 { sum / weight } else { 0.0 }
+    }
+}
+
 /// The star point's voltage for the conducting legs: Kirchhoff's current law with equal
 /// branch impedances gives the mean of `v − e` over the conducting legs.
 fn neutral_point(volts: [Option<f64>; 3], emf: [f64; 3]) -> f64 {
@@ -515,6 +623,25 @@ mod tests {
     }
 
     #[test]
+    fn each_hall_sensor_switches_its_own_placement_late() {
+        let perfect = |theta: f64| hall_code(theta);
+        // A 3° late, B 2° early, C exact; all 1° late in common.
+        let placed = |theta: f64| hall_code_placed(theta, 1.0, [3.0, -2.0, 0.0]);
+        assert_eq!(hall_code_placed(47.0, 2.0, [0.0; 3]), perfect(45.0));
+        for k in 0..3600 {
+            let theta = f64::from(k) * 0.1;
+            let q = placed(theta).raw();
+            // A (bit 2) rises at 30° + 4°, B (bit 1) at 150° − 1°, C (bit 0) at 270° + 1°.
+            let a = |t: f64| (perfect(t).raw() >> 2) & 1;
+            let b = |t: f64| (perfect(t).raw() >> 1) & 1;
+            let c = |t: f64| perfect(t).raw() & 1;
+            assert_eq!((q >> 2) & 1, a(theta - 4.0), "A at {theta}");
+            assert_eq!((q >> 1) & 1, b(theta + 1.0), "B at {theta}");
+            assert_eq!(q & 1, c(theta - 1.0), "C at {theta}");
+        }
+    }
+
+    #[test]
     fn six_step_pull_gives_positive_torque_release_negative() {
         for sector in Sector::ALL {
             for step in 0..60 {
@@ -546,6 +673,7 @@ mod tests {
             diode_drop: 0.8,
             comparator_amps: 15.0,
             dead_time: 1e-6,
+            phase_scale: Circuit::HEALTHY,
         }
     }
 

@@ -296,6 +296,11 @@ pub struct BridgeParams {
     /// Constant current the rest of the machine draws from the bus (MCU, gate drivers,
     /// load-cell excitation, display), A.
     pub aux_load_amps: f64,
+    /// The bus clamp (a TVS diode or a brake chopper across the bulk capacitor), V: the bus
+    /// rises to it under braking and no further, the clamp burning what the capacitor cannot
+    /// take. `None`: no clamp, the bus rises as far as the regenerated energy takes it (the
+    /// nominal machine; every machine of the family has one).
+    pub clamp_volts: Option<f64>,
 }
 
 /// The gearbox, lead screw and carriage.
@@ -330,6 +335,42 @@ pub struct MechanicsParams {
     /// The motor runs alone on the bench, uncoupled from gearbox and carriage (motor
     /// tests: no-load speed, stall).
     pub decoupled: bool,
+    /// Backlash of gearbox and screw together, referred to the carriage, mm: the motor side
+    /// turns through this dead band (`backlash_mm / (1000·r)` rad of motor angle) before the
+    /// carriage follows a reversal. 0 = a rigid drivetrain.
+    pub backlash_mm: f64,
+    /// The gripper hung on the load cell, outboard of it.
+    pub gripper: GripperParams,
+}
+
+/// The gripper (jaws, clamp lever, rotating head) that hangs on the load cell: the load cell
+/// carries the string tension plus the force that accelerates the gripper, through the load
+/// cell's own spring.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct GripperParams {
+    /// Mass outboard of the load cell, kg (part of the moving mass: the carriage mass
+    /// [`MechanicsParams::carriage_mass_kg`] does not include it). 0 = the load cell reads the
+    /// string directly, as in the nominal machine.
+    pub mass_kg: f64,
+    /// The load cell's stiffness along the pull, N/m (a beam or S-type cell deflects
+    /// 0.1–0.3 mm at its 50 kgf full scale).
+    pub load_cell_stiffness_n_per_m: f64,
+    /// Damping ratio of the gripper ringing on the load cell.
+    pub damping_ratio: f64,
+}
+
+impl GripperParams {
+    /// No mass outboard of the load cell; a 2.5 × 10⁶ N/m cell, 5 % damping.
+    #[must_use]
+    pub const fn none() -> Self {
+        Self { mass_kg: 0.0, load_cell_stiffness_n_per_m: 2.5e6, damping_ratio: 0.05 }
+    }
+
+    /// The natural frequency of the gripper on the load cell, Hz (infinite without mass).
+    #[must_use]
+    pub fn natural_frequency_hz(&self) -> f64 {
+        (self.load_cell_stiffness_n_per_m / self.mass_kg).sqrt() / core::f64::consts::TAU
+    }
 }
 
 /// Switching spikes on the load-cell amplifier (paper figure 22).
@@ -367,24 +408,126 @@ pub struct LoadCellParams {
     pub noise_volts: f64,
     /// Switching spikes.
     pub spikes: SpikeParams,
+    /// Mains hum.
+    pub hum: HumParams,
+}
+
+/// Mains hum picked up by the load-cell wiring and amplifier, referred to the amplifier's
+/// output: `volts · sin(2π·f·t + phase)` added to every sample.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct HumParams {
+    /// Mains frequency, Hz (50 or 60, within the grid's tolerance).
+    pub frequency_hz: f64,
+    /// Peak amplitude at the amplifier output, V.
+    pub volts: f64,
+    /// Phase at power-up, degrees.
+    pub phase_deg: f64,
+}
+
+/// Where the board measures the motor current (issue 17: both kinds are first-class).
+///
+/// What each kind reads, for a winding current `i` (positive in the commanded direction,
+/// negative while braking), before the amplifier (see [`CurrentSenseParams`] for the code):
+///
+/// - [`CurrentSensing::PerPhaseLowSide`]: `i` itself, signed, at any instant of the period
+///   (the sector's low leg carries the winding current all period, in the on and the
+///   complementary off part alike); zero while coasting (no low side is on, so the firmware
+///   has no shunt to read).
+/// - [`CurrentSensing::DcLink`] sampled [`DcLinkSampling::MidOnTime`]: `i` during the high
+///   side's on-time (then the bus current *is* the winding current), zero with no on-time.
+/// - [`CurrentSensing::DcLink`] [`DcLinkSampling::Filtered`]: the RC-filtered bus current,
+///   on average `≈ duty × i` (the bus carries `i` only during the on-time), with a ripple
+///   that depends on the time constant and on where in the period it is read.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub enum CurrentSensing {
+    /// One low-side shunt per leg, each with its own amplifier; the firmware converts the one
+    /// of the leg the pattern holds low.
+    PerPhaseLowSide,
+    /// One shunt in the DC link (the bridge's ground return).
+    DcLink(DcLinkSampling),
+}
+
+/// How the firmware samples a DC-link shunt.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub enum DcLinkSampling {
+    /// A conversion triggered in the middle of the high side's on-time (taut's own board and
+    /// firmware: TIM1 channel 4 at half the on-time).
+    MidOnTime,
+    /// The amplifier output behind an RC low-pass, converted once per PWM period at a fixed
+    /// point of it, unsynchronised with the on-time.
+    Filtered {
+        /// The RC time constant, s.
+        time_constant_s: f64,
+        /// Where in the PWM period the conversion happens, as a fraction of the period
+        /// from the period's start (the low-side turn-off), `0 ≤ phase < 1`.
+        sample_phase: f64,
+    },
 }
 
 /// The motor-current shunt amplifier feeding the ADC.
+///
+/// The converter code for a sensed current `i_s` ([`CurrentSensing`] says what `i_s` is):
+///
+/// ```text
+/// V    = clamp(offset_volts + volts_per_amp · ((1 + gain_error)·i_s + offset_amps + noise), 0, 5 V)
+/// code = AdcCode::from_volts(V)          (12 bit, 5 V reference: round(V · 4096 / 5), ≤ 4095)
+/// ```
+///
+/// `offset_volts` is 0 for a unidirectional amplifier (negative currents read 0 V: code 0)
+/// and [`CurrentSenseParams::MID_RAIL_VOLTS`] for a bidirectional one (zero current reads
+/// code 2048). The tick's [`taut_core::io::Inputs::motor_current`] is the code of the mean
+/// of the tick's twenty per-period `V`; `DriveSample::current` is each period's code.
 #[derive(Clone, Copy, PartialEq, Debug)]
 pub struct CurrentSenseParams {
+    /// Which shunt(s), and how they are sampled.
+    pub sensing: CurrentSensing,
+    /// Design gain of shunt × amplifier, V/A (taut-core's 0.2 V/A nominally).
+    pub volts_per_amp: f64,
+    /// Design output at zero current, V: 0 (unidirectional) or mid-rail (bidirectional).
+    pub offset_volts: f64,
     /// Relative gain error of shunt × amplifier.
     pub gain_error: f64,
-    /// Offset, A.
+    /// Offset error referred to the input, A.
     pub offset_amps: f64,
     /// White noise per sample, A rms.
     pub noise_amps: f64,
 }
 
+/// The DC bus voltage divider feeding the ADC (`Inputs::bus_voltage`, `DriveSample::bus_voltage`).
+///
+/// The code is `AdcCode::from_volts(V_bus / divider_ratio + noise)` per conversion, one
+/// conversion per PWM period at the period's quiet end, averaged by the ADC's hardware
+/// oversampler over [`BusSenseParams::OVERSAMPLING`] periods exactly as the firmware sets it
+/// up: the result register — what the drive and the tick read — holds the rounded mean of the
+/// last complete block of 16 codes.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct BusSenseParams {
+    /// Bus volts per volt at the ADC pin (12: a 1:12 divider, 60 V full scale at 5 V).
+    pub divider_ratio: f64,
+    /// White noise per conversion at the ADC pin, V rms.
+    pub noise_volts: f64,
+}
+
+impl BusSenseParams {
+    /// Conversions the hardware oversampler averages (`taut_firmware::timing`: ratio 16).
+    pub const OVERSAMPLING: u32 = 16;
+
+    /// A 1:12 divider, 1 mV rms of noise at the pin.
+    #[must_use]
+    pub const fn nominal() -> Self {
+        Self { divider_ratio: 12.0, noise_volts: 1e-3 }
+    }
+}
+
 /// The Hall sensors.
 #[derive(Clone, Copy, PartialEq, Debug)]
 pub struct HallParams {
-    /// Mounting error: the sensors switch this many electrical degrees late.
+    /// Mounting error common to the three sensors (the board's rotation against the
+    /// stator): they switch this many electrical degrees late.
     pub offset_deg: f64,
+    /// Each sensor's own placement error on top of the common one (A, B, C), electrical
+    /// degrees late.
+    pub sensor_offsets_deg: [f64; 3],
     /// Per-read, per-line probability that a read is flipped by switching noise (the
     /// firmware votes over seven reads).
     pub read_flip_probability: f64,
@@ -418,6 +561,8 @@ pub struct TwinConfig {
     pub load_cell: LoadCellParams,
     /// The current sensor.
     pub current_sense: CurrentSenseParams,
+    /// The bus-voltage divider.
+    pub bus_sense: BusSenseParams,
     /// The Hall sensors.
     pub hall: HallParams,
     /// The string-length encoder.
@@ -437,6 +582,8 @@ pub enum ConfigError {
     Relaxation,
     /// The end switch is not beyond the home switch, or the start is outside the stops.
     Travel,
+    /// A parameter is outside the values it can physically take (named).
+    OutOfRange(&'static str),
 }
 
 impl fmt::Display for ConfigError {
@@ -446,6 +593,7 @@ impl fmt::Display for ConfigError {
             Self::Efficiency => f.write_str("efficiencies must be in (0, 1] and realisable"),
             Self::Relaxation => f.write_str("relaxation fractions must be ≥ 0 and sum below 1"),
             Self::Travel => f.write_str("travel limits are inconsistent"),
+            Self::OutOfRange(what) => write!(f, "{what} is outside its physical range"),
         }
     }
 }
@@ -475,8 +623,16 @@ pub mod motor_nominal {
     /// solved as the positive root of `Ke²·ω₀ − (V − R·I)·Ke − R·T = 0`.
     #[must_use]
     pub fn ke_and_no_load_current() -> (f64, f64) {
-        let omega = NO_LOAD_RPM * core::f64::consts::TAU / 60.0;
-        let r = 2.0 * PHASE_OHM;
+        ke_and_no_load_current_for(NO_LOAD_RPM, 2.0 * PHASE_OHM)
+    }
+
+    /// The same for another no-load speed `no_load_rpm` at [`BUS_VOLTS`] and another
+    /// resistance `ohm` in the no-load loop (the driven pair's `2R`, plus any equivalent
+    /// resistance of speed-proportional drops), the rated point kept.
+    #[must_use]
+    pub fn ke_and_no_load_current_for(no_load_rpm: f64, ohm: f64) -> (f64, f64) {
+        let omega = no_load_rpm * core::f64::consts::TAU / 60.0;
+        let r = ohm;
         let a = BUS_VOLTS - r * RATED_AMPS;
         let ke = (a + (a * a + 4.0 * omega * r * RATED_TORQUE_NM).sqrt()) / (2.0 * omega);
         (ke, RATED_AMPS - RATED_TORQUE_NM / ke)
@@ -531,6 +687,7 @@ impl BridgeParams {
             supply_ohm: 0.05,
             bus_capacitance_f: 1000e-6,
             aux_load_amps: 0.1,
+            clamp_volts: None,
         }
     }
 }
@@ -554,6 +711,8 @@ impl MechanicsParams {
             overtravel_mm: 20.0,
             start_mm: -0.5,
             decoupled: false,
+            backlash_mm: 0.0,
+            gripper: GripperParams::none(),
         }
     }
 
@@ -594,15 +753,97 @@ impl LoadCellParams {
                 base_volts: 0.04,
                 volts_per_amp: 0.015,
             },
+            hum: HumParams { frequency_hz: 50.0, volts: 0.0, phase_deg: 0.0 },
         }
     }
 }
 
 impl CurrentSenseParams {
-    /// An ideal-gain sensor with 30 mA of noise per sample.
+    /// The output of a bidirectional amplifier at zero current: half the 5 V reference.
+    pub const MID_RAIL_VOLTS: f64 = 2.5;
+
+    /// taut's own board: a DC-link shunt sampled mid on-time through a unidirectional
+    /// amplifier of taut-core's gain ([`taut_core::sense::current::VOLTS_PER_AMP`]), ideal
+    /// gain, 30 mA of noise per sample.
     #[must_use]
-    pub const fn nominal() -> Self {
-        Self { gain_error: 0.0, offset_amps: 0.0, noise_amps: 0.03 }
+    pub fn nominal() -> Self {
+        Self {
+            sensing: CurrentSensing::DcLink(DcLinkSampling::MidOnTime),
+            volts_per_amp: taut_core::sense::current::VOLTS_PER_AMP.to_num::<f64>(),
+            offset_volts: 0.0,
+            gain_error: 0.0,
+            offset_amps: 0.0,
+            noise_amps: 0.03,
+        }
+    }
+
+    /// Design gain of a bidirectional board: 0.1 V/A, so mid-rail ± 2.5 V spans ± 25 A, the
+    /// same 25 A a unidirectional board at 0.2 V/A spans from zero.
+    pub const BIDIRECTIONAL_VOLTS_PER_AMP: f64 = 0.1;
+
+    /// A board with per-phase low-side shunts and bidirectional amplifiers (they must read
+    /// the braking current, which flows up through the low side), otherwise nominal errors.
+    #[must_use]
+    pub fn per_phase_low_side() -> Self {
+        Self {
+            sensing: CurrentSensing::PerPhaseLowSide,
+            ..Self::nominal().bidirectional_amplifier()
+        }
+    }
+
+    /// A board with one DC-link shunt sampled mid on-time; `bidirectional`: amplifier biased
+    /// at mid-rail (0.1 V/A), else taut's own board (from 0 V, 0.2 V/A).
+    #[must_use]
+    pub fn dc_link_mid_on_time(bidirectional: bool) -> Self {
+        let board = Self::nominal();
+        if bidirectional { board.bidirectional_amplifier() } else { board }
+    }
+
+    /// A board with one DC-link shunt behind an RC filter of `time_constant_s`, converted at
+    /// `sample_phase` of every PWM period; amplifier as for [`Self::dc_link_mid_on_time`].
+    #[must_use]
+    pub fn dc_link_filtered(bidirectional: bool, time_constant_s: f64, sample_phase: f64) -> Self {
+        Self {
+            sensing: CurrentSensing::DcLink(DcLinkSampling::Filtered {
+                time_constant_s,
+                sample_phase,
+            }),
+            ..Self::dc_link_mid_on_time(bidirectional)
+        }
+    }
+
+    /// This board with a bidirectional amplifier: offset at mid-rail, 0.1 V/A.
+    #[must_use]
+    pub const fn bidirectional_amplifier(mut self) -> Self {
+        self.offset_volts = Self::MID_RAIL_VOLTS;
+        self.volts_per_amp = Self::BIDIRECTIONAL_VOLTS_PER_AMP;
+        self
+    }
+
+    /// A short name of the board's sensing, for reports: `per-phase`, `dc-link-mid-on`,
+    /// `dc-link-rc`, with `/bidirectional` or `/unidirectional`.
+    #[must_use]
+    pub fn name(&self) -> String {
+        let kind = match self.sensing {
+            CurrentSensing::PerPhaseLowSide => "per-phase",
+            CurrentSensing::DcLink(DcLinkSampling::MidOnTime) => "dc-link-mid-on",
+            CurrentSensing::DcLink(DcLinkSampling::Filtered { .. }) => "dc-link-rc",
+        };
+        let amplifier = if self.bidirectional() { "bidirectional" } else { "unidirectional" };
+        format!("{kind}/{amplifier}")
+    }
+
+    /// Whether the amplifier is biased at mid-rail (reads negative currents).
+    #[must_use]
+    pub fn bidirectional(&self) -> bool {
+        self.offset_volts > 0.0
+    }
+
+    /// The converter code of a current `amps` with no noise and no errors: what a core
+    /// configured with this board's design gain and offset expects.
+    #[must_use]
+    pub fn ideal_code(&self, amps: f64) -> taut_core::units::AdcCode {
+        crate::sensors::adc((self.offset_volts + self.volts_per_amp * amps).clamp(0.0, 5.0))
     }
 }
 
@@ -610,7 +851,12 @@ impl HallParams {
     /// Perfectly placed sensors, no glitches.
     #[must_use]
     pub const fn nominal() -> Self {
-        Self { offset_deg: 0.0, read_flip_probability: 0.0, burst_probability: 0.0 }
+        Self {
+            offset_deg: 0.0,
+            sensor_offsets_deg: [0.0; 3],
+            read_flip_probability: 0.0,
+            burst_probability: 0.0,
+        }
     }
 }
 
@@ -634,6 +880,7 @@ impl TwinConfig {
             string: StringParams::nominal(kind),
             load_cell: LoadCellParams::nominal(),
             current_sense: CurrentSenseParams::nominal(),
+            bus_sense: BusSenseParams::nominal(),
             hall: HallParams::nominal(),
             encoder: EncoderParams::nominal(),
             reference_gauge_sigma_kgf: 0.02,
@@ -781,6 +1028,66 @@ impl TwinConfig {
         }
         positive(self.load_cell.bandwidth_hz, "load-cell bandwidth")?;
         positive(self.encoder.counts_per_mm, "encoder counts per mm")?;
+        self.check_additions()
+    }
+
+    /// The checks of the parameters the family added (clamp, backlash, gripper, hum, the
+    /// sensing boards).
+    fn check_additions(&self) -> Result<(), ConfigError> {
+        let in_range =
+            |ok: bool, what| if ok { Ok(()) } else { Err(ConfigError::OutOfRange(what)) };
+        let finite_non_negative = |v: f64| v.is_finite() && v >= 0.0;
+        if let Some(clamp) = self.bridge.clamp_volts {
+            in_range(
+                clamp.is_finite() && clamp > self.bridge.bus_volts,
+                "bus clamp (above supply)",
+            )?;
+        }
+        let k = &self.mechanics;
+        in_range(finite_non_negative(k.backlash_mm), "backlash")?;
+        let g = &k.gripper;
+        in_range(finite_non_negative(g.mass_kg), "gripper mass")?;
+        in_range(
+            g.load_cell_stiffness_n_per_m.is_finite() && g.load_cell_stiffness_n_per_m > 0.0,
+            "load-cell stiffness",
+        )?;
+        in_range((0.0..1.0).contains(&g.damping_ratio), "gripper damping ratio")?;
+        let hum = &self.load_cell.hum;
+        in_range(
+            finite_non_negative(hum.volts) && hum.frequency_hz > 0.0 && hum.phase_deg.is_finite(),
+            "mains hum",
+        )?;
+        let cs = &self.current_sense;
+        in_range(cs.volts_per_amp.is_finite() && cs.volts_per_amp > 0.0, "current-sense gain")?;
+        in_range((0.0..5.0).contains(&cs.offset_volts), "current-sense offset")?;
+        in_range(
+            cs.gain_error > -1.0 && finite_non_negative(cs.noise_amps),
+            "current-sense errors",
+        )?;
+        if let CurrentSensing::DcLink(DcLinkSampling::Filtered { time_constant_s, sample_phase }) =
+            cs.sensing
+        {
+            in_range(
+                time_constant_s.is_finite() && time_constant_s > 0.0,
+                "DC-link filter time constant",
+            )?;
+            in_range((0.0..1.0).contains(&sample_phase), "DC-link sampling phase")?;
+        }
+        let bus = &self.bus_sense;
+        in_range(
+            bus.divider_ratio.is_finite()
+                && bus.divider_ratio > 0.0
+                && finite_non_negative(bus.noise_volts),
+            "bus-voltage divider",
+        )?;
+        in_range(
+            self.hall
+                .sensor_offsets_deg
+                .iter()
+                .chain([&self.hall.offset_deg])
+                .all(|d| d.is_finite()),
+            "Hall placement",
+        )?;
         Ok(())
     }
 }

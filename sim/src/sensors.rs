@@ -19,20 +19,34 @@
 //! sample; its size grows with the current switched (paper, figure 22). The voltage is
 //! converted by the 12-bit, 5 V converter (`AdcCode::from_volts`).
 //!
-//! **Motor current.** The bus shunt is sampled in the middle of each PWM on-time (the
-//! average bus current over the on-time), scaled by `taut_core::sense::current`'s
-//! 0.2 V/A with a gain error and offset, plus noise; the drive gets each period's sample,
-//! the tick gets their average. A low-side shunt amplifier is unipolar: negative currents
-//! read zero.
+//! Mains hum (`volts · sin(2π·f·t + φ)`, referred to the amplifier output) is added at
+//! the sample with the noise.
+//!
+//! **Motor current.** One sample per PWM period of what the board's shunt carries
+//! ([`crate::params::CurrentSensing`]): the sector's low-leg shunt (per-phase sensing: the
+//! winding current, signed), or the DC-link shunt at mid on-time (the winding current while
+//! the high side conducts), or the DC-link shunt behind an RC filter read at a fixed point of
+//! the period (≈ duty × winding current). The amplifier adds its design offset (0 V, or
+//! mid-rail for a bidirectional amplifier), gain and offset errors and noise, and its output
+//! clips at the rails (a unidirectional amplifier reads negative currents as 0 V); the
+//! drive gets each period's code, the tick the code of the mean of its twenty samples.
+//!
+//! **Bus voltage.** The divider's output plus noise is converted once per PWM period in the
+//! quiet end of the period, and the ADC's hardware oversampler averages blocks of 16
+//! conversions (`taut_firmware::timing`): the drive and the tick both read the last
+//! complete block's rounded mean.
 //!
 //! **Encoder.** A wheel pressed on the string turns as the string is drawn through the
 //! tension head; its quadrature counter is the string's travel times counts per mm, wrapped
 //! to 16 bits.
 
-use taut_core::sense::current::VOLTS_PER_AMP;
+use taut_core::drive::{LegState, Phase, SwitchPattern};
 use taut_core::units::{AdcCode, Volts};
 
-use crate::params::{CurrentSenseParams, LoadCellParams};
+use crate::motor::PeriodResult;
+use crate::params::{
+    BusSenseParams, CurrentSenseParams, CurrentSensing, DcLinkSampling, LoadCellParams,
+};
 use crate::rng::SimRng;
 
 /// A voltage as the core's Q15.16 `Volts` (rounded to the nearest 2⁻¹⁶ V, saturating).
@@ -98,12 +112,26 @@ impl LoadCell {
         self.filtered
     }
 
-    /// One converter sample: the filtered output plus noise and a possible switching spike.
-    /// `switching` says the PWM ran in the last period, `commutated` that a commutation
-    /// happened in it, `amps` the current switched.
+    /// The mains hum at time `time_s`, V.
+    #[must_use]
+    pub fn hum_volts(&self, time_s: f64) -> f64 {
+        let hum = &self.params.hum;
+        if hum.volts > 0.0 {
+            let phase =
+                core::f64::consts::TAU * hum.frequency_hz * time_s + hum.phase_deg.to_radians();
+            hum.volts * phase.sin()
+        } else {
+            0.0
+        }
+    }
+
+    /// One converter sample at `time_s`: the filtered output plus noise, mains hum and a
+    /// possible switching spike. `switching` says the PWM ran in the last period,
+    /// `commutated` that a commutation happened in it, `amps` the current switched.
     pub fn sample(
         &self,
         rng: &mut SimRng,
+        time_s: f64,
         switching: bool,
         commutated: bool,
         amps: f64,
@@ -111,6 +139,9 @@ impl LoadCell {
     ) -> AdcCode {
         let p = &self.params;
         let mut v = self.filtered + rng.gaussian(p.noise_volts);
+        if p.hum.volts > 0.0 {
+            v += self.hum_volts(time_s);
+        }
         let spike_probability = match (switching, commutated) {
             (_, true) => p.spikes.commutation_probability,
             (true, false) => p.spikes.pwm_probability,
@@ -129,31 +160,208 @@ impl LoadCell {
     }
 }
 
-/// The current shunt amplifier.
+/// The current shunt(s) and amplifier, with the RC filter's state for a filtered DC link.
+///
+/// Currents are handled as the amplifier's output referred back to amperes ("output
+/// amperes": volts / design gain), so the nominal board's arithmetic is the one it always
+/// was.
 #[derive(Clone, Copy, Debug)]
 pub struct CurrentSense {
     params: CurrentSenseParams,
     volts_per_amp: f64,
+    /// The design offset in output amperes (0, or mid-rail / gain).
+    offset_amps: f64,
+    /// The rails in output amperes: 5 V / gain.
+    full_scale_amps: f64,
+    /// The RC filter's output, output amperes (filtered DC link only).
+    filtered: f64,
+    /// The filter's output at the last period's sampling instant, output amperes.
+    last_filtered_sample: f64,
 }
 
 impl CurrentSense {
-    /// The sensor with `taut_core`'s gain, perturbed by the configured error.
+    /// The sensor with its design gain and offset, perturbed by the configured errors, its
+    /// filter (if any) settled at zero current.
     #[must_use]
     pub fn new(params: &CurrentSenseParams) -> Self {
-        Self { params: *params, volts_per_amp: VOLTS_PER_AMP.to_num::<f64>() }
+        let volts_per_amp = params.volts_per_amp;
+        let offset_amps = params.offset_volts / volts_per_amp;
+        let mut sense = Self {
+            params: *params,
+            volts_per_amp,
+            offset_amps,
+            full_scale_amps: 5.0 / volts_per_amp,
+            filtered: 0.0,
+            last_filtered_sample: 0.0,
+        };
+        sense.filtered = sense.amplify(0.0);
+        sense.last_filtered_sample = sense.filtered;
+        sense
     }
 
-    /// What one sample reads, in amperes before conversion (noise and offset included,
-    /// negative currents clamp to zero): `true_amps` is the bus current over the on-time.
+    /// The amplifier's output for a shunt current `amps`, without noise, clipped at the
+    /// rails, in output amperes.
+    fn amplify(&self, amps: f64) -> f64 {
+        let p = &self.params;
+        (amps * (1.0 + p.gain_error) + p.offset_amps + self.offset_amps)
+            .clamp(0.0, self.full_scale_amps)
+    }
+
+    /// What one sample reads, in output amperes (noise and offsets included, clipped at the
+    /// rails: a unidirectional amplifier reads negative currents as zero): `true_amps` is
+    /// the shunt's current at the sampling instant.
     pub fn measure(&self, rng: &mut SimRng, true_amps: f64) -> f64 {
         let p = &self.params;
-        (true_amps * (1.0 + p.gain_error) + p.offset_amps + rng.gaussian(p.noise_amps)).max(0.0)
+        (true_amps * (1.0 + p.gain_error)
+            + p.offset_amps
+            + rng.gaussian(p.noise_amps)
+            + self.offset_amps)
+            .clamp(0.0, self.full_scale_amps)
     }
 
-    /// The converter code for a measured current.
+    /// The current the board's shunt carries at its sampling instant in the period just
+    /// solved (see [`CurrentSensing`]), before the amplifier, A — except for a filtered DC
+    /// link, whose filter this advances and whose output it returns (`None` then).
+    fn shunt_amps(
+        &mut self,
+        result: &PeriodResult,
+        pattern: SwitchPattern,
+        period_s: f64,
+    ) -> Option<f64> {
+        match self.params.sensing {
+            CurrentSensing::DcLink(DcLinkSampling::MidOnTime) => {
+                Some(if result.on_time > 0.0 { result.on_bus_current } else { 0.0 })
+            }
+            CurrentSensing::PerPhaseLowSide => {
+                // The low leg's shunt carries the winding current out of the motor: minus
+                // the phase current (positive into the motor) at mid on-time.
+                let low = Phase::ALL
+                    .iter()
+                    .zip(result.on_mean_current)
+                    .filter(|(phase, _)| pattern.leg(**phase) == LegState::Low)
+                    .map(|(_, i)| -i)
+                    .sum::<f64>();
+                Some(if pattern.count(LegState::Low) > 0 { low } else { 0.0 })
+            }
+            CurrentSensing::DcLink(DcLinkSampling::Filtered { time_constant_s, sample_phase }) => {
+                self.filter_period(result, period_s, time_constant_s, sample_phase);
+                None
+            }
+        }
+    }
+
+    /// Advances the RC filter over the parts of the period (each part's mean bus current
+    /// through the amplifier, exact for a piecewise-constant input) and leaves in
+    /// `self.filtered` its output at `phase` of the period; the state carried to the next
+    /// period is the one at the period's end.
+    fn filter_period(&mut self, result: &PeriodResult, period_s: f64, tau: f64, phase: f64) {
+        let sample_at = phase * period_s;
+        let mut y = self.filtered;
+        let mut t = 0.0;
+        let mut sampled = None;
+        for part in result.bus_segments.iter().filter(|part| part.duration > 0.0) {
+            let input = self.amplify(part.charge / part.duration);
+            if sampled.is_none() && sample_at < t + part.duration {
+                let into = (sample_at - t).max(0.0);
+                sampled = Some(input + (y - input) * (-into / tau).exp());
+            }
+            y = input + (y - input) * (-part.duration / tau).exp();
+            t += part.duration;
+        }
+        // Parts shorter than the period (never, but float rounding) leave the tail at zero
+        // input.
+        if t < period_s {
+            let input = self.amplify(0.0);
+            if sampled.is_none() {
+                let into = (sample_at - t).max(0.0);
+                sampled = Some(input + (y - input) * (-into / tau).exp());
+            }
+            y = input + (y - input) * (-(period_s - t) / tau).exp();
+        }
+        self.filtered = y;
+        self.last_filtered_sample = sampled.unwrap_or(y);
+    }
+
+    /// One PWM period's sample, in output amperes: what the board's shunt carried (see
+    /// [`CurrentSensing`]) through the amplifier, with noise. `open`: the amplifier output
+    /// is lost and reads 0 V (the filter still runs, no noise is drawn).
+    pub fn sample_period(
+        &mut self,
+        rng: &mut SimRng,
+        result: &PeriodResult,
+        pattern: SwitchPattern,
+        period_s: f64,
+        open: bool,
+    ) -> f64 {
+        let shunt = self.shunt_amps(result, pattern, period_s);
+        if open {
+            return 0.0;
+        }
+        match shunt {
+            Some(amps) => self.measure(rng, amps),
+            None => (self.last_filtered_sample + rng.gaussian(self.params.noise_amps))
+                .clamp(0.0, self.full_scale_amps),
+        }
+    }
+
+    /// The converter code for an amplifier output in output amperes.
     #[must_use]
     pub fn code(&self, measured_amps: f64) -> AdcCode {
         adc(measured_amps * self.volts_per_amp)
+    }
+
+    /// The current a code stands for with this board's design gain and offset, A (what a
+    /// core configured for the board reads; the inverse of [`CurrentSense::code`] up to
+    /// the converter's resolution and the sensor's errors).
+    #[must_use]
+    pub fn amps_of(&self, code: AdcCode) -> f64 {
+        f64::from(code.get()) * 5.0 / 4096.0 / self.volts_per_amp - self.offset_amps
+    }
+}
+
+/// The bus-voltage divider and the ADC's hardware oversampler.
+#[derive(Clone, Copy, Debug)]
+pub struct BusVoltageSense {
+    params: BusSenseParams,
+    sum: u32,
+    count: u32,
+    register: AdcCode,
+}
+
+impl BusVoltageSense {
+    /// The divider, its oversampler's result register holding the code of `bus_volts`.
+    #[must_use]
+    pub fn new(params: &BusSenseParams, bus_volts: f64) -> Self {
+        Self { params: *params, sum: 0, count: 0, register: adc(bus_volts / params.divider_ratio) }
+    }
+
+    /// One conversion of the bus at `bus_volts` (the period's quiet end); every
+    /// [`BusSenseParams::OVERSAMPLING`] conversions the result register takes their
+    /// rounded mean.
+    pub fn convert(&mut self, rng: &mut SimRng, bus_volts: f64) {
+        let p = &self.params;
+        let code = adc(bus_volts / p.divider_ratio + rng.gaussian(p.noise_volts));
+        self.sum = self.sum.saturating_add(u32::from(code.get()));
+        self.count = self.count.saturating_add(1);
+        if self.count >= BusSenseParams::OVERSAMPLING {
+            let half = BusSenseParams::OVERSAMPLING / 2;
+            let mean = self.sum.saturating_add(half) / BusSenseParams::OVERSAMPLING;
+            self.register = AdcCode::new(u16::try_from(mean).unwrap_or(u16::MAX));
+            self.sum = 0;
+            self.count = 0;
+        }
+    }
+
+    /// The result register: what the firmware reads.
+    #[must_use]
+    pub const fn register(&self) -> AdcCode {
+        self.register
+    }
+
+    /// The bus voltage a code stands for with this divider, V.
+    #[must_use]
+    pub fn volts_of(&self, code: AdcCode) -> f64 {
+        f64::from(code.get()) * 5.0 / 4096.0 * self.params.divider_ratio
     }
 }
 
@@ -195,7 +403,7 @@ mod tests {
             cell.update(25.0, 1e-3);
         }
         let mut rng = SimRng::new(1);
-        let code = cell.sample(&mut rng, false, false, 0.0, None);
+        let code = cell.sample(&mut rng, 0.0, false, false, 0.0, None);
         let kgf = LoadCellScale::NOMINAL.to_kgf(code).0.to_num::<f64>();
         // Nominal scale, uncorrected: within the deficit offset (≈ 0.75 kgf) + noise.
         assert!((kgf - 25.0).abs() < 1.0, "{kgf}");
@@ -205,9 +413,11 @@ mod tests {
     fn faults_read_as_wired() {
         let cell = LoadCell::new(&LoadCellParams::nominal());
         let mut rng = SimRng::new(2);
-        assert!(cell.sample(&mut rng, false, false, 0.0, Some(LoadCellFault::Open)).get() < 10);
+        assert!(
+            cell.sample(&mut rng, 0.0, false, false, 0.0, Some(LoadCellFault::Open)).get() < 10
+        );
         assert_eq!(
-            cell.sample(&mut rng, false, false, 0.0, Some(LoadCellFault::Short)),
+            cell.sample(&mut rng, 0.0, false, false, 0.0, Some(LoadCellFault::Short)),
             AdcCode::MAX
         );
     }

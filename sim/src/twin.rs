@@ -61,7 +61,41 @@
 //! analytically). The bridge sees the bus voltage of the start of each period; the truth
 //! reports it ([`Truth::bus_volts`]) and its highest value in the tick
 //! ([`Truth::bus_peak_volts`]). Regenerated energy has nowhere to go but the capacitor and
-//! the auxiliary load, so braking pumps the bus up.
+//! the auxiliary load, so braking pumps the bus up — to the **clamp**
+//! (`BridgeParams::clamp_volts`, a TVS or brake chopper) if the board has one: the bus
+//! then stays at the clamp voltage and the clamp burns the rest ([`Truth::bus_clamped`]).
+//! The voltage is exact per period and rises monotonically within one while it pumps, so
+//! `min(v, clamp)` at the period's end is the exact clamped solution.
+//!
+//! # Backlash
+//!
+//! With `MechanicsParams::backlash_mm > 0` the drivetrain is two bodies: the motor side
+//! (rotor, gearbox, screw: `J_m = J_rotor + J_gear`) and the carriage with its gripper
+//! (mass `m`), coupled through a dead band of width `b` in the carriage's position
+//! relative to the screw, `g = x − r·θ ∈ [−b/2, +b/2]`. At `g = −b/2` the screw pushes the
+//! carriage toward the pull (the **pull flank**, where string tension keeps it), at `+b/2`
+//! toward home (the **release flank**). While a flank is engaged the two move as the rigid
+//! body above; the flank lets go when the force it must pass, `m·a + T + F_slide`, would
+//! change sign. In between, each body moves on its own (the motor side with its own
+//! Coulomb friction and drag, the carriage with the string and the slide's friction, both
+//! with stiction), and on reaching a flank they merge in a perfectly inelastic impact
+//! (momentum kept). So after a release the motor turns `b / r` before a pull moves the
+//! carriage or loads the string.
+//!
+//! # The gripper on the load cell
+//!
+//! The gripper (mass `m_g`, `MechanicsParams::gripper`) hangs on the load cell, outboard of
+//! it: the load cell carries the string tension plus the force that accelerates the
+//! gripper, through its own spring `k` (damping ratio `ζ`):
+//!
+//! ```text
+//! F_cell'' + 2ζω_n·F_cell' + ω_n²·F_cell = ω_n²·(T + m_g·a),   ω_n = √(k / m_g)
+//! ```
+//!
+//! with `a` the carriage's acceleration in each 50 µs step, solved exactly for an input
+//! held over the step. So the reading is `T + m_g·a` smoothed by a 200–800 Hz resonance, and
+//! an impact (an end stop, the backlash taken up at speed) rings the load cell.
+//! [`Truth::load_cell_force_kgf`] is `F_cell`; with `m_g = 0` it is the tension.
 
 use taut_core::drive::duty::DUTY_ONE;
 use taut_core::drive::{
@@ -71,10 +105,10 @@ use taut_core::drive::{
 use taut_core::io::{Inputs, Keys, LimitSwitches, Outputs};
 use taut_core::units::AdcCode;
 
-use crate::motor::{Circuit, emf_shape, hall_code, sector_shape_factor};
+use crate::motor::{Circuit, emf_shape, hall_code_placed, sector_shape_factor};
 use crate::params::{NEWTONS_PER_KGF, TwinConfig};
 use crate::rng::SimRng;
-use crate::sensors::{CurrentSense, LoadCell, LoadCellFault};
+use crate::sensors::{BusVoltageSense, CurrentSense, LoadCell, LoadCellFault};
 use crate::string::{StringModel, StringState};
 
 /// PWM periods per 1 ms tick: 20 kHz / 1 kHz.
@@ -125,8 +159,21 @@ pub enum Fault {
     /// The current-sense amplifier output is lost (reads 0 A): only the hardware
     /// comparator still sees the current.
     CurrentSenseOpen,
-    /// The carriage is mechanically seized (stall).
+    /// The carriage is mechanically seized (stall): the rotor stops with it.
     CarriageJam,
+    /// An inter-turn short in one phase: `shorted_percent` % of its turns are shorted, so its
+    /// resistance, inductance and back-EMF fall to what the remaining turns give (see
+    /// [`crate::motor`]) and the current through it rises far above what the duty would
+    /// drive through a healthy winding. Clamped to 1–95 %.
+    ShortedPhase {
+        /// The phase.
+        phase: Phase,
+        /// Share of the phase's turns shorted, %.
+        shorted_percent: u8,
+    },
+    /// The string breaks (now, or at the tick [`Twin::inject_at`] names). Clearing injected
+    /// faults does not mend it.
+    StringBreak,
 }
 
 /// The faults currently injected.
@@ -139,6 +186,7 @@ struct ActiveFaults {
     load_cell: Option<LoadCellFault>,
     current_open: bool,
     jam: bool,
+    short: Option<(Phase, u8)>,
 }
 
 /// The physical state, which the sensors only approximate.
@@ -186,6 +234,20 @@ pub struct Truth {
     pub bus_volts: f64,
     /// Highest DC bus voltage during the tick, V.
     pub bus_peak_volts: f64,
+    /// The bus clamp conducted during the tick (the bus reached `clamp_volts`).
+    pub bus_clamped: bool,
+    /// Winding current of the driven pair, signed: the current out of the motor through
+    /// the pattern's low leg (positive in the commanded direction, negative while braking;
+    /// outside the commutation transients the current through both driven windings), mean
+    /// over the tick, A; zero in periods with no driven pair (coast), where
+    /// [`Truth::current_a`] still shows any current decaying through the body diodes.
+    pub winding_current_a: f64,
+    /// The force on the load cell's spring: the string tension plus the gripper's inertial
+    /// force and ringing (equal to the tension with no gripper mass), kgf.
+    pub load_cell_force_kgf: f64,
+    /// Where the carriage sits in the backlash, mm: `−b/2` on the pull flank (string
+    /// tension keeps it there), `+b/2` on the release flank; always 0 without backlash.
+    pub backlash_mm: f64,
 }
 
 /// Per-tick sums.
@@ -197,6 +259,61 @@ struct TickSums {
     peak: f64,
     comparator: bool,
     bus_peak: f64,
+    clamped: bool,
+    winding: f64,
+}
+
+/// Which flank of the backlash the carriage rests on.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Flank {
+    /// `g = −b/2`: the screw pushes the carriage toward the pull.
+    Pull,
+    /// `g = +b/2`: the screw pushes the carriage toward home.
+    Release,
+    /// In the dead band: the bodies move on their own.
+    Free,
+}
+
+/// The gripper ringing on the load cell: the exact discrete-time transition of the
+/// second-order response over one PWM period, and its state.
+#[derive(Clone, Copy, Debug)]
+struct GripperRing {
+    /// State transition over one period of `[F − F_in, F']`.
+    phi: [[f64; 2]; 2],
+    /// Gripper mass, kg.
+    mass_kg: f64,
+    /// The load cell's force, N.
+    force: f64,
+    /// Its rate, N/s.
+    rate: f64,
+}
+
+impl GripperRing {
+    /// The transition of `F'' + 2ζω·F' + ω²·F = ω²·F_in` over `dt` for an input held over
+    /// it, in deviation coordinates `[F − F_in, F']` (underdamped, `ζ < 1`).
+    fn new(mass_kg: f64, stiffness: f64, zeta: f64, dt: f64) -> Self {
+        let omega = (stiffness / mass_kg).sqrt();
+        let sigma = zeta * omega;
+        let omega_d = omega * (1.0 - zeta * zeta).sqrt();
+        let decay = (-sigma * dt).exp();
+        let (sin, cos) = (omega_d * dt).sin_cos();
+        let phi = [
+            [decay * (cos + sigma / omega_d * sin), decay * sin / omega_d],
+            [-decay * omega * omega / omega_d * sin, decay * (cos - sigma / omega_d * sin)],
+        ];
+        Self { phi, mass_kg, force: 0.0, rate: 0.0 }
+    }
+
+    /// Advances one period under tension `tension_n` and carriage acceleration `accel`;
+    /// returns the load cell's force, N.
+    fn step(&mut self, tension_n: f64, accel: f64) -> f64 {
+        let input = tension_n + self.mass_kg * accel;
+        let [[a, b], [c, d]] = self.phi;
+        let deviation = self.force - input;
+        self.force = input + a * deviation + b * self.rate;
+        self.rate = c * deviation + d * self.rate;
+        self.force
+    }
 }
 
 /// The digital twin of the stringing machine. See the module docs.
@@ -206,8 +323,10 @@ pub struct Twin {
     drive: Drive,
     circuit: Circuit,
     current_sense: CurrentSense,
+    bus_sense: BusVoltageSense,
     load_cell: LoadCell,
     string: StringModel,
+    gripper: Option<GripperRing>,
     // Derived constants.
     ke_phase: f64,
     metres_per_rad: f64,
@@ -220,12 +339,30 @@ pub struct Twin {
     cogging_phase: f64,
     low_stop_m: f64,
     high_stop_m: f64,
+    /// Backlash at the carriage, m (0: rigid drivetrain).
+    backlash_m: f64,
+    /// Motor-side inertia (rotor, gearbox, screw), kg·m².
+    motor_inertia: f64,
+    /// Moving mass at the carriage (carriage and gripper), kg.
+    carriage_mass: f64,
+    /// Coulomb friction of the motor side alone (bearings, drag), N·m.
+    motor_side_coulomb: f64,
+    /// Slide friction of the carriage alone, N.
+    slide_friction: f64,
     // State.
     ticks: u64,
     currents: [f64; 3],
     theta: f64,
     omega: f64,
     stuck: bool,
+    /// Carriage position relative to the screw within the backlash, m.
+    gap_m: f64,
+    /// Carriage velocity, m/s.
+    carriage_v: f64,
+    carriage_stuck: bool,
+    flank: Flank,
+    /// The load cell's force, N.
+    load_cell_force_n: f64,
     bus_volts: f64,
     string_travel_m: f64,
     current_code: AdcCode,
@@ -244,7 +381,9 @@ pub struct Twin {
     /// Read-line trials (7 reads × 3 lines per period) until the next flipped read.
     hall_flip_in: u64,
     rng_gauge: SimRng,
+    rng_bus: SimRng,
     faults: ActiveFaults,
+    scheduled: Vec<(u64, Fault)>,
     keys: Keys,
     key_events: Vec<(u64, Keys)>,
     sampled: Inputs,
@@ -262,13 +401,14 @@ impl Twin {
         let k = &c.mechanics;
         let metres_per_rad = k.metres_per_radian();
         let (a, b) = k.friction_coefficients();
+        let moving_mass = k.carriage_mass_kg + k.gripper.mass_kg;
         let (inertia, coulomb, load_friction, motor_friction) = if k.decoupled {
             (m.rotor_inertia_kg_m2, m.coulomb_torque_nm, 0.0, 0.0)
         } else {
             (
                 m.rotor_inertia_kg_m2
                     + k.gear_inertia_kg_m2
-                    + k.carriage_mass_kg * metres_per_rad * metres_per_rad,
+                    + moving_mass * metres_per_rad * metres_per_rad,
                 m.coulomb_torque_nm + k.drag_torque_nm + k.slide_friction_n * metres_per_rad,
                 a,
                 b,
@@ -277,6 +417,17 @@ impl Twin {
         let shape = sector_shape_factor(m.emf_ramp_deg).max(1e-6);
         let mut setup = SimRng::substream(c.seed, 0x5E70);
         let start_m = k.start_mm * 1e-3;
+        let backlash_m = if k.decoupled { 0.0 } else { k.backlash_mm.max(0.0) * 1e-3 };
+        // Powered up long ago: the capacitor sits where the auxiliary load holds it.
+        let bus_volts = c.bridge.bus_volts - c.bridge.supply_ohm * c.bridge.aux_load_amps;
+        let gripper = (k.gripper.mass_kg > 0.0 && !k.decoupled).then(|| {
+            GripperRing::new(
+                k.gripper.mass_kg,
+                k.gripper.load_cell_stiffness_n_per_m,
+                k.gripper.damping_ratio,
+                PWM_PERIOD_S,
+            )
+        });
         let mut twin = Self {
             config: c,
             drive: Drive::new(),
@@ -287,10 +438,14 @@ impl Twin {
                 diode_drop: c.bridge.diode_drop_v,
                 comparator_amps: c.bridge.comparator_amps,
                 dead_time: c.bridge.dead_time_s,
+                phase_scale: Circuit::HEALTHY,
             },
             current_sense: CurrentSense::new(&c.current_sense),
+            bus_sense: BusVoltageSense::new(&c.bus_sense, bus_volts),
             load_cell: LoadCell::new(&c.load_cell),
+            // The carriage rests on the release flank: homing drove it there.
             string: StringModel::new(&c.string, start_m),
+            gripper,
             ke_phase: m.ke_volts_per_rad_s / (2.0 * shape),
             metres_per_rad,
             inertia,
@@ -302,13 +457,22 @@ impl Twin {
             cogging_phase: setup.range(0.0, core::f64::consts::TAU),
             low_stop_m: (k.home_switch_mm - k.overtravel_mm) * 1e-3,
             high_stop_m: (k.end_switch_mm + k.overtravel_mm) * 1e-3,
+            backlash_m,
+            motor_inertia: m.rotor_inertia_kg_m2 + k.gear_inertia_kg_m2,
+            carriage_mass: moving_mass,
+            motor_side_coulomb: m.coulomb_torque_nm + k.drag_torque_nm,
+            slide_friction: k.slide_friction_n,
             ticks: 0,
             currents: [0.0; 3],
-            theta: start_m / metres_per_rad,
+            theta: (start_m - 0.5 * backlash_m) / metres_per_rad,
             omega: 0.0,
             stuck: true,
-            // Powered up long ago: the capacitor sits where the auxiliary load holds it.
-            bus_volts: c.bridge.bus_volts - c.bridge.supply_ohm * c.bridge.aux_load_amps,
+            gap_m: 0.5 * backlash_m,
+            carriage_v: 0.0,
+            carriage_stuck: true,
+            flank: Flank::Release,
+            load_cell_force_n: 0.0,
+            bus_volts,
             string_travel_m: 0.0,
             current_code: AdcCode::MIN,
             comparator_flag: false,
@@ -324,7 +488,9 @@ impl Twin {
             hall_burst_in: u64::MAX,
             hall_flip_in: u64::MAX,
             rng_gauge: SimRng::substream(c.seed, 4),
+            rng_bus: SimRng::substream(c.seed, 5),
             faults: ActiveFaults::default(),
+            scheduled: Vec::new(),
             keys: Keys::NONE,
             key_events: Vec::new(),
             sampled: Inputs::default(),
@@ -350,6 +516,10 @@ impl Twin {
                 load_cell_volts: 0.0,
                 bus_volts: c.bridge.bus_volts,
                 bus_peak_volts: c.bridge.bus_volts,
+                bus_clamped: false,
+                winding_current_a: 0.0,
+                load_cell_force_kgf: 0.0,
+                backlash_mm: 0.0,
             },
         };
         twin.hall_burst_in = twin.rng_hall.geometric_gap(c.hall.burst_probability);
@@ -397,6 +567,27 @@ impl Twin {
         &self.drive
     }
 
+    /// The current code of the last PWM period: what the drive got as
+    /// `DriveSample::current` (the tick's `Inputs::motor_current` is the mean of twenty).
+    #[must_use]
+    pub const fn current_sample(&self) -> AdcCode {
+        self.current_code
+    }
+
+    /// The current-sensing chain (design gain and offset: decode codes with
+    /// [`CurrentSense::amps_of`]).
+    #[must_use]
+    pub const fn current_sense(&self) -> &CurrentSense {
+        &self.current_sense
+    }
+
+    /// The bus-voltage divider and oversampler (decode codes with
+    /// [`BusVoltageSense::volts_of`]).
+    #[must_use]
+    pub const fn bus_sense(&self) -> &BusVoltageSense {
+        &self.bus_sense
+    }
+
     /// Milliseconds since power-up (the value `Inputs::now_ms` carries, unwrapped).
     #[must_use]
     pub const fn now_ms(&self) -> u64 {
@@ -438,7 +629,7 @@ impl Twin {
         self.string.break_now();
     }
 
-    /// Starts exhibiting `fault` (until [`Twin::clear_injected`]).
+    /// Starts exhibiting `fault` now (until [`Twin::clear_injected`]).
     pub fn inject(&mut self, fault: Fault) {
         let f = &mut self.faults;
         match fault {
@@ -453,16 +644,45 @@ impl Twin {
             Fault::LoadCell(fault) => f.load_cell = Some(fault),
             Fault::CurrentSenseOpen => f.current_open = true,
             Fault::CarriageJam => f.jam = true,
+            Fault::ShortedPhase { phase, shorted_percent } => {
+                let percent = shorted_percent.clamp(1, 95);
+                f.short = Some((phase, percent));
+                let mut scale = Circuit::HEALTHY;
+                if let Some(s) = scale.get_mut(phase_index(phase)) {
+                    *s = 1.0 - f64::from(percent) / 100.0;
+                }
+                self.circuit.phase_scale = scale;
+            }
+            Fault::StringBreak => self.string.break_now(),
         }
     }
 
-    /// Removes every injected fault (a broken string stays broken).
+    /// Schedules `fault` to start at the beginning of tick `at_ms` (the tick that begins
+    /// when [`Twin::now_ms`] reads `at_ms`): the physics of that millisecond already has it,
+    /// and the [`Inputs`] of the next tick are the first to show its effect. A time already
+    /// past injects at the start of the next tick. Deterministic: the schedule is part of
+    /// the run, like the keys.
+    pub fn inject_at(&mut self, at_ms: u64, fault: Fault) {
+        let index = self.scheduled.partition_point(|&(at, _)| at <= at_ms);
+        self.scheduled.insert(index, (at_ms, fault));
+    }
+
+    /// Removes every injected fault (a broken string stays broken); scheduled ones still
+    /// come.
     pub fn clear_injected(&mut self) {
         self.faults = ActiveFaults::default();
+        self.circuit.phase_scale = Circuit::HEALTHY;
     }
 
     /// One millisecond of physics: twenty PWM periods, then the sensors are sampled.
     pub fn advance_tick(&mut self) {
+        while let Some(&(at, fault)) = self.scheduled.first() {
+            if at > self.ticks {
+                break;
+            }
+            self.scheduled.remove(0);
+            self.inject(fault);
+        }
         self.sums = TickSums::default();
         // Constant bound: PERIODS_PER_TICK (20) PWM periods.
         for _ in 0..PERIODS_PER_TICK {
@@ -481,7 +701,7 @@ impl Twin {
 
     /// Carriage position, m.
     fn position_m(&self) -> f64 {
-        self.theta * self.metres_per_rad
+        self.theta * self.metres_per_rad + self.gap_m
     }
 
     /// Electrical angle, degrees (unreduced).
@@ -565,12 +785,14 @@ impl Twin {
     fn pwm_period(&mut self) {
         let dt = PWM_PERIOD_S;
         let theta_e = self.theta_e_deg();
-        let true_hall = hall_code(theta_e - self.config.hall.offset_deg);
+        let hall = &self.config.hall;
+        let true_hall = hall_code_placed(theta_e, hall.offset_deg, hall.sensor_offsets_deg);
         let hall_read = self.read_hall(true_hall);
         let sample = DriveSample {
             hall: hall_read,
             current: self.current_code,
             overcurrent_trip: self.comparator_flag,
+            bus_voltage: self.bus_sense.register(),
             limits: self.wired_limits(),
             elapsed: PwmTicks(u32::from(PWM_PERIOD_TICKS)),
         };
@@ -579,20 +801,39 @@ impl Twin {
 
         // Electrical.
         let shape = emf_shape(theta_e, self.config.motor.emf_ramp_deg);
-        let emf = shape.map(|f| self.ke_phase * self.omega * f);
+        let scale = self.circuit.phase_scale;
+        let shorted = scale != Circuit::HEALTHY;
+        let mut emf = shape.map(|f| self.ke_phase * self.omega * f);
+        if shorted {
+            for (e, s) in emf.iter_mut().zip(scale) {
+                *e *= s;
+            }
+        }
         self.circuit.bus_volts = self.bus_volts;
         let result = self.circuit.pwm_period(&mut self.currents, out.pattern, duty, emf, dt);
-        self.bus_volts = self.next_bus_volts(result.bus_charge / dt, dt);
-        let torque: f64 =
-            self.ke_phase * shape.iter().zip(result.mean_current).map(|(f, i)| f * i).sum::<f64>();
+        let (bus_volts, clamped) = self.next_bus_volts(result.bus_charge / dt, dt);
+        self.bus_volts = bus_volts;
+        self.bus_sense.convert(&mut self.rng_bus, self.bus_volts);
+        let torque: f64 = if shorted {
+            self.ke_phase
+                * shape
+                    .iter()
+                    .zip(scale)
+                    .zip(result.mean_current)
+                    .map(|((f, s), i)| f * s * i)
+                    .sum::<f64>()
+        } else {
+            self.ke_phase * shape.iter().zip(result.mean_current).map(|(f, i)| f * i).sum::<f64>()
+        };
 
         // Sensors of the fast loop.
-        let bus = if result.on_time > 0.0 { result.on_bus_current } else { 0.0 };
-        let measured = if self.faults.current_open {
-            0.0
-        } else {
-            self.current_sense.measure(&mut self.rng_current, bus)
-        };
+        let measured = self.current_sense.sample_period(
+            &mut self.rng_current,
+            &result,
+            out.pattern,
+            dt,
+            self.faults.current_open,
+        );
         self.current_code = self.current_sense.code(measured);
         self.comparator_flag = result.comparator_tripped;
         let driving = out.pattern.count(LegState::High) > 0;
@@ -604,9 +845,21 @@ impl Twin {
         self.last_duty = if driving { duty } else { 0.0 };
         let winding = result.mean_current.iter().map(|i| i.abs()).sum::<f64>() * 0.5;
         self.last_amps = winding;
+        // The current out of the motor through the pattern's low leg.
+        let signed_winding = if driving {
+            Phase::ALL
+                .iter()
+                .zip(result.mean_current)
+                .filter(|(phase, _)| out.pattern.leg(**phase) == LegState::Low)
+                .map(|(_, i)| -i)
+                .sum::<f64>()
+        } else {
+            0.0
+        };
 
         // Mechanics and string.
         let x_before = self.position_m();
+        let v_before = self.carriage_v;
         self.mechanics(torque, dt);
         let x = self.position_m();
         if self.string.attached() {
@@ -614,7 +867,13 @@ impl Twin {
         }
         let now_s = self.ticks as f64 * TICK_S;
         let tension_n = self.string.update(x, dt, now_s);
-        self.load_cell.update(tension_n / NEWTONS_PER_KGF, dt);
+        if let Some(gripper) = &mut self.gripper {
+            let accel = (self.carriage_v - v_before) / dt;
+            self.load_cell_force_n = gripper.step(tension_n, accel);
+        } else {
+            self.load_cell_force_n = tension_n;
+        }
+        self.load_cell.update(self.load_cell_force_n / NEWTONS_PER_KGF, dt);
 
         let s = &mut self.sums;
         s.current += winding;
@@ -623,11 +882,23 @@ impl Twin {
         s.peak = s.peak.max(result.peak_current);
         s.comparator |= result.comparator_tripped;
         s.bus_peak = s.bus_peak.max(self.bus_volts);
+        s.clamped |= clamped;
+        s.winding += signed_winding;
     }
 
-    /// The bus voltage after `dt` with the bridge drawing `bridge_amps` on average (see
-    /// "The DC bus" in the module docs): exact for a constant load.
-    fn next_bus_volts(&self, bridge_amps: f64, dt: f64) -> f64 {
+    /// The bus voltage after `dt` with the bridge drawing `bridge_amps` on average, and
+    /// whether the clamp conducted (see "The DC bus" in the module docs): exact for a
+    /// constant load.
+    fn next_bus_volts(&self, bridge_amps: f64, dt: f64) -> (f64, bool) {
+        let v = self.unclamped_bus_volts(bridge_amps, dt);
+        match self.config.bridge.clamp_volts {
+            Some(clamp) if v > clamp => (clamp, true),
+            _ => (v, false),
+        }
+    }
+
+    /// The bus voltage after `dt` without a clamp.
+    fn unclamped_bus_volts(&self, bridge_amps: f64, dt: f64) -> f64 {
         let b = &self.config.bridge;
         let (supply, r, c) = (b.bus_volts, b.supply_ohm, b.bus_capacitance_f);
         let load = bridge_amps + b.aux_load_amps;
@@ -659,13 +930,59 @@ impl Twin {
         settled + (v - settled) * (-left / tau).exp()
     }
 
-    /// Moves the rigid drivetrain by one step under `torque_em`.
+    /// Moves the drivetrain by one step under `torque_em`: one rigid body, or with backlash
+    /// the motor side and the carriage (see "Backlash" in the module docs).
     fn mechanics(&mut self, torque_em: f64, dt: f64) {
         if self.faults.jam {
             self.omega = 0.0;
             self.stuck = true;
+            self.carriage_v = 0.0;
+            self.carriage_stuck = true;
             return;
         }
+        if self.backlash_m <= 0.0 {
+            self.rigid_body(torque_em, dt);
+            self.carriage_v = self.omega * self.metres_per_rad;
+            self.carriage_stuck = self.stuck;
+            return;
+        }
+        if self.flank != Flank::Free {
+            // Try the step as one body; if the flank would have to pull, take it back and
+            // let the bodies part instead.
+            let before = (self.theta, self.omega, self.stuck);
+            self.rigid_body(torque_em, dt);
+            let accel = (self.omega - before.1) / dt * self.metres_per_rad;
+            // Held as one body by static friction, the motor side alone may still break
+            // away from the flank: it only has its own friction to overcome.
+            let breaks_away = self.stuck && {
+                let applied = torque_em + self.cogging_torque();
+                let own = self.motor_side_coulomb * self.config.mechanics.stiction_ratio;
+                match self.flank {
+                    Flank::Pull => applied < -own,
+                    Flank::Release => applied > own,
+                    Flank::Free => false,
+                }
+            };
+            if !breaks_away && self.flank_holds(accel) {
+                self.carriage_v = self.omega * self.metres_per_rad;
+                self.carriage_stuck = self.stuck;
+                return;
+            }
+            (self.theta, self.omega, self.stuck) = before;
+            self.flank = Flank::Free;
+        }
+        self.free_bodies(torque_em, dt);
+    }
+
+    /// The cogging torque at the present rotor angle, N·m.
+    fn cogging_torque(&self) -> f64 {
+        let m = &self.config.motor;
+        m.cogging_torque_nm
+            * (f64::from(m.cogging_periods_per_turn) * self.theta + self.cogging_phase).sin()
+    }
+
+    /// The rigid drivetrain (no backlash, or a flank engaged): one step.
+    fn rigid_body(&mut self, torque_em: f64, dt: f64) {
         let decoupled = self.config.mechanics.decoupled;
         let load = if decoupled { 0.0 } else { self.string.tension_n() * self.metres_per_rad };
         let m = &self.config.motor;
@@ -698,7 +1015,97 @@ impl Twin {
             let x = self.position_m();
             if x < self.low_stop_m || x > self.high_stop_m {
                 let clamped = x.clamp(self.low_stop_m, self.high_stop_m);
-                self.theta = clamped / self.metres_per_rad;
+                self.theta = (clamped - self.gap_m) / self.metres_per_rad;
+                self.omega = 0.0;
+                self.stuck = true;
+            }
+        }
+    }
+
+    /// Whether the engaged flank can pass the force a rigid step at carriage acceleration
+    /// `accel` needs: the screw can only push the carriage away from the flank (toward the
+    /// pull on the pull flank, toward home on the release flank).
+    fn flank_holds(&self, accel: f64) -> bool {
+        let slide = if self.carriage_v == 0.0 {
+            0.0
+        } else {
+            self.slide_friction * self.carriage_v.signum()
+        };
+        // What the screw must push the carriage with (toward the pull).
+        let push = self.carriage_mass * accel + self.string.tension_n() + slide;
+        match self.flank {
+            Flank::Pull => push >= 0.0,
+            Flank::Release => push <= 0.0,
+            Flank::Free => false,
+        }
+    }
+
+    /// In the dead band: the motor side and the carriage each take one step on their own;
+    /// reaching a flank merges them in an inelastic impact.
+    fn free_bodies(&mut self, torque_em: f64, dt: f64) {
+        let stiction = self.config.mechanics.stiction_ratio;
+        let cogging = self.cogging_torque();
+        // Motor side: the motor's torque against its own friction.
+        let (omega, stuck) = karnopp(
+            self.omega,
+            self.stuck,
+            torque_em + cogging,
+            self.motor_side_coulomb,
+            self.viscous,
+            stiction,
+            self.motor_inertia,
+            dt,
+        );
+        self.omega = omega;
+        self.stuck = stuck;
+        // Carriage: the string against the slide's friction.
+        let (v, carriage_stuck) = karnopp(
+            self.carriage_v,
+            self.carriage_stuck,
+            -self.string.tension_n(),
+            self.slide_friction,
+            0.0,
+            stiction,
+            self.carriage_mass,
+            dt,
+        );
+        self.carriage_v = v;
+        self.carriage_stuck = carriage_stuck;
+        let x = self.position_m() + self.carriage_v * dt;
+        self.theta += self.omega * dt;
+        let screw = self.theta * self.metres_per_rad;
+        let half = 0.5 * self.backlash_m;
+        let gap = x - screw;
+        let flank = if gap <= -half {
+            Flank::Pull
+        } else if gap >= half {
+            Flank::Release
+        } else {
+            Flank::Free
+        };
+        self.gap_m = gap.clamp(-half, half);
+        if flank != Flank::Free {
+            // Inelastic impact: the two bodies leave the flank with their common momentum.
+            let r = self.metres_per_rad;
+            let momentum =
+                self.motor_inertia * self.omega + self.carriage_mass * r * self.carriage_v;
+            self.omega = momentum / self.inertia;
+            self.carriage_v = self.omega * r;
+            self.stuck = self.omega == 0.0;
+            self.carriage_stuck = self.stuck;
+            self.flank = flank;
+            self.theta = (x - self.gap_m) / r;
+        }
+        let x = self.position_m();
+        if x < self.low_stop_m || x > self.high_stop_m {
+            // The carriage hits a hard stop; the motor side follows only if engaged.
+            let clamped = x.clamp(self.low_stop_m, self.high_stop_m);
+            self.carriage_v = 0.0;
+            self.carriage_stuck = true;
+            if self.flank == Flank::Free {
+                self.gap_m = (clamped - self.theta * self.metres_per_rad).clamp(-half, half);
+            } else {
+                self.theta = (clamped - self.gap_m) / self.metres_per_rad;
                 self.omega = 0.0;
                 self.stuck = true;
             }
@@ -713,6 +1120,7 @@ impl Twin {
         let tension_kgf = self.string.tension_n() / NEWTONS_PER_KGF;
         let load_cell = self.load_cell.sample(
             &mut self.rng_load_cell,
+            self.ticks as f64 * TICK_S,
             self.last_switching,
             self.last_commutated,
             self.last_amps,
@@ -728,17 +1136,19 @@ impl Twin {
             now_ms: (self.ticks & u64::from(u32::MAX)) as u32,
             load_cell,
             motor_current: self.current_sense.code(mean_measured),
+            bus_voltage: self.bus_sense.register(),
             drive: self.drive.status(),
             string_counter: (counts.rem_euclid(65_536)) as u16,
             limits: self.wired_limits(),
             keys: self.keys,
         };
         let x = self.position_m();
+        let hall = &self.config.hall;
         self.truth = Truth {
             time_s: self.ticks as f64 * TICK_S,
             tension_kgf,
             carriage_mm: x * 1e3,
-            carriage_mm_per_s: self.omega * self.metres_per_rad * 1e3,
+            carriage_mm_per_s: self.carriage_v * 1e3,
             motor_rpm: self.omega * 60.0 / core::f64::consts::TAU,
             current_a: if ticks_started { s.current / periods } else { 0.0 },
             peak_current_a: s.peak,
@@ -749,14 +1159,44 @@ impl Twin {
             comparator_tripped: s.comparator,
             string: self.string.state(),
             limits: self.true_limits(),
-            hall: hall_code(self.theta_e_deg() - self.config.hall.offset_deg),
-            stuck: self.stuck,
+            hall: hall_code_placed(self.theta_e_deg(), hall.offset_deg, hall.sensor_offsets_deg),
+            stuck: self.carriage_stuck,
             string_travel_mm: self.string_travel_m * 1e3,
             load_cell_volts: self.load_cell.output_volts(),
             bus_volts: self.bus_volts,
             bus_peak_volts: if ticks_started { s.bus_peak } else { self.bus_volts },
+            bus_clamped: s.clamped,
+            winding_current_a: if ticks_started { s.winding / periods } else { 0.0 },
+            load_cell_force_kgf: self.load_cell_force_n / NEWTONS_PER_KGF,
+            backlash_mm: self.gap_m * 1e3,
         };
     }
+}
+
+/// One semi-implicit Euler step of a body of inertia `inertia` at speed `speed` under
+/// `applied` force (or torque), with Coulomb friction `coulomb`, viscous coefficient
+/// `viscous` and static friction `stiction × coulomb` (Karnopp): the new speed and whether it
+/// is stuck.
+#[allow(clippy::too_many_arguments, reason = "one body's state and constants, all scalars")]
+fn karnopp(
+    speed: f64,
+    stuck: bool,
+    applied: f64,
+    coulomb: f64,
+    viscous: f64,
+    stiction: f64,
+    inertia: f64,
+    dt: f64,
+) -> (f64, bool) {
+    if stuck || speed == 0.0 {
+        if applied.abs() <= coulomb * stiction {
+            return (0.0, true);
+        }
+        return ((applied - applied.signum() * coulomb) / inertia * dt, false);
+    }
+    let acceleration = (applied - viscous * speed - speed.signum() * coulomb) / inertia;
+    let next = speed + acceleration * dt;
+    if next * speed <= 0.0 { (0.0, true) } else { (next, false) }
 }
 
 /// Phase A, B, C → 0, 1, 2.

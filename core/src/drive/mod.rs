@@ -171,6 +171,8 @@ pub struct DriveSample {
     pub current: AdcCode,
     /// The overcurrent comparator / timer break flag.
     pub overcurrent_trip: bool,
+    /// The DC bus voltage's converter code (board divider; see [`crate::io::Inputs`]).
+    pub bus_voltage: AdcCode,
     /// The carriage limit switches.
     pub limits: LimitSwitches,
     /// PWM-timer ticks since the previous call.

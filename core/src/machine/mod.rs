@@ -174,11 +174,18 @@ impl Checkpoint {
         }
     }
 
-    /// Whether a real run can be in this checkpoint: calibration points 0–3, entered value
-    /// 50–550, preset index 0–8, clear attempt within its length, a tare inside the load
-    /// cell's zero band, a valid tension watch, a valid key pad.
+    /// Whether a real run can be in this checkpoint: the chart's part
+    /// ([`Checkpoint::chart_is_valid`]) and a valid key pad.
     #[must_use]
     pub fn is_valid(&self) -> bool {
+        self.chart_is_valid() && self.keypad.is_valid()
+    }
+
+    /// The invariant of everything but the key pad (whose own is [`KeyPad::is_valid`]):
+    /// calibration points 0–3, entered value 50–550, preset index 0–8, clear attempt within
+    /// its length, a tare inside the load cell's zero band, a valid tension watch.
+    #[must_use]
+    pub fn chart_is_valid(&self) -> bool {
         let point_ok = match self.state {
             MachineState::CalibrationPull { point } | MachineState::CalibrationEntry { point } => {
                 point < 4
@@ -197,7 +204,6 @@ impl Checkpoint {
             && crate::sense::load_cell::LoadCellScale::NOMINAL.tared_at(self.tare).is_ok()
             && self.watch.is_valid()
             && self.rail_ticks < safety::RAIL_PERSIST
-            && self.keypad.is_valid()
     }
 }
 

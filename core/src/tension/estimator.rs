@@ -618,10 +618,18 @@ impl SlipDamper {
             }
         }
         let excess = residual.saturating_sub(self.dead_zone);
-        if s.learned < LEARN_TICKS || excess <= 0 {
+        if s.learned < LEARN_TICKS {
             return Kgf::ZERO;
         }
-        Kgf::from_bits(narrow(mul_wide(excess, self.gain)))
+        // Only a forward residual brakes, and never by a negative force: the excess and the
+        // gain as unsigned values, so the product's sign is the types' (no sign reasoning).
+        let (Ok(excess), Ok(gain)) = (u32::try_from(excess), u32::try_from(self.gain)) else {
+            return Kgf::ZERO;
+        };
+        // u32 × u32 < 2⁶⁴: exact. Rounded Q31.32 → Q15.16, saturated to i32::MAX.
+        let product = u64::from(excess).wrapping_mul(u64::from(gain));
+        let bits = product.saturating_add(1 << 15) >> 16;
+        Kgf::from_bits(i32::try_from(bits).unwrap_or(i32::MAX))
     }
 
     /// Records the duty commanded this tick (read back at the next update).

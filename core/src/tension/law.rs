@@ -96,8 +96,10 @@ impl Reference {
 /// `a × b` for Q15.16 operands, exact, as Q31.32 in an `i64` (cannot overflow: both < 2³¹).
 #[must_use]
 pub fn mul_wide(a: i32, b: i32) -> i64 {
-    // |a·b| ≤ 2⁶², inside i64, so the saturation never engages.
-    i64::from(a).saturating_mul(i64::from(b))
+    // |a·b| ≤ 2⁶², inside i64, so the product is exact and cannot wrap. (Not
+    // `saturating_mul`: its overflow check costs a 128-bit product on the Cortex-M4 and in
+    // CBMC, for a case that cannot happen.)
+    i64::from(a).wrapping_mul(i64::from(b))
 }
 
 /// A Q31.32 `i64` rounded to nearest and saturated to Q15.16 `i32` bits.
@@ -156,13 +158,18 @@ pub fn reciprocal_q24(x: i32) -> i32 {
     // Seed, Q2.30: 48/17 − 32/17·M.
     let seed_a: i64 = 3_031_741_621; // 48/17 · 2^30
     let seed_b: i64 = 2_021_161_081; // 32/17 · 2^30
-    let mut y = seed_a.saturating_sub(seed_b.saturating_mul(m) >> 31);
-    // Three Newton steps (constant bound).
+    // seed_b < 2³¹ and M < 2³¹: the product is below 2⁶² and exact (wrapping cannot occur).
+    let mut y = seed_a.saturating_sub(seed_b.wrapping_mul(m) >> 31);
+    // Three Newton steps (constant bound). Every operand stays below 2³²: y ∈ (0.9, 2] in
+    // Q2.30 (Newton approaches 1/M ≤ 2 from below), M ∈ [½, 1) in Q1.31, the correction
+    // 2 − M·y ∈ (0, 2) in Q2.30; so each product
+    // is below 2⁶³ and exact (`wrapping_mul` without the overflow check that would cost a
+    // 128-bit product; `reciprocal_accurate` checks the result for every input).
     for _ in 0..3 {
-        // M·y: Q1.31 × Q2.30 → Q.61 → Q2.30 (both below 2^32, the product below 2^63).
-        let my = m.saturating_mul(y) >> 31;
+        // M·y: Q1.31 × Q2.30 → Q.61 → Q2.30.
+        let my = m.wrapping_mul(y) >> 31;
         let correction = (2_i64 << 30).saturating_sub(my);
-        y = y.saturating_mul(correction) >> 30;
+        y = y.wrapping_mul(correction) >> 30;
     }
     // 1/X = (1/M)·2^(15−top); as Q8.24 from Q2.30: shift by (15 − top) − 6 = 9 − top.
     let shifted = if top >= 9 {
@@ -532,16 +539,19 @@ impl Rsmc {
         let c = self.coefficients;
         let e = r.tension.0.saturating_sub(y.0).to_bits();
 
-        // Error rate: backward difference, optionally low-pass filtered.
+        // Error rate: backward difference, optionally low-pass filtered. The products are
+        // exact (`wrapping_mul` cannot wrap): |e − e_prev| < 2³³ and 1/dt ≤ 20 000 < 2¹⁵
+        // (periods of at least 50 µs); |Δ| < 2³⁴ and α ≤ 1 (2¹⁶ bits). An overflow check here
+        // would cost a 128-bit product per tick (and in CBMC).
         let raw_rate = saturate_i32(
             i64::from(e)
                 .saturating_sub(i64::from(self.state.e_prev))
-                .saturating_mul(i64::from(c.inv_dt)),
+                .wrapping_mul(i64::from(c.inv_dt)),
         );
         let delta = i64::from(raw_rate).saturating_sub(i64::from(self.state.e_rate));
         let e_rate = saturate_i32(
             i64::from(self.state.e_rate)
-                .saturating_add(narrow(delta.saturating_mul(i64::from(c.rate_alpha))).into()),
+                .saturating_add(narrow(delta.wrapping_mul(i64::from(c.rate_alpha))).into()),
         );
         self.state.e_prev = e;
         self.state.e_rate = e_rate;
@@ -593,16 +603,17 @@ impl Rsmc {
 
         // Adaptation φ̂ += k_φ dt |s| (outside the dead zone), with leakage, in [0, φ_max].
         let magnitude = s.saturating_abs();
-        let mut phi = self.state.phi_hat;
+        let mut phi = self.state.phi_hat.clamp(0, c.phi_max);
         if c.leak_dt != 0 {
-            // φ̂ −= φ̂·σdt: Q31.32 × Q15.16, rounded back to Q31.32. φ̂ ≤ φ_max < 2⁴⁷ and
-            // σdt < 2¹⁶, so the product stays inside 64 bits (saturating regardless).
-            let leak = phi.saturating_mul(i64::from(c.leak_dt)).saturating_add(1 << 15) >> 16;
+            // φ̂ −= φ̂·σdt: Q31.32 × Q15.16, rounded back to Q31.32. With leakage on, φ̂ is
+            // clamped to φ_max < 2⁴⁷ and σdt < 2¹⁶ (both validated), so the product is below
+            // 2⁶³: exact.
+            let leak = phi.wrapping_mul(i64::from(c.leak_dt)).saturating_add(1 << 15) >> 16;
             phi = phi.saturating_sub(leak);
         }
         if magnitude > c.dead_zone {
-            let grow =
-                i64::from(magnitude).saturating_mul(i64::from(c.k_phi_dt)) >> (KPHI_FRAC - 16);
+            // |s| ≤ 2³¹ and k_φ·dt < 2³¹: the product is below 2⁶², exact.
+            let grow = i64::from(magnitude).wrapping_mul(i64::from(c.k_phi_dt)) >> (KPHI_FRAC - 16);
             phi = phi.saturating_add(grow);
         }
         self.state.phi_hat = phi.clamp(0, c.phi_max);

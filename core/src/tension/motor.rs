@@ -256,12 +256,21 @@ impl ForceToDuty {
     /// always [`Direction::Pull`], duty within the current-limit window and `[0, DUTY_MAX]`.
     #[must_use]
     pub fn command(&self, force: Kgf, speed: MmPerSecond) -> (DriveCommand, Saturation) {
+        self.command_within(force, speed, self.current_window(speed))
+    }
+
+    /// [`ForceToDuty::command`] with the current-limit window given: the duty the force
+    /// asks for, held inside `(low, high)` (duty, Q15.16 bits) and `[0, DUTY_MAX]`; when the
+    /// window is empty (`low > high`), its nearest end. Split out so a proof can state the
+    /// rule for *every* window without recomputing the one `command` uses.
+    #[must_use]
+    pub fn command_within(
+        &self,
+        force: Kgf,
+        speed: MmPerSecond,
+        (low, high): (i64, i64),
+    ) -> (DriveCommand, Saturation) {
         let wanted = self.signed_duty(force.to_bits(), speed.0.to_bits());
-        // The current-limit window around the measured back-EMF duty (Q15.16 bits).
-        let back_emf = mul_wide(speed.0.to_bits(), self.duty_per_mm_s) >> DUTY_COEF_FRAC;
-        let room = mul_wide(self.force_limit, self.duty_per_kgf) >> DUTY_COEF_FRAC;
-        let high = back_emf.saturating_add(room).min(i64::from(DUTY_MAX.raw()));
-        let low = back_emf.saturating_sub(room).max(0);
         let saturation = if wanted > high {
             Saturation::High
         } else if wanted < low {
@@ -276,6 +285,19 @@ impl ForceToDuty {
         let bits = wanted.max(low).min(high).max(0);
         let duty = Duty::from_fraction_clamped(Q16::from_bits(saturate_i32(bits)));
         (DriveCommand::Drive { direction: Direction::Pull, duty }, saturation)
+    }
+
+    /// The current-limit window at carriage speed `speed`, `(low, high)` duty as Q15.16 bits:
+    /// the measured back-EMF duty `v·c_v` ± the resistive drop of the limit force
+    /// `F_lim·c_f`, `high` at most [`DUTY_MAX`] and `low` at least 0 (so `low > high` when
+    /// the speed is beyond the motor's reach; see [`ForceToDuty::command`]).
+    #[must_use]
+    pub fn current_window(&self, speed: MmPerSecond) -> (i64, i64) {
+        let back_emf = mul_wide(speed.0.to_bits(), self.duty_per_mm_s) >> DUTY_COEF_FRAC;
+        let room = mul_wide(self.force_limit, self.duty_per_kgf) >> DUTY_COEF_FRAC;
+        let high = back_emf.saturating_add(room).min(i64::from(DUTY_MAX.raw()));
+        let low = back_emf.saturating_sub(room).max(0);
+        (low, high)
     }
 
     /// The largest duty the current limit allows at carriage speed `speed`: the measured
@@ -421,6 +443,27 @@ mod tests {
         assert_eq!(cmd.direction(), Some(Direction::Pull));
         // 10·0.001817 + 40·0.012389 = 0.51373 → 33 668 / 65 536.
         assert!((i32::from(cmd.duty().raw()) - 33_668).abs() < 40, "{cmd:?}");
+    }
+
+    #[test]
+    fn current_window_is_back_emf_plus_minus_the_limit_drop() {
+        let map = valid(ForceToDuty::new(
+            &MotorModel::PAPER,
+            DutyMap::BackEmf { current_limit: Amps::from_int(8) },
+        ));
+        let c_v = i64::from(map.duty_per_mm_s_q24());
+        let c_f = i64::from(map.duty_per_kgf_q24());
+        let room = (i64::from(map.force_limit().to_bits()) * c_f) >> 24;
+        for mm_s in [-200_i16, -40, 0, 1, 40, 75, 200] {
+            let speed = MmPerSecond::from_int(mm_s);
+            let back_emf = (i64::from(speed.0.to_bits()) * c_v) >> 24;
+            let (low, high) = map.current_window(speed);
+            assert_eq!(high, (back_emf + room).min(i64::from(DUTY_MAX.raw())), "{mm_s}");
+            assert_eq!(low, (back_emf - room).max(0), "{mm_s}");
+        }
+        // Back-driven beyond reach: the window is empty and its high end below zero.
+        let (low, high) = map.current_window(MmPerSecond::from_int(-200));
+        assert!(high < low && high < 0);
     }
 
     #[test]

@@ -3,7 +3,8 @@
 //! Pins are claimed through embassy-stm32's typed constructors (so a pin without the TIM1
 //! function does not compile); the timer itself is programmed at register level from the
 //! images in [`taut_firmware::bridge`], because six-step needs per-leg forced states and
-//! commutation events that no HAL PWM driver exposes.
+//! commutation events that no HAL PWM driver exposes. Channels 4 and 5 have no pins: their
+//! compare events trigger the ADCs ([`taut_firmware::timing`]).
 
 use embassy_stm32::Peri;
 use embassy_stm32::gpio::{AfType, Flex, OutputType, Pull};
@@ -14,10 +15,10 @@ use embassy_stm32::timer::complementary_pwm::{ComplementaryPwm, ComplementaryPwm
 use embassy_stm32::timer::low_level::CountingMode;
 use embassy_stm32::timer::simple_pwm::PwmPin;
 use embassy_stm32::timer::{BkIn1, BreakInputPin};
-use taut_core::drive::PWM_FREQUENCY_HZ;
 use taut_firmware::bridge::{
     AF1, AUTO_RELOAD, BridgeImage, CR2, DEAD_TIME_REGISTER, MOE, PRESCALER, bdtr,
 };
+use taut_firmware::timing::{CCMR3, PWM_FREQUENCY_HZ, SLOW_SAMPLE_TICKS};
 
 /// `TIMx_SR.BIF`, the break interrupt flag.
 const SR_BIF: u32 = 1 << 7;
@@ -36,6 +37,7 @@ const CR1_RUN: u32 = 1 | (1 << 7);
 /// counter. The update interrupt is enabled in the timer but left masked in the NVIC until
 /// [`super::fast_loop::start`].
 #[allow(clippy::too_many_arguments, reason = "one argument per bridge pin")]
+#[inline(never)]
 pub fn init(
     timer: Peri<'static, TIM1>,
     a_high: Peri<'static, PA8>,
@@ -75,6 +77,10 @@ pub fn init(
     tim.rcr().write_value(pac::timer::regs::RcrAdv(0));
     tim.cr2().write_value(pac::timer::regs::Cr2Adv(CR2));
     write_image(BridgeImage::off());
+    // Channel 5 has no pin: its reference rises at the fixed slow-sample instant and, as
+    // TRGO2, triggers the load-cell and bus-voltage conversions (`taut_firmware::timing`).
+    tim.ccmr3().write_value(pac::timer::regs::Ccmr3Adv(CCMR3));
+    tim.ccr5().write_value(pac::timer::regs::Ccr5Adv(u32::from(SLOW_SAMPLE_TICKS)));
     tim.af1().write_value(pac::timer::regs::Af1Adv(AF1));
     tim.bdtr().write_value(pac::timer::regs::BdtrAdv(bdtr(DEAD_TIME_REGISTER)));
     // Load every preloaded register now, then clear the flags that raised.

@@ -1,22 +1,24 @@
 //! The 1 kHz control tick: sample → `Inputs` → machine → `Outputs` → peripherals.
 //!
 //! TIM6 (a basic timer: 170 MHz / 170 / 1 000) interrupts every millisecond at priority 1,
-//! below the fast loop, which may preempt it at any point. The tick reads the analogue
-//! channels (ADC2, software-started, hardware oversampled), the string counter (TIM4 in
-//! encoder mode), the limit switches and keys (GPIO), and the drive's status; hands the
-//! machine one [`Inputs`]; and applies the [`Outputs`]: the drive command (and a fault-clear
-//! request) to the drive, the beeper to its pin, the display to the panel task, the record to
-//! the store task.
+//! below the fast loop, which may preempt it at any point. The tick reads finished results
+//! only — the analogue values the ADCs converted on TIM1's triggers and averaged
+//! ([`Analog`], timing in `taut_firmware::timing`), the string counter (TIM4 in encoder mode),
+//! the limit switches and keys (GPIO), and the drive's status — hands the machine one
+//! [`Inputs`], and applies the [`Outputs`]: the drive command (and a fault-clear request) to the
+//! drive, the beeper to its pin, the display to the panel task, and a copy of the record to the
+//! store task, which encodes and writes it in thread mode.
 
 use core::cell::RefCell;
 use critical_section::Mutex;
 use embassy_stm32::Peri;
-use embassy_stm32::adc::{Adc, AdcConfig, Rovsm, SampleTime, Trovs};
+use embassy_stm32::adc::{Adc, AdcChannel, AdcConfig, Presc, Rovsm, SampleTime, Trovs};
 use embassy_stm32::gpio::{Input, Level, Output, Pull, Speed};
 use embassy_stm32::pac;
+use embassy_stm32::pac::adc::vals::{Exten, Ovrmod};
 use embassy_stm32::pac::interrupt;
 use embassy_stm32::peripherals::{
-    ADC1, ADC2, PA0, PB6, PB7, PB11, PB15, PC6, PC7, PC8, PC10, PC11, PC12, PD2, TIM4, TIM6,
+    ADC1, ADC2, PA0, PA1, PB6, PB7, PB11, PB15, PC6, PC7, PC8, PC10, PC11, PC12, PD2, TIM4, TIM6,
 };
 use embassy_stm32::timer::low_level::Timer;
 use embassy_stm32::timer::qei::{Config as QeiConfig, Qei};
@@ -25,66 +27,129 @@ use taut_core::io::{Inputs, Keys};
 use taut_core::machine::Machine;
 use taut_core::store::{Record, StoreError};
 use taut_core::units::AdcCode;
+use taut_firmware::timing::OVERSAMPLING_SHIFT;
 
 use super::{display, fast_loop, store};
 
 /// ADC1 channel of the bus current (PA0 = ADC1_IN1).
 const CURRENT_CHANNEL: u8 = 1;
+/// ADC1 channel of the bus voltage (PA1 = ADC1_IN2).
+const BUS_VOLTAGE_CHANNEL: u8 = 2;
+/// ADC2 channel of the load cell (PB15 = ADC2_IN15).
+const LOAD_CELL_CHANNEL: u8 = 15;
 /// ADC1 injected trigger `JEXTSEL` = TIM1_CC4 event (RM0440, table "ADC1/2 - External
 /// triggers for injected channels").
 const JEXTSEL_TIM1_CC4: u8 = 1;
+/// ADC1/2 regular trigger `EXTSEL` = TIM1_TRGO2 (RM0440, table "ADC1/2 - External triggers
+/// for regular channels": `EXTSEL = 01010`).
+const EXTSEL_TIM1_TRGO2: u8 = 0b01010;
+/// Every channel's sampling time: 24.5 ADC clocks (`taut_firmware::timing::SAMPLE_HALF_CLOCKS`).
+const SAMPLE_TIME: SampleTime = SampleTime::CYCLES24_5;
+/// `OVSR`: `n` means 2ⁿ⁺¹ conversions per result, so 16 conversions (shift 4) is `OVSR = 3`.
+const OVERSAMPLING_RATIO: u8 = OVERSAMPLING_SHIFT.saturating_sub(1);
 /// `TIMx_DIER.UIE` / `TIMx_SR.UIF`.
 const UPDATE: u32 = 1;
 
-/// The analogue inputs.
+/// The analogue inputs, converted by hardware on TIM1's triggers (`taut_firmware::timing`):
+///
+/// - ADC1 injected: the bus current at mid on-time every PWM period, read by the fast loop,
+///   which also sums it for the tick's mean;
+/// - ADC1 regular: the bus voltage (PA1), and ADC2 regular: the load cell (PB15), both on
+///   TRGO2 in the quiet end of every PWM period, each oversampled 16× in triggered mode, so
+///   the data register always holds the mean of the last 16 periods' samples.
+///
+/// Reading never starts a conversion and never waits.
 pub struct Analog {
-    adc2: Adc<'static, ADC2>,
-    load_cell: Peri<'static, PB15>,
-    current: Peri<'static, PA0>,
+    _private: (),
+}
+
+/// Sets up one ADC's regular group: a single `channel`, converted on every TIM1 TRGO2 rising
+/// edge, oversampled 16× with one conversion per trigger, the data register overwritten by
+/// each new result (nothing reads it by DMA, so an unread result is simply superseded).
+fn slow_regular_group(adc: pac::adc::Adc, channel: u8) {
+    if channel <= 9 {
+        adc.smpr().modify(|w| w.set_smp(usize::from(channel), SAMPLE_TIME));
+    } else {
+        adc.smpr2().modify(|w| w.set_smp(usize::from(channel.saturating_sub(10)), SAMPLE_TIME));
+    }
+    adc.sqr1().write(|w| {
+        w.set_l(0);
+        w.set_sq(0, channel);
+    });
+    adc.cfgr2().modify(|w| {
+        w.set_ovsr(OVERSAMPLING_RATIO);
+        w.set_ovss(OVERSAMPLING_SHIFT);
+        w.set_trovs(Trovs::TRIGGERED);
+        // An injected conversion (ADC1's current) pauses the accumulation and it continues.
+        w.set_rovsm(Rovsm::CONTINUED);
+        w.set_rovse(true);
+    });
+    adc.cfgr().modify(|w| {
+        w.set_cont(false);
+        w.set_extsel(EXTSEL_TIM1_TRGO2);
+        w.set_exten(Exten::RISING_EDGE);
+        w.set_ovrmod(Ovrmod::OVERWRITE);
+    });
+    adc.cr().modify(|w| w.set_adstart(true));
 }
 
 impl Analog {
-    /// Calibrates both ADCs. ADC1 converts the bus current as an injected channel on every
-    /// TIM1 channel-4 compare (mid on-time, see `taut_firmware::bridge`), for the fast loop;
-    /// ADC2 converts on demand for the tick, averaging 16 conversions in hardware
-    /// (oversampling ratio 16, shift 4: still a 12-bit code).
+    /// Calibrates both ADCs (embassy-stm32 runs the G4's self-calibration and enables them),
+    /// puts the three pins in analogue mode, and sets up the conversions: ADC1's injected
+    /// current on TIM1 channel 4, ADC1's and ADC2's regular groups on TRGO2. The conversions
+    /// start with TIM1's triggers. Not inlined, so its frame is not part of the start-up task's.
+    #[inline(never)]
     pub fn new(
         adc1: Peri<'static, ADC1>,
         adc2: Peri<'static, ADC2>,
         current: Peri<'static, PA0>,
+        bus_voltage: Peri<'static, PA1>,
         load_cell: Peri<'static, PB15>,
     ) -> Self {
-        // Calibrates and enables ADC1; the injected group is then set up at register level
-        // (the driver has no drop, so ADC1 stays enabled).
-        let _calibrated = Adc::new(adc1, AdcConfig::default());
-        pac::ADC1
-            .smpr()
-            .modify(|w| w.set_smp(usize::from(CURRENT_CHANNEL), SampleTime::CYCLES24_5));
-        pac::ADC1.jsqr().write(|w| {
+        // The drivers have no drop, so both ADCs stay calibrated and enabled; from here on
+        // they are programmed at register level (embassy-stm32 has no triggered oversampling).
+        let _adc1 = Adc::new(adc1, AdcConfig::default());
+        let _adc2 = Adc::new(adc2, AdcConfig::default());
+        // Analogue mode for the three pins (the channel handles carry nothing else).
+        let _current = AdcChannel::<ADC1>::degrade_adc(current);
+        let _bus_voltage = AdcChannel::<ADC1>::degrade_adc(bus_voltage);
+        let _load_cell = AdcChannel::<ADC2>::degrade_adc(load_cell);
+
+        let adc1 = pac::ADC1;
+        adc1.smpr().modify(|w| w.set_smp(usize::from(CURRENT_CHANNEL), SAMPLE_TIME));
+        adc1.jsqr().write(|w| {
             w.set_jl(0);
             w.set_jsq(0, CURRENT_CHANNEL);
             w.set_jextsel(JEXTSEL_TIM1_CC4);
-            w.set_jexten(pac::adc::vals::Exten::RISING_EDGE);
+            w.set_jexten(Exten::RISING_EDGE);
         });
-        pac::ADC1.cr().modify(|w| w.set_jadstart(true));
-
-        let config = AdcConfig {
-            oversampling_ratio: Some(3),
-            oversampling_shift: Some(4),
-            oversampling_mode: Some((Rovsm::CONTINUED, Trovs::AUTOMATIC, true)),
-            ..AdcConfig::default()
-        };
-        let adc2 = Adc::new(adc2, config);
-        Self { adc2, load_cell, current }
+        adc1.cr().modify(|w| w.set_jadstart(true));
+        slow_regular_group(adc1, BUS_VOLTAGE_CHANNEL);
+        slow_regular_group(pac::ADC2, LOAD_CELL_CHANNEL);
+        // The sampling instants assume a 42.5 MHz ADC clock (SYSCLK / 4, which embassy-stm32
+        // chooses for a 170 MHz kernel clock): say so if it ever chose otherwise.
+        if pac::ADC12_COMMON.ccr().read().presc() != Presc::DIV4 {
+            taut_firmware::error!("ADC clock is not SYSCLK / 4: sampling instants are off");
+        }
+        Self { _private: () }
     }
 
-    fn load_cell(&mut self) -> AdcCode {
-        // The divider's ≈ 11 kΩ source needs a long sample time (5.8 µs at 42.5 MHz).
-        AdcCode::new(self.adc2.blocking_read(&mut self.load_cell, SampleTime::CYCLES247_5))
+    /// The load-cell code: the mean of the last 16 periods' quiet-window samples.
+    fn load_cell(&self) -> AdcCode {
+        AdcCode::new(pac::ADC2.dr().read().rdata())
     }
 
-    fn motor_current(&mut self) -> AdcCode {
-        AdcCode::new(self.adc2.blocking_read(&mut self.current, SampleTime::CYCLES24_5))
+    /// The motor current code: the mean of this tick's mid-on-time samples.
+    fn motor_current(&self) -> AdcCode {
+        fast_loop::take_current_mean()
+    }
+
+    /// The DC bus voltage code: the mean of the last 16 periods' quiet-window samples of PA1,
+    /// the X-NUCLEO-IHM08M1's bus divider (gain 0.0522: a code is 3.3 V / 4096 / 0.0522 =
+    /// 15.4 mV of bus; full scale 63.2 V). Referred to the 3.3 V converter, unlike the 5 V
+    /// meaning of the load cell's and current's codes (`firmware/README.md`).
+    pub fn bus_voltage(&self) -> AdcCode {
+        AdcCode::new(pac::ADC1.dr().read().rdata())
     }
 }
 
@@ -111,12 +176,12 @@ pub struct Resources {
     pub beeper: Peri<'static, PB11>,
     /// The tick's timer.
     pub tick_timer: Peri<'static, TIM6>,
-    /// The record loaded from flash, or why none could be.
-    pub record: Result<Record, StoreError>,
+    /// The machine, built from the stored record ([`build_machine`]).
+    pub machine: &'static mut Machine,
 }
 
 struct Tick {
-    machine: Machine,
+    machine: &'static mut Machine,
     analog: Analog,
     encoder: Qei<'static, TIM4>,
     keys: [Input<'static>; 5],
@@ -142,6 +207,7 @@ impl Tick {
             now_ms: self.now_ms,
             load_cell: self.analog.load_cell(),
             motor_current: self.analog.motor_current(),
+            bus_voltage: self.analog.bus_voltage(),
             drive: fast_loop::status(),
             string_counter: self.encoder.count(),
             limits: fast_loop::limits(),
@@ -158,7 +224,9 @@ impl Tick {
         self.beeper.set_level(Level::from(outputs.beeper));
         display::PANEL.signal((outputs.display, outputs.leds));
         if outputs.store {
-            store::REQUEST.signal(self.machine.record().encode());
+            // A copy of the record; the store task encodes it (≈ 4 000 instructions) and writes
+            // it in thread mode, never on the tick.
+            store::REQUEST.signal(*self.machine.record());
         }
     }
 }
@@ -167,10 +235,21 @@ impl Tick {
 /// on its first run.
 static TICK: Mutex<RefCell<Option<&'static mut Tick>>> = Mutex::new(RefCell::new(None));
 
-/// Claims the tick's peripherals, builds the machine from the stored record and programs
-/// TIM6 for 1 kHz. The interrupt stays masked until [`start`].
+/// The machine, built from the stored record into its static. Not inlined, so the
+/// construction's temporaries (`taut-core` builds the chart and the machine on the stack and
+/// then moves them: ≈ 3.7 KB, the deepest start-up path of `scripts/firmware-size`) are below
+/// the start-up function's small frame, not in it.
+#[inline(never)]
+pub fn build_machine(record: Result<Record, StoreError>) -> &'static mut Machine {
+    static MACHINE: StaticCell<Machine> = StaticCell::new();
+    MACHINE.init_with(|| Machine::from_stored(record))
+}
+
+/// Claims the tick's peripherals, takes the machine and programs TIM6 for 1 kHz. The interrupt stays masked until [`start`]. Not inlined into the start-up
+/// task (see [`build_machine`]).
+#[inline(never)]
 pub fn init(resources: Resources) {
-    let Resources { analog, encoder, limits, keys, beeper, tick_timer, record } = resources;
+    let Resources { analog, encoder, limits, keys, beeper, tick_timer, machine } = resources;
     let qei_config = QeiConfig { ch1_pull: Pull::Up, ch2_pull: Pull::Up, ..QeiConfig::default() };
     let encoder = Qei::new(encoder.0, encoder.1, encoder.2, qei_config);
     // The limit switches are read by the fast loop straight from the input registers.
@@ -184,17 +263,8 @@ pub fn init(resources: Resources) {
         Input::new(keys.4, Pull::Up),
     ];
     let beeper = Output::new(beeper, Level::Low, Speed::Low);
-    // One static copy of the state, built in place (`init_with` writes the closure's value
-    // straight into the cell, so the ≈ 1.3 KB machine is not staged on the start-up stack).
     static CELL: StaticCell<Tick> = StaticCell::new();
-    let tick = CELL.init_with(|| Tick {
-        machine: Machine::from_stored(record),
-        analog,
-        encoder,
-        keys,
-        beeper,
-        now_ms: 0,
-    });
+    let tick = CELL.init(Tick { machine, analog, encoder, keys, beeper, now_ms: 0 });
     critical_section::with(|cs| *TICK.borrow_ref_mut(cs) = Some(tick));
 
     core::mem::forget(Timer::new(tick_timer));

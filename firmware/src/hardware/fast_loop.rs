@@ -35,6 +35,14 @@ static DRIVE: Mutex<RefCell<Option<Drive>>> = Mutex::new(RefCell::new(None));
 /// DWT cycle count at the previous fast-loop call.
 static LAST_CALL: AtomicU32 = AtomicU32::new(0);
 
+/// The current samples since the tick last took them: their sum in bits 31..10, their count in
+/// bits 9..0 (one atomic add per PWM period). A tick takes 20; up to 1 024 samples of 12-bit
+/// codes (51 ms without a tick) fit both fields without carrying.
+static CURRENT_SUM: AtomicU32 = AtomicU32::new(0);
+
+/// Bits of [`CURRENT_SUM`] that count samples.
+const COUNT_BITS: u32 = 10;
+
 /// `TIMx_SR.CC1IF`.
 const SR_CC1IF: u32 = 1 << 1;
 
@@ -68,6 +76,8 @@ fn hall() -> HallCode {
 
 /// Installs the drive, claims the Hall pins for TIM2 and sets TIM2 up as the Hall-edge
 /// interrupt source; starts the cycle counter. Interrupts stay masked until [`start`].
+/// Not inlined, so its frame is not part of the start-up task's.
+#[inline(never)]
 pub fn init(
     timer: Peri<'static, TIM2>,
     hall_a: Peri<'static, PA15>,
@@ -140,16 +150,33 @@ pub fn with_drive(apply: impl FnOnce(&mut Drive)) {
     });
 }
 
-/// One fast-loop call.
-fn step() {
+/// The mean of the current samples the fast loop read since the last call (the tick's
+/// [`taut_core::io::Inputs::motor_current`]), rounded; zero before the first PWM period.
+pub fn take_current_mean() -> AdcCode {
+    let taken = CURRENT_SUM.swap(0, Ordering::Relaxed);
+    let count = taken & ((1 << COUNT_BITS) - 1);
+    let sum = taken >> COUNT_BITS;
+    let mean = sum.saturating_add(count / 2).checked_div(count).unwrap_or(0);
+    AdcCode::new(u16::try_from(mean).unwrap_or(u16::MAX))
+}
+
+/// One fast-loop call; `period` when it is the PWM period's (TIM1 update) rather than a Hall
+/// edge's, so each period's current sample is summed once for the tick.
+fn step(period: bool) {
     let now = DWT::cycle_count();
     let elapsed = now.wrapping_sub(LAST_CALL.swap(now, Ordering::Relaxed));
+    // The injected conversion TIM1's channel 4 triggered mid on-time this period.
+    let current = pac::ADC1.jdr(0).read().jdata();
+    if period {
+        CURRENT_SUM.fetch_add((u32::from(current) << COUNT_BITS) | 1, Ordering::Relaxed);
+    }
     let sample = DriveSample {
         hall: hall(),
-        // The injected conversion TIM1's channel 4 triggered mid on-time this period.
-        current: AdcCode::new(pac::ADC1.jdr(0).read().jdata()),
+        current: AdcCode::new(current),
         // The break fired since the last call, or the comparator (active low) still trips.
         overcurrent_trip: bridge::take_break_flag() | !level(pins::OVERCURRENT),
+        // The bus voltage ADC1 converts (hardware-averaged) at the period's quiet window.
+        bus_voltage: AdcCode::new(pac::ADC1.dr().read().rdata()),
         limits: limits(),
         elapsed: PwmTicks(elapsed),
     };
@@ -166,11 +193,11 @@ fn step() {
 #[interrupt]
 fn TIM1_UP_TIM16() {
     bridge::clear_update_flag();
-    step();
+    step(true);
 }
 
 #[interrupt]
 fn TIM2() {
     pac::TIM2.sr().write_value(pac::timer::regs::SrGp16(!SR_CC1IF));
-    step();
+    step(false);
 }

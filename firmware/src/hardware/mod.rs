@@ -45,13 +45,20 @@ use defmt_rtt as _;
 use embassy_executor::Spawner;
 use embassy_stm32::Config;
 use embassy_stm32::rcc::{Pll, PllMul, PllPreDiv, PllRDiv, PllSource, Sysclk, mux::Adcsel};
-use taut_core::drive::PWM_TIMER_HZ;
+use taut_firmware::timing::PWM_TIMER_HZ;
 
 /// The system clock: HSI16 / 4 × 85 / 2 = 170 MHz. TIM1 and the DWT cycle counter both run
 /// at it, so it must equal the core's [`PWM_TIMER_HZ`].
 pub const SYSCLK_HZ: u32 = 170_000_000;
 
 const _: () = assert!(SYSCLK_HZ == PWM_TIMER_HZ, "TIM1 must count the core's PWM ticks");
+
+/// Clocks up and the peripherals claimed. Not inlined: the clock tree's arithmetic takes
+/// ≈ 0.9 KB of stack, which must not sit under the machine's construction in [`start_up`].
+#[inline(never)]
+fn peripherals() -> embassy_stm32::Peripherals {
+    embassy_stm32::init(clocks())
+}
 
 fn clocks() -> Config {
     let mut config = Config::default();
@@ -70,19 +77,34 @@ fn clocks() -> Config {
     config
 }
 
+/// The start-up task: everything happens in [`start_up`], which holds nothing across an
+/// `await`, so this task's static storage stays a few bytes.
 #[embassy_executor::main]
 async fn main(spawner: Spawner) {
-    let p = embassy_stm32::init(clocks());
+    start_up(spawner);
+}
+
+/// Start-up, synchronously, before any interrupt is unmasked: clocks, bridge off, the record
+/// from flash, the peripherals, the machine, the tasks, the watchdog, the loops.
+///
+/// Nothing here is held across an `await` (the record is read with [`store::read`], which
+/// polls the async store to completion on the stack), so the start-up task's static storage
+/// stays a few bytes. Not inlined: the start-up task's poll frame stays small.
+#[inline(never)]
+fn start_up(spawner: Spawner) {
+    let p = peripherals();
     taut_firmware::info!("taut-firmware: clocks up, binding peripherals");
 
     // Bridge first, with every gate off and the main output disabled, so no later step can
     // find the power stage in an undefined state.
     bridge::init(p.TIM1, p.PA8, p.PA9, p.PA10, p.PA7, p.PB0, p.PB1, p.PA6);
 
-    // The record comes back from flash before the machine is built.
-    let (settings, record) = store::open(p.FLASH).await;
+    // The record comes back from flash, and the machine is built from it, first: the
+    // machine's construction is the deepest stack of the start-up (see `control::build_machine`).
+    let (settings, record) = store::read(p.FLASH);
+    let machine = control::build_machine(record);
 
-    let analog = control::Analog::new(p.ADC1, p.ADC2, p.PA0, p.PB15);
+    let analog = control::Analog::new(p.ADC1, p.ADC2, p.PA0, p.PA1, p.PB15);
     fast_loop::init(p.TIM2, p.PA15, p.PB3, p.PB10);
     control::init(control::Resources {
         analog,
@@ -91,7 +113,7 @@ async fn main(spawner: Spawner) {
         keys: (p.PC6, p.PC7, p.PC8, p.PC12, p.PD2),
         beeper: p.PB11,
         tick_timer: p.TIM6,
-        record,
+        machine,
     });
 
     // Each task's pool holds one task and each is spawned once, so spawning cannot fail.

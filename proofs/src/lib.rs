@@ -30,5 +30,6 @@ pub mod fixed_point;
 pub mod machine;
 pub mod machine_model;
 pub mod machine_store;
+pub mod record_fuzz;
 pub mod tension;
 pub mod tension_reference;

@@ -1,0 +1,286 @@
+//! The stored record's decoder under fuzzing (`REQ-STORE-01`, `REQ-UI-08`): the oracle the
+//! `record_decoder` fuzz target and `proofs/tests/record_fuzz.rs` run on every input.
+//!
+//! # Why a target of its own
+//!
+//! A record is 128 bytes behind a two-byte magic, a version byte and a CRC-32/ISCSI. Random
+//! bytes almost never pass those, so a fuzzer that feeds raw bytes to [`Record::decode`]
+//! explores the header checks and nothing behind them. This module gives the fuzzer two
+//! **modes**, chosen by the first input byte ([`Mode::from_selector`]):
+//!
+//! - [`Mode::Raw`]: the rest of the input is handed to the decoder as it is (any length);
+//! - [`Mode::Resealed`]: the rest is laid into a 128-byte record (zero-padded or cut) and its
+//!   CRC is recomputed over bytes `0..124` and stored at `124..128`, as the firmware's writer
+//!   does ([`reseal`]). Starting from valid seeds, libFuzzer's mutations then reach the
+//!   reserved-byte, settings, preset, calibration-flag and counter checks.
+//!
+//! The CRC here is a bitwise CRC-32/ISCSI (CRC-32C: reflected polynomial `0x82F6_3B78`,
+//! initial value and final XOR `0xFFFF_FFFF`) written independently of the `crc` crate the
+//! core uses, so a wrong table or algorithm choice in the core would show as a mismatch.
+//!
+//! # The oracle ([`decoder_is_sound`])
+//!
+//! For any bytes, [`Record::decode`] returns; then
+//! - an input shorter than [`RECORD_LEN`] is [`StoreError::TooShort`], one without the magic
+//!   is [`StoreError::NoRecord`], and every error is shown as the notice `E-20`;
+//! - an accepted record carries a CRC that matches its body, satisfies [`Record::is_valid`]
+//!   and re-encodes to exactly the bytes it came from (one encoding per record);
+//! - a stored calibration is used only if it passes [`Calibration::new`]'s validation *and*
+//!   lies inside the validated range stated independently here (reference readings strictly
+//!   increasing within `[KNEE, REFERENCE_MAX]`, raw readings strictly increasing above the zero
+//!   reading, fitted gain within [`GAIN_RANGE_Q30`], offset within ±[`OFFSET_LIMIT`]); a
+//!   machine powered up with a record whose calibration fails shows the notice `E-22`
+//!   instead of using it, and one whose calibration passes shows no notice.
+
+use taut_core::machine::{FaultCode, Machine};
+use taut_core::sense::calibration::{
+    self, Calibration, CalibrationPoints, GAIN_RANGE_Q30, KNEE, OFFSET_LIMIT, REFERENCE_MAX,
+};
+use taut_core::store::{
+    CalibrationPoint, Counters, MAGIC, PRESET_COUNT, RECORD_LEN, Record, SetPoint, Settings,
+    StoreError, Unit,
+};
+use taut_core::units::Kgf;
+
+/// Where the CRC starts: the last four bytes of the record.
+pub const CRC_OFFSET: usize = RECORD_LEN - 4;
+
+/// How the fuzz target turns its input into the bytes it decodes.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub enum Mode {
+    /// The bytes after the selector, unchanged.
+    Raw,
+    /// The bytes after the selector laid into one record with its CRC recomputed.
+    Resealed,
+}
+
+impl Mode {
+    /// The selector byte that chooses this mode (the one the seeds use).
+    #[must_use]
+    pub const fn selector(self) -> u8 {
+        match self {
+            Self::Raw => 0,
+            Self::Resealed => 1,
+        }
+    }
+
+    /// The mode a selector byte chooses: odd bytes reseal, even bytes are raw.
+    #[must_use]
+    pub const fn from_selector(selector: u8) -> Self {
+        if selector & 1 == 1 { Self::Resealed } else { Self::Raw }
+    }
+}
+
+/// CRC-32/ISCSI of `bytes`, bit by bit.
+#[must_use]
+pub fn crc32c(bytes: &[u8]) -> u32 {
+    const POLYNOMIAL: u32 = 0x82F6_3B78;
+    let mut crc = u32::MAX;
+    for &byte in bytes {
+        crc ^= u32::from(byte);
+        for _ in 0..8 {
+            let low_bit_set = crc & 1 == 1;
+            crc = crc.wrapping_shr(1);
+            if low_bit_set {
+                crc ^= POLYNOMIAL;
+            }
+        }
+    }
+    !crc
+}
+
+/// Stores the CRC of bytes `0..124` at `124..128`, little-endian.
+pub fn reseal(record: &mut [u8; RECORD_LEN]) {
+    let (body, crc) = record.split_at_mut(CRC_OFFSET);
+    crc.copy_from_slice(&crc32c(body).to_le_bytes());
+}
+
+/// The bytes the fuzz target decodes for `input`: see [`Mode`]. An empty input decodes as
+/// an empty (too short) record.
+#[must_use]
+pub fn prepare(input: &[u8]) -> Vec<u8> {
+    let Some((&selector, rest)) = input.split_first() else { return Vec::new() };
+    match Mode::from_selector(selector) {
+        Mode::Raw => rest.to_vec(),
+        Mode::Resealed => {
+            let mut record = [0u8; RECORD_LEN];
+            for (slot, &byte) in record.iter_mut().zip(rest) {
+                *slot = byte;
+            }
+            reseal(&mut record);
+            record.to_vec()
+        }
+    }
+}
+
+/// The fuzz target's whole body: [`prepare`] then [`decoder_is_sound`].
+pub fn check_input(input: &[u8]) {
+    decoder_is_sound(&prepare(input));
+}
+
+/// REQ-STORE-01 and REQ-UI-08 on one input: see the module docs.
+pub fn decoder_is_sound(bytes: &[u8]) {
+    match Record::decode(bytes) {
+        Err(error) => {
+            if bytes.len() < RECORD_LEN {
+                assert_eq!(error, StoreError::TooShort, "REQ-STORE-01: short input");
+            } else if bytes.get(..2) != Some(&MAGIC[..]) {
+                assert_eq!(error, StoreError::NoRecord, "REQ-STORE-01: no magic");
+            }
+            assert_eq!(
+                FaultCode::from_store(error),
+                FaultCode::StoreInvalid,
+                "REQ-UI-08: a record that fails to load is notice E-20"
+            );
+        }
+        Ok(record) => {
+            let Some(stored) = bytes.get(..RECORD_LEN) else {
+                panic!("REQ-STORE-01: accepted {} bytes as a record", bytes.len());
+            };
+            let (body, crc) = stored.split_at(CRC_OFFSET);
+            assert_eq!(
+                crc32c(body).to_le_bytes(),
+                crc,
+                "REQ-STORE-01: accepted a record whose CRC does not match its body"
+            );
+            assert!(record.is_valid(), "REQ-STORE-01: decoded an invalid record");
+            assert_eq!(&record.encode()[..], stored, "REQ-STORE-01: decoding is not canonical");
+            stored_calibration_is_validated(&record);
+        }
+    }
+}
+
+/// REQ-UI-08: the machine uses a stored calibration only if it validates, and then it lies in
+/// the validated range; otherwise it shows `E-22`.
+pub fn stored_calibration_is_validated(record: &Record) {
+    let notice = Machine::<1>::with_record(*record).notice();
+    let Some(stored) = record.calibration else {
+        assert_eq!(notice, None, "REQ-UI-08: a notice for a record without calibration");
+        return;
+    };
+    match Calibration::new(&calibration_points(&stored)) {
+        Err(_) => assert_eq!(
+            notice,
+            Some(FaultCode::StoredCalibrationInvalid),
+            "REQ-UI-08: an invalid stored calibration was not reported as E-22: {stored:?}"
+        ),
+        Ok(accepted) => {
+            assert_eq!(notice, None, "REQ-UI-08: a valid stored calibration was refused");
+            assert!(accepted.is_valid(), "REQ-UI-08: accepted calibration breaks its invariant");
+            within_validated_range(&accepted);
+        }
+    }
+}
+
+/// The stored points as the machine rebuilds them: the zero reading is 0 kgf by definition
+/// (the record keeps the four loaded points only).
+#[must_use]
+pub fn calibration_points(stored: &[CalibrationPoint; 4]) -> CalibrationPoints {
+    let mut points = CalibrationPoints { zero: Kgf::ZERO, ..CalibrationPoints::IDENTITY };
+    for (slot, point) in points.points.iter_mut().zip(stored) {
+        *slot = calibration::CalibrationPoint { raw: point.raw, reference: point.reference };
+    }
+    points
+}
+
+/// The validated range, stated from the documented limits rather than from the fit.
+fn within_validated_range(accepted: &Calibration) {
+    let points = accepted.points();
+    let mut previous_raw = points.zero;
+    let mut previous_reference = Kgf::ZERO;
+    for point in &points.points {
+        assert!(
+            point.raw > previous_raw && point.reference > previous_reference,
+            "REQ-UI-08: accepted calibration points that do not increase: {points:?}"
+        );
+        assert!(
+            point.reference >= KNEE && point.reference <= REFERENCE_MAX,
+            "REQ-UI-08: accepted a reference reading outside [5, 55] kgf: {points:?}"
+        );
+        previous_raw = point.raw;
+        previous_reference = point.reference;
+    }
+    let gain = accepted.gain_q30();
+    assert!(
+        gain >= GAIN_RANGE_Q30.0 && gain <= GAIN_RANGE_Q30.1,
+        "REQ-UI-08: accepted a gain outside [0.8, 1.25]: {gain}"
+    );
+    assert!(
+        accepted.offset().abs() <= OFFSET_LIMIT,
+        "REQ-UI-08: accepted an offset beyond ±3 kgf: {:?}",
+        accepted.offset()
+    );
+}
+
+/// The records the fuzz target's seeds encode, by name: defaults; a plausible calibration;
+/// pound settings with every preset different; a calibration the decoder accepts but the
+/// machine must refuse (gain out of range); the largest counters.
+#[must_use]
+pub fn seed_records() -> Vec<(&'static str, Record)> {
+    let settings = |unit: Unit, tenths: u16, speed: u8, pre: u8, knot: u8| {
+        SetPoint::new(unit, tenths)
+            .and_then(|point| Settings::new(point, speed, pre, knot))
+            .unwrap_or(Settings::DEFAULT)
+    };
+    let points = |pairs: [(i16, i16); 4]| {
+        pairs.map(|(raw_tenths, reference_tenths)| CalibrationPoint {
+            raw: Kgf::from_tenths(i32::from(raw_tenths)),
+            reference: Kgf::from_tenths(i32::from(reference_tenths)),
+        })
+    };
+    let calibrated = Record {
+        calibration: Some(points([(98, 100), (199, 200), (300, 300), (401, 400)])),
+        counters: Counters { pulls: 1_234, string_used_mm: 987_654 },
+        ..Record::default()
+    };
+    let mut pounds = Record {
+        settings: settings(Unit::Pounds, 550, 7, 10, 15),
+        counters: Counters { pulls: 1, string_used_mm: 250 },
+        ..Record::default()
+    };
+    let presets = [
+        (Unit::Kilograms, 50, 1, 0, 0),
+        (Unit::Pounds, 115, 2, 5, 5),
+        (Unit::Kilograms, 235, 3, 10, 10),
+        (Unit::Pounds, 555, 4, 15, 15),
+        (Unit::Kilograms, 250, 5, 20, 20),
+        (Unit::Pounds, 800, 6, 25, 0),
+        (Unit::Kilograms, 399, 7, 30, 5),
+        (Unit::Pounds, 1100, 8, 0, 10),
+        (Unit::Kilograms, 500, 9, 5, 15),
+    ];
+    for (preset, (unit, tenths, speed, pre, knot)) in pounds.presets.iter_mut().zip(presets) {
+        *preset = settings(unit, tenths, speed, pre, knot);
+    }
+    let refused_calibration = Record {
+        calibration: Some(points([(100, 140), (200, 280), (300, 420), (400, 540)])),
+        ..Record::default()
+    };
+    let extreme = Record {
+        settings: settings(Unit::Kilograms, 500, 9, 30, 20),
+        presets: [settings(Unit::Pounds, 1100, 1, 0, 0); PRESET_COUNT],
+        calibration: Some(points([(95, 100), (195, 200), (295, 300), (395, 400)])),
+        counters: Counters { pulls: u32::MAX, string_used_mm: u32::MAX },
+    };
+    vec![
+        ("default", Record::default()),
+        ("calibrated", calibrated),
+        ("pounds_presets", pounds),
+        ("calibration_refused", refused_calibration),
+        ("extreme_counters", extreme),
+    ]
+}
+
+/// The fuzz target's seed inputs, by file name: every seed record in both modes.
+#[must_use]
+pub fn seed_inputs() -> Vec<(String, Vec<u8>)> {
+    let mut out = Vec::new();
+    for (name, record) in seed_records() {
+        for (mode, suffix) in [(Mode::Raw, "raw"), (Mode::Resealed, "resealed")] {
+            let mut input = vec![mode.selector()];
+            input.extend_from_slice(&record.encode());
+            out.push((format!("{name}_{suffix}"), input));
+        }
+    }
+    out
+}

@@ -240,6 +240,16 @@ impl StringParams {
         }
     }
 
+    /// What a stringer hooks in for the 4-point calibration: the reference gauge on a short
+    /// polyester cord — stiff (≈ 12.5 kgf/cm) with 5 mm of slack, so the 40 kgf point is
+    /// reached within ≈ 40 mm of travel on any machine. (Calibrating on the racket's string
+    /// itself would need the string's stretch at 40 kgf: more than the 250 mm of travel for
+    /// a soft badminton string, which ends the calibration in E-14.)
+    #[must_use]
+    pub fn calibration_fixture() -> Self {
+        Self { slack_mm: 5.0, ..Self::nominal(StringKind::TennisPolyester) }
+    }
+
     /// Whether a string is in the machine.
     #[must_use]
     pub fn present(&self) -> bool {

@@ -106,7 +106,7 @@ use taut_core::io::{Inputs, Keys, LimitSwitches, Outputs};
 use taut_core::units::AdcCode;
 
 use crate::motor::{Circuit, emf_shape, hall_code_placed, sector_shape_factor};
-use crate::params::{NEWTONS_PER_KGF, TwinConfig};
+use crate::params::{NEWTONS_PER_KGF, StringParams, TwinConfig};
 use crate::rng::SimRng;
 use crate::sensors::{BusVoltageSense, CurrentSense, LoadCell, LoadCellFault};
 use crate::string::{StringModel, StringState};
@@ -660,6 +660,13 @@ impl Twin {
     /// is: its slack is taken up from here, as when a stringer re-strings after a break.
     pub fn fit_new_string(&mut self) {
         self.string = StringModel::new(&self.config.string, self.position_m());
+    }
+
+    /// Fits `string` in the gripper with the carriage where it is — the calibration fixture
+    /// ([`StringParams::calibration_fixture`]), or a string other than the configured one:
+    /// its slack is taken up from here. [`Twin::fit_new_string`] puts the configured kind back.
+    pub fn fit_string(&mut self, string: &StringParams) {
+        self.string = StringModel::new(string, self.position_m());
     }
 
     /// Starts exhibiting `fault` now (until [`Twin::clear_injected`]).

@@ -239,6 +239,9 @@ pub struct DriveConfig {
     trip_codes: u16,
     /// Codes from zero that fold the duty back.
     fold_back_codes: u16,
+    /// Codes from zero at the current limit itself (evidence of a fault, see
+    /// [`DriveConfig::over_limit`]).
+    limit_codes: u16,
     /// Bus code at or above which regeneration stops.
     regen_code: u16,
     /// Bus code at or above which the drive faults.
@@ -257,6 +260,7 @@ impl DriveConfig {
         ir_mv: 5_600,
         trip_codes: 1_967,
         fold_back_codes: 1_557,
+        limit_codes: 1_311,
         regen_code: 2_595,
         over_code: 2_731,
     };
@@ -277,6 +281,7 @@ impl DriveConfig {
         let trip_codes = sense.codes_for(trip_ma).ok_or(DriveConfigError::CurrentSense)?;
         let fold_back_codes =
             sense.codes_for(limit.fold_back_ma).ok_or(DriveConfigError::CurrentSense)?;
+        let limit_codes = sense.codes_for(limit.limit_ma).ok_or(DriveConfigError::CurrentSense)?;
         if trip_codes == 0 || trip_codes > AdcCode::MAX.get() {
             return Err(DriveConfigError::CurrentSense);
         }
@@ -303,7 +308,17 @@ impl DriveConfig {
         {
             return Err(DriveConfigError::Limit);
         }
-        Ok(Self { sense, bus, limit, ir_mv, trip_codes, fold_back_codes, regen_code, over_code })
+        Ok(Self {
+            sense,
+            bus,
+            limit,
+            ir_mv,
+            trip_codes,
+            fold_back_codes,
+            limit_codes,
+            regen_code,
+            over_code,
+        })
     }
 
     /// The current sense.
@@ -392,6 +407,18 @@ impl DriveConfig {
     pub fn fold_back(&self, code: AdcCode, zero: AdcCode) -> bool {
         self.sense.reading == CurrentReading::Winding
             && code.get().abs_diff(zero.get()) >= self.fold_back_codes
+    }
+
+    /// Whether the sampled winding current is above the limit the window keeps a healthy
+    /// motor within (winding readings only). The window is computed with the lowest
+    /// resistance the pair can have, so a healthy motor reaches the limit only while the
+    /// Hall speed estimate lags a hard acceleration; a winding whose resistance is below that
+    /// (an inter-turn short) exceeds it in every period it conducts. The drive counts these
+    /// samples toward [`crate::drive::FOLD_BACK_TRIP`].
+    #[must_use]
+    pub fn over_limit(&self, code: AdcCode, zero: AdcCode) -> bool {
+        self.sense.reading == CurrentReading::Winding
+            && code.get().abs_diff(zero.get()) > self.limit_codes
     }
 
     /// The duty at which the winding current is zero for a back-EMF `emf_mv` (same sign

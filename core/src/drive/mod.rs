@@ -94,12 +94,24 @@ pub const REVERSAL_QUIET: PwmTicks = PwmTicks::from_micros(20_000);
 /// command cannot outrun the Hall-based back-EMF estimate.
 pub const DUTY_SLEW_PER_PERIOD: u16 = 3_277;
 
-/// Consecutive PWM periods of fold-back (sampled winding current at or above the fold-back
-/// threshold despite the duty window) after which the drive latches an overcurrent: 40, 2 ms.
-/// A healthy motor cannot stay there — the window already bounds its current below the
-/// threshold — so this is a real fault (a shorted winding, a lower resistance than the board
-/// is configured for), caught before it heats anything.
-pub const FOLD_BACK_TRIP_PERIODS: u8 = 40;
+/// The over-limit count's rise per PWM period whose sampled winding current is above the
+/// limit the duty window keeps to ([`limit::DriveConfig::over_limit`], 8 A); it falls by one
+/// in every other period the bridge conducts, and is cleared when the bridge is all off.
+pub const FOLD_BACK_RISE: u16 = 8;
+
+/// The over-limit count at which the drive latches an overcurrent: 320 — 40 consecutive
+/// periods (2 ms) above the limit, or more than one period in nine kept up (an inter-turn
+/// short exceeds it in the sectors that conduct through the shorted phase, never 40 periods
+/// in a row). The window bounds a healthy motor's current below the limit (it is computed
+/// with the lowest resistance the pair can have), except for a moment while the Hall speed
+/// estimate lags a hard acceleration; so a sustained excess is a real fault (a shorted
+/// winding, a lower resistance than the board is configured for), caught before it heats
+/// anything. Above the fold-back threshold (9.5 A) the duty is also folded back at once.
+pub const FOLD_BACK_TRIP: u16 = 320;
+
+/// Consecutive PWM periods of fold-back that latch an overcurrent: 40, 2 ms
+/// ([`FOLD_BACK_TRIP`] / [`FOLD_BACK_RISE`]).
+pub const FOLD_BACK_TRIP_PERIODS: u16 = FOLD_BACK_TRIP / FOLD_BACK_RISE;
 
 /// Bus current that trips the drive: 12 A (motor rated 5.5 A; 50 kgf needs ≈ 3.5 A; stall
 /// at 24 V would be ≈ 29 A).
@@ -270,8 +282,8 @@ pub struct Drive {
     interval: PwmTicks,
     /// The duty applied in the previous call (zero while no high side conducted).
     applied: Duty,
-    /// Consecutive calls with the duty folded back.
-    folded: u8,
+    /// The leaky fold-back count ([`FOLD_BACK_RISE`], [`FOLD_BACK_TRIP`]).
+    folded: u16,
 }
 
 /// The slew allowance for a call `elapsed` ticks after the previous one, duty raw units.
@@ -499,8 +511,13 @@ impl Drive {
             target.max(Duty::from_raw_clamped(self.applied.raw().saturating_sub(slew)))
         };
         let folding = self.config.fold_back(sample.current, self.current_zero());
-        self.folded = if folding { self.folded.saturating_add(1) } else { 0 };
-        if self.folded >= FOLD_BACK_TRIP_PERIODS {
+        let over_limit = self.config.over_limit(sample.current, self.current_zero());
+        self.folded = if over_limit {
+            self.folded.saturating_add(FOLD_BACK_RISE)
+        } else {
+            self.folded.saturating_sub(1)
+        };
+        if self.folded >= FOLD_BACK_TRIP {
             self.latch(DriveFault::Overcurrent);
             return self.off(sample);
         }
@@ -739,6 +756,30 @@ mod tests {
         }
         assert_eq!(drive.step(hot), DriveOutput::OFF);
         assert_eq!(drive.fault(), Some(DriveFault::Overcurrent));
+    }
+
+    #[test]
+    fn fold_back_in_more_than_one_period_in_nine_trips_and_less_does_not() {
+        let hot = DriveSample { current: AdcCode::new(1_639), ..sample(Sector::S0) };
+        let cool = sample(Sector::S0);
+        // One hot period in every `n`: the count drifts by 8 − (n − 1) per n periods.
+        let trips_within = |n: u32, periods: u32| {
+            let mut drive = settled(Sector::S0);
+            drive.set_command(pull(3_000));
+            drive.step(cool);
+            (0..periods).any(|k| {
+                drive.step(if k % n == 0 { hot } else { cool });
+                drive.fault() == Some(DriveFault::Overcurrent)
+            })
+        };
+        // One in two (an inter-turn short seen in two sectors of three): 320 / 7 × 2 ≈ 92.
+        assert!(trips_within(2, 100));
+        assert!(!trips_within(2, 80));
+        // One in eight: +1 net per eight periods — trips, slowly (≈ 2 560 periods).
+        assert!(trips_within(8, 2_600));
+        // One in nine balances out; one in ten never accumulates.
+        assert!(!trips_within(9, 20_000));
+        assert!(!trips_within(10, 20_000));
     }
 
     #[test]

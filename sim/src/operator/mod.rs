@@ -12,7 +12,9 @@
 //! pulling, "at tension", holding, releasing, home, and any fault — is decided by the
 //! machine. A fault lamp makes the operator stop.
 //!
-//! What it sets out to do is a [`Plan`]: calibrate in the `CAL?` window (Function; at each
+//! What it sets out to do is a [`Plan`]: calibrate in the `CAL?` window (the reference gauge
+//! hooked in on its cord in place of the string — [`StringParams::calibration_fixture`] — and
+//! Function; at each
 //! point the machine pulls by its raw reading, the operator reads the reference gauge for
 //! [`GAUGE_READ_MS`] and keys the value in with Up/Down, then Start) or skip it (Start); toggle
 //! knot mode (Function held); walk the settings menu with Function (speed, pre-stretch, knot
@@ -33,6 +35,7 @@ use taut_core::io::{Display, Key, Keys, Outputs};
 use taut_core::machine::panel::text as panel_text;
 use taut_core::store::{SetPoint, Settings, Unit};
 
+use crate::params::StringParams;
 use crate::twin::Twin;
 
 /// How long the operator holds a key for a tap, ms (the panel debounces for 20 ms).
@@ -308,6 +311,8 @@ impl Operator {
             Step::AwaitCalibrationWindow => {
                 if shown == panel_text(b"CAL?") {
                     if self.plan.calibrate {
+                        // Hook in the reference gauge on its cord in place of the string.
+                        twin.fit_string(&StringParams::calibration_fixture());
                         self.tap(twin, Key::Function);
                         Step::AwaitReferenceRequest { point: 0 }
                     } else {
@@ -357,6 +362,8 @@ impl Operator {
             },
             Step::AwaitHomeAfterCalibration { mut since } => {
                 if Self::at_rest_home(twin, &mut since) {
+                    // Unhook the gauge and fit the racket's string.
+                    twin.fit_new_string();
                     self.setup_step(&outputs)
                 } else {
                     Step::AwaitHomeAfterCalibration { since }

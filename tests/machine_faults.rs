@@ -497,8 +497,8 @@ fn machine_notice_e21_calibration_rejected() {
     rig.press(Key::Function);
     for point in 0..4u8 {
         rig.expect_state(MachineState::CalibrationEntry { point }, 30_000);
-        // A careless operator confirms 20.0 every time: not monotonic.
-        rig.key_in(200);
+        // A careless operator confirms 20.00 every time: not monotonic.
+        rig.key_in_hundredths(2_000);
         rig.press(Key::Start);
     }
     rig.expect_state(MachineState::Ready, 30_000);

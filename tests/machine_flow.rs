@@ -29,10 +29,10 @@ fn boot_and_calibrate(config: &TwinConfig) -> Rig {
     rig.press(Key::Function);
     for point in 0..4u8 {
         rig.expect_state(MachineState::CalibrationEntry { point }, 30_000);
-        // The operator reads the reference gauge and keys its reading in.
+        // The operator reads the reference gauge and keys its reading in (to 0.01 kg).
         let gauge = rig.twin_mut().reference_gauge();
-        let tenths = (gauge * 10.0).round() as i32;
-        rig.key_in(tenths);
+        let hundredths = (gauge * 100.0).round() as i32;
+        rig.key_in_hundredths(hundredths);
         rig.press(Key::Start);
     }
     rig.expect_state(MachineState::Ready, 30_000);

@@ -168,6 +168,18 @@ impl Kgf {
         Self(Q16::from_bits(scaled_to_bits(tenths, 10)))
     }
 
+    /// Hundredths of a kgf: the calibration entry's unit (`2004` → 20.04 kgf).
+    #[must_use]
+    pub fn from_hundredths(hundredths: i32) -> Self {
+        Self(Q16::from_bits(scaled_to_bits(hundredths, 100)))
+    }
+
+    /// The tension in hundredths of a kgf, rounded to the nearest (half away from zero).
+    #[must_use]
+    pub fn to_hundredths_rounded(self) -> i32 {
+        round_scaled(self.0, 100)
+    }
+
     /// The tension in tenths of a kgf, rounded to the nearest tenth (half away from zero).
     #[must_use]
     pub fn to_tenths_rounded(self) -> i32 {

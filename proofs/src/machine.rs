@@ -129,7 +129,7 @@ pub struct CheckpointInput {
     pub start_home: bool,
     /// Motor test: end switch at its start.
     pub start_end: bool,
-    /// Calibration entry value, tenths of a kg.
+    /// Calibration entry value, hundredths of a kg.
     pub entered: u16,
     /// Releasing: to Ready (false) or to the calibration window (true).
     pub to_window: bool,
@@ -205,7 +205,7 @@ impl CheckpointInput {
             direction: if self.release { Direction::Release } else { Direction::Pull },
             start_steps: self.start_steps,
             start_limits: LimitSwitches { home: self.start_home, end: self.start_end },
-            entered_tenths: self.entered,
+            entered_hundredths: self.entered,
             then: if self.to_window {
                 AfterRelease::CalibrationWindow
             } else {
@@ -473,9 +473,9 @@ mod verification {
     // - the load-cell scale and the calibration's correction (`any_tension`,
     //   `any_corrected`; their accuracy is `crate::fixed_point`'s): any tension, raw or
     //   corrected, independently;
-    // - the working display's digits and the tenths digits of Ready's set point and the
-    //   calibration entry (`any_tension_digits`, `any_tenths_digits`; `panel`'s unit tests
-    //   check them): any digits (no property reads them; the fault display the properties
+    // - the working display's digits, the tenths digits of Ready's set point and the
+    //   hundredths of the calibration entry (`any_tension_digits`, `any_tenths_digits` for
+    //   both; `panel`'s unit tests check them): any digits (no property reads them; the fault display the properties
     //   do read is not stubbed);
     // - the calibration fit, run when the last point is confirmed (`any_calibration_fit`):
     //   accepted or rejected (its value is not read again in the tick that computes it).
@@ -606,7 +606,7 @@ mod verification {
             direction: if kani::any() { Direction::Pull } else { Direction::Release },
             start_steps: kani::any(),
             start_limits: LimitSwitches { home: kani::any(), end: kani::any() },
-            entered_tenths: kani::any(),
+            entered_hundredths: kani::any(),
             then: if kani::any() { AfterRelease::Ready } else { AfterRelease::CalibrationWindow },
             recovery: if kani::any() { Recovery::Home } else { Recovery::SelfTest },
             clearing: kani::any(),
@@ -645,6 +645,7 @@ mod verification {
             #[kani::stub(taut_core::sense::calibration::Calibration::correct, any_corrected)]
             #[kani::stub(taut_core::machine::tension_display, any_tension_digits)]
             #[kani::stub(taut_core::machine::panel::tenths, any_tenths_digits)]
+            #[kani::stub(taut_core::machine::panel::hundredths, any_tenths_digits)]
             #[kani::stub(taut_core::sense::calibration::Calibration::new, any_calibration_fit)]
             fn $name() {
                 check_tick(&one_tick_in($state));

@@ -46,7 +46,7 @@ fn checkpoints() -> Vec<CheckpointInput> {
                         start_steps: 0,
                         start_home: release,
                         start_end: false,
-                        entered: 100,
+                        entered: 1_000,
                         to_window,
                         self_test,
                         clearing,
@@ -155,7 +155,7 @@ fn any_checkpoint() -> impl Strategy<Value = CheckpointInput> {
             any::<bool>(),
             any::<bool>(),
         ),
-        (40u16..600, any::<bool>(), any::<bool>(), 0u16..120, any::<u8>(), 0u16..420, 0u16..600),
+        (400u16..6_000, any::<bool>(), any::<bool>(), 0u16..120, any::<u8>(), 0u16..420, 0u16..600),
         (
             prop::array::uniform4(0u8..25),
             any::<bool>(),

@@ -241,13 +241,19 @@ impl StringParams {
     }
 
     /// What a stringer hooks in for the 4-point calibration: the reference gauge on a short
-    /// polyester cord — stiff (≈ 12.5 kgf/cm) with 5 mm of slack, so the 40 kgf point is
+    /// pre-stretched polyester cord — stiff (≈ 12.5 kgf/cm), no creep, 5 mm of slack, so the 40 kgf point is
     /// reached within ≈ 40 mm of travel on any machine. (Calibrating on the racket's string
     /// itself would need the string's stretch at 40 kgf: more than the 250 mm of travel for
     /// a soft badminton string, which ends the calibration in E-14.)
     #[must_use]
     pub fn calibration_fixture() -> Self {
-        Self { slack_mm: 5.0, ..Self::nominal(StringKind::TennisPolyester) }
+        Self {
+            stiffness_kgf_per_cm: 4.0,
+            slack_mm: 5.0,
+            // A gauge's steel spring and a pre-stretched cord: no creep while a point is read.
+            relaxation: [RelaxationArm { fraction: 0.0, time_constant_s: 1.0 }; 2],
+            ..Self::nominal(StringKind::TennisPolyester)
+        }
     }
 
     /// Whether a string is in the machine.

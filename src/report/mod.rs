@@ -30,8 +30,9 @@
 //! - **peak current**: the largest true winding current of the run; **bus**: the highest bus
 //!   voltage;
 //! - **failed**, with the reason: commissioning faulted, the drive faulted, the tension never
-//!   settled, or the target is beyond the machine's reach (the oracle meets the end of travel
-//!   first). Quantiles are over the scenarios that did not fail; the failures are counted
+//!   settled, the target is beyond the machine's reach (the oracle meets the end of travel
+//!   first), or the carriage reached its end of travel during the run (the target was just
+//!   within reach, but the string's creep in the hold needed more travel). Quantiles are over the scenarios that did not fail; the failures are counted
 //!   beside them.
 
 pub mod ablation;
@@ -74,6 +75,9 @@ pub enum Failure {
     NeverSettled,
     /// The target is beyond the machine's reach.
     Unreachable,
+    /// The carriage reached its end of travel during the run: the string's stretch at the
+    /// target and its creep in the hold need more travel than the machine has.
+    OutOfTravel,
 }
 
 impl Failure {
@@ -86,6 +90,7 @@ impl Failure {
             Self::DriveFault => "drive fault in the pull".to_owned(),
             Self::NeverSettled => "never settled".to_owned(),
             Self::Unreachable => "target beyond reach".to_owned(),
+            Self::OutOfTravel => "end of travel in the hold".to_owned(),
         }
     }
 }
@@ -251,6 +256,8 @@ pub fn metrics(trace: &[ControllerRow], target: f64, t_min: Option<f64>) -> Metr
         Some(Failure::DriveFault)
     } else if t_min.is_none() {
         Some(Failure::Unreachable)
+    } else if trace.iter().any(|r| r.truth.limits.end) {
+        Some(Failure::OutOfTravel)
     } else if settle_s.is_none() || !hold_complete {
         Some(Failure::NeverSettled)
     } else {

@@ -19,6 +19,8 @@ pub trait RigExt {
     fn hold(&mut self, key: Key, ms: u64);
     /// Keys in `tenths` on a numeric entry display with Up/Down presses.
     fn key_in(&mut self, tenths: i32);
+    /// Keys in `hundredths` on the calibration entry (two decimals) with Up/Down.
+    fn key_in_hundredths(&mut self, hundredths: i32);
     /// The states entered, with the time (ms).
     fn states(&self) -> Vec<(u64, MachineState)>;
 }
@@ -50,6 +52,25 @@ impl RigExt for Rig {
             self.press(if shown < tenths { Key::Up } else { Key::Down });
         }
         panic!("could not key in {tenths}");
+    }
+
+    fn key_in_hundredths(&mut self, hundredths: i32) {
+        // The calibration entry (5.00–55.00): holds for the long way, taps for the last steps.
+        for _ in 0..2_000 {
+            let shown = taut_sim::operator::display::hundredths(self.display())
+                .expect("a two-decimal number on the display");
+            let diff = hundredths - shown;
+            if diff == 0 {
+                return;
+            }
+            let key = if diff > 0 { Key::Up } else { Key::Down };
+            if diff.abs() > 60 {
+                self.hold(key, 2_500);
+            } else {
+                self.press(key);
+            }
+        }
+        panic!("could not key in {hundredths}");
     }
 
     fn states(&self) -> Vec<(u64, MachineState)> {

@@ -467,6 +467,74 @@ mod tests {
     }
 
     #[test]
+    fn the_accessors_report_the_configuration() {
+        let config = DriveConfig::PAPER;
+        // 8 A × 0.70 Ω; 12 A / 6.1 mA per code, rounded up.
+        assert_eq!(config.ir_mv(), 5_600);
+        assert_eq!(config.trip_codes(), 1_967);
+        assert_eq!(config.sense(), CurrentSense::PAPER);
+        assert_eq!(config.bus(), BusSense::PAPER);
+        assert_eq!(config.limit(), CurrentLimit::PAPER);
+        // The bus in volts: 1 638 codes of a 60 V full scale = 23.994 V.
+        assert_eq!(BusSense::PAPER.volts(AdcCode::new(1_638)).to_milli(), 23_994);
+        assert_eq!(BusSense::PAPER.volts(AdcCode::new(0)), Volts::ZERO);
+    }
+
+    #[test]
+    fn a_link_average_sense_neither_folds_back_nor_counts_over_the_limit() {
+        assert_eq!(CurrentSense::LINK_AVERAGE_BIDIRECTIONAL.reading, CurrentReading::LinkAverage);
+        let Ok(config) = DriveConfig::new(
+            CurrentSense::LINK_AVERAGE_BIDIRECTIONAL,
+            BusSense::PAPER,
+            CurrentLimit::PAPER,
+            12_000,
+        ) else {
+            panic!("the link-average board is a valid configuration");
+        };
+        let zero = AdcCode::new(2_048);
+        let high = AdcCode::new(2_048 + 900); // 11 A of reading: under the trip
+        assert!(!config.fold_back(high, zero));
+        assert!(!config.over_limit(high, zero));
+        assert!(!config.overcurrent(high, zero));
+        // A winding sense reading the same current does both.
+        let Ok(winding) = DriveConfig::new(
+            CurrentSense::PER_PHASE_BIDIRECTIONAL,
+            BusSense::PAPER,
+            CurrentLimit::PAPER,
+            12_000,
+        ) else {
+            panic!("the per-phase board is a valid configuration");
+        };
+        assert!(winding.fold_back(high, zero) && winding.over_limit(high, zero));
+    }
+
+    #[test]
+    fn over_the_limit_is_strictly_beyond_its_codes() {
+        let config = DriveConfig::PAPER;
+        // 8 A at 6.1 mA per code: 1 311 codes (rounded up).
+        let zero = AdcCode::new(0);
+        assert!(!config.over_limit(AdcCode::new(1_311), zero));
+        assert!(config.over_limit(AdcCode::new(1_312), zero));
+    }
+
+    #[test]
+    fn regeneration_stops_at_the_regeneration_code() {
+        let config = DriveConfig::PAPER;
+        let regen = AdcCode::new(2_595);
+        let below = AdcCode::new(2_594);
+        let e = 20_000;
+        let (Some(at), Some(under)) = (config.window(regen, e), config.window(below, e)) else {
+            panic!("a rotor turning with the torque always has a window");
+        };
+        // At the threshold the lower edge is the back-EMF itself (no braking current) …
+        let bus_mv = config.bus().millivolts(regen);
+        assert!(current_ma(at.low, bus_mv, e) >= 0, "{at:?}");
+        // … one code below, it brakes with up to the limit.
+        let bus_mv = config.bus().millivolts(below);
+        assert!(current_ma(under.low, bus_mv, e) < -7_000, "{under:?}");
+    }
+
+    #[test]
     fn the_back_emf_constant_is_ke_times_a_step_angle_times_the_timer() {
         // Ke = 60.1 mV·s/rad, 2π/24 rad per step, 170 MHz.
         let k = 60.1 * (2.0 * core::f64::consts::PI / 24.0) * f64::from(TICKS_PER_SECOND);

@@ -67,6 +67,13 @@ pub const CALIBRATION_WINDOW: u32 = 5_000;
 pub const CALIBRATION_SETTLE: u32 = 1_000;
 /// The speed setting used to pull calibration points.
 pub const CALIBRATION_SPEED: u8 = 3;
+/// The calibration entry's range, hundredths of a kg: 5.00–55.00 (the reference readings
+/// `Calibration::new` accepts). The entry is keyed to 0.01 kg, a reference gauge's
+/// resolution: keyed to the set point's 0.1 kg, the rounding (up to ±0.05 kgf per point, the
+/// same way at every point when the chain's offset is constant) stayed in the fitted line.
+pub const ENTRY_MIN: u16 = 500;
+/// See [`ENTRY_MIN`].
+pub const ENTRY_MAX: u16 = 5_500;
 /// A pull that has not reached tension after this many ticks faults.
 pub const PULL_TIMEOUT: u32 = 40_000;
 /// While the carriage works the display refreshes every 200 ms (5 Hz, what the eye reads
@@ -606,8 +613,13 @@ impl Chart {
             context.out.drive = DriveCommand::Coast;
             Some(State::releasing(0, AfterRelease::Ready))
         } else if *settled >= CALIBRATION_SETTLE {
-            let entered =
-                u16::try_from(sample.raw_average.to_tenths_rounded().clamp(50, 550)).unwrap_or(100);
+            let entered = u16::try_from(
+                sample
+                    .raw_average
+                    .to_hundredths_rounded()
+                    .clamp(i32::from(ENTRY_MIN), i32::from(ENTRY_MAX)),
+            )
+            .unwrap_or(ENTRY_MIN);
             Some(State::calibration_entry(*point, entered))
         } else if *elapsed >= PULL_TIMEOUT {
             Some(State::fault(FaultCode::PullTimeout, Recovery::Home, 0))
@@ -633,7 +645,7 @@ impl Chart {
     }
 
     /// Holding point `point`: the operator keys in the reference gauge's reading (Up/Down,
-    /// 0.1 kg) and confirms with Start; Function or Preset abort.
+    /// 0.01 kg, shown as `20.04`) and confirms with Start; Function or Preset abort.
     #[state(superstate = "tensioned")]
     fn calibration_entry(
         &mut self,
@@ -645,12 +657,13 @@ impl Chart {
         let Tick(sample) = event;
         let output = self.controller.step(&Self::measurement(sample, sample.raw));
         context.out.drive = output.command;
-        context.out.display = panel::tenths(i32::from(*entered));
+        context.out.display = panel::hundredths(i32::from(*entered));
         context.out.leds = Leds { holding: true, ..self.unit_leds() };
         context.next = match sample.key {
             Some(key @ (KeyEvent::Press(Key::Up | Key::Down) | KeyEvent::Repeat(_))) => {
                 let stepped = i32::from(*entered).saturating_add(i32::from(key.step()));
-                *entered = u16::try_from(stepped.clamp(50, 550)).unwrap_or(*entered);
+                *entered = u16::try_from(stepped.clamp(i32::from(ENTRY_MIN), i32::from(ENTRY_MAX)))
+                    .unwrap_or(*entered);
                 None
             }
             Some(KeyEvent::Press(Key::Start)) => {
@@ -896,7 +909,7 @@ impl Chart {
         if let Some(slot) = self.calibration_points.get_mut(usize::from(point)) {
             *slot = CalibrationPoint {
                 raw: sample.raw_average,
-                reference: Kgf::from_tenths(i32::from(entered.min(550))),
+                reference: Kgf::from_hundredths(i32::from(entered.min(ENTRY_MAX))),
             };
         }
         let next_point = point.saturating_add(1);
@@ -1038,7 +1051,7 @@ pub(crate) fn state_at(checkpoint: &Checkpoint) -> State {
         MachineState::CalibrationWindow => State::calibration_window(elapsed),
         MachineState::CalibrationPull { point } => State::calibration_pull(point, 0, elapsed),
         MachineState::CalibrationEntry { point } => {
-            State::calibration_entry(point, checkpoint.entered_tenths)
+            State::calibration_entry(point, checkpoint.entered_hundredths)
         }
         MachineState::Ready => State::ready(checkpoint.view),
         MachineState::Pulling => State::pulling(elapsed),

@@ -47,9 +47,9 @@ use crate::units::{AdcCode, Kgf};
 
 pub use chart::{
     AfterRelease, CALIBRATION_SETTLE, CALIBRATION_SPEED, CALIBRATION_WINDOW, CLEAR_ATTEMPT,
-    MOTOR_TEST_DUTY, MOTOR_TEST_STEPS, MOTOR_TEST_TIMEOUT, PULL_TIMEOUT, RELEASE_TIMEOUT, Recovery,
-    SELF_TEST_TICKS, STORE_DELAY, VIEW_TIMEOUT, View, calibration_settings, fault_persists,
-    tension_display, to_pull_settings,
+    ENTRY_MAX, ENTRY_MIN, MOTOR_TEST_DUTY, MOTOR_TEST_STEPS, MOTOR_TEST_TIMEOUT, PULL_TIMEOUT,
+    RELEASE_TIMEOUT, Recovery, SELF_TEST_TICKS, STORE_DELAY, VIEW_TIMEOUT, View,
+    calibration_settings, fault_persists, tension_display, to_pull_settings,
 };
 pub use fault::FaultCode;
 pub use log::{PULL_LOG_CAPACITY, PullLog, PullRecord};
@@ -129,8 +129,8 @@ pub struct Checkpoint {
     pub start_steps: i32,
     /// Motor test: the limits when it started.
     pub start_limits: LimitSwitches,
-    /// Calibration entry: the value keyed in so far, tenths of a kg (50–550).
-    pub entered_tenths: u16,
+    /// Calibration entry: the value keyed in so far, hundredths of a kg (500–5 500).
+    pub entered_hundredths: u16,
     /// Releasing: where it leads.
     pub then: AfterRelease,
     /// Fault: where clearing leads.
@@ -161,7 +161,7 @@ impl Checkpoint {
             direction: Direction::Pull,
             start_steps: 0,
             start_limits: LimitSwitches { home: false, end: false },
-            entered_tenths: 100,
+            entered_hundredths: 1_000,
             then: AfterRelease::Ready,
             recovery: Recovery::Home,
             clearing: 0,
@@ -199,7 +199,7 @@ impl Checkpoint {
         };
         point_ok
             && view_ok
-            && (50..=550).contains(&self.entered_tenths)
+            && (ENTRY_MIN..=ENTRY_MAX).contains(&self.entered_hundredths)
             && self.clearing <= CLEAR_ATTEMPT
             && crate::sense::load_cell::LoadCellScale::NOMINAL.tared_at(self.tare).is_ok()
             && self.watch.is_valid()
@@ -215,6 +215,8 @@ pub struct Machine<const LOG: usize = PULL_LOG_CAPACITY> {
     beeper: Beeper,
     log: PullLog<LOG>,
     raw_average: Kgf,
+    /// The two raw samples before this tick's (for the average's median of three).
+    raw_recent: [Kgf; 2],
     string_counter: Option<u16>,
 }
 
@@ -294,6 +296,7 @@ impl<const LOG: usize> Machine<LOG> {
             beeper: Beeper::new(),
             log: PullLog::new(),
             raw_average: Kgf::ZERO,
+            raw_recent: [Kgf::ZERO; 2],
             string_counter: None,
         }
     }
@@ -304,8 +307,15 @@ impl<const LOG: usize> Machine<LOG> {
         let chart = self.chart.inner();
         let raw = chart.scale.to_kgf(inputs.load_cell);
         let tension = chart.calibration.correct(raw);
-        // Running average: avg += (raw − avg) / 64.
-        let gap = raw.to_bits().saturating_sub(self.raw_average.to_bits());
+        // Running average of the median of the last three samples: avg += (median − avg) / 64.
+        // The median removes a one-sample switching spike entirely (a 5 kgf spike would move
+        // a plain average by 5/64 ≈ 0.08 kgf for tens of milliseconds, and the calibration
+        // pairs the average with the reference gauge at the moment of Start: seen as 0.2 kgf
+        // at the 40 kg point on the family); a ramp passes with one tick of delay.
+        let [older, old] = self.raw_recent;
+        self.raw_recent = [old, raw];
+        let median = older.min(old).max(older.max(old).min(raw));
+        let gap = median.to_bits().saturating_sub(self.raw_average.to_bits());
         self.raw_average =
             Kgf::from_bits(self.raw_average.to_bits().saturating_add(gap >> AVERAGE_SHIFT));
         let string_counts = match self.string_counter {

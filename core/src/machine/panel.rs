@@ -310,6 +310,31 @@ pub fn tenths(value: i32) -> Display {
     out
 }
 
+/// A value in hundredths, right-aligned with two decimals: `2004` → `20.04`, `500` →
+/// ` 5.00` (the calibration entry: a reference gauge reads to 0.01 kg). Outside 0–99.99
+/// shows `----`.
+#[must_use]
+pub fn hundredths(value: i32) -> Display {
+    let Ok(magnitude) = u32::try_from(value) else { return text(b"----") };
+    if magnitude > 9_999 {
+        return text(b"----");
+    }
+    let mut out = [BLANK; 4];
+    let mut rest = magnitude;
+    // Digits right to left: hundredths, tenths, ones (with the point), tens (blank if 0).
+    for (place, slot) in out.iter_mut().rev().enumerate() {
+        if place < 3 || rest > 0 {
+            let mut segments = glyph(digit(rest));
+            if place == 2 {
+                segments.0 |= DECIMAL_POINT;
+            }
+            *slot = segments;
+        }
+        rest = rest.checked_div(10).unwrap_or(0);
+    }
+    out
+}
+
 /// A two-character label and a number up to 99, right-aligned: `SP 5`, `PS10`, `P 3`.
 #[must_use]
 pub const fn labelled(label: &[u8; 2], value: u8) -> Display {
@@ -385,6 +410,29 @@ impl Beeper {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn hundredths_show_two_decimals_and_refuse_what_does_not_fit() {
+        assert_eq!(
+            hundredths(2_004),
+            [glyph(b'2'), Segments(glyph(b'0').0 | DECIMAL_POINT), glyph(b'0'), glyph(b'4')]
+        );
+        assert_eq!(
+            hundredths(500),
+            [BLANK, Segments(glyph(b'5').0 | DECIMAL_POINT), glyph(b'0'), glyph(b'0')]
+        );
+        assert_eq!(
+            hundredths(7),
+            [BLANK, Segments(glyph(b'0').0 | DECIMAL_POINT), glyph(b'0'), glyph(b'7')]
+        );
+        assert_eq!(
+            hundredths(9_999),
+            [glyph(b'9'), Segments(glyph(b'9').0 | DECIMAL_POINT), glyph(b'9'), glyph(b'9')]
+        );
+        for bad in [-1, 10_000, i32::MIN, i32::MAX] {
+            assert_eq!(hundredths(bad), text(b"----"), "{bad}");
+        }
+    }
 
     fn run(pad: &mut KeyPad, raw: Keys, ms: u32) -> heapless::Vec<(u32, KeyEvent), 256> {
         let mut events = heapless::Vec::new();

@@ -168,7 +168,7 @@ impl ProfileConfig {
     pub const TAUT: Self = Self {
         shaped: true,
         braking_deceleration: Q16::const_from_int(1_200),
-        braking_margin_percent: 5,
+        braking_margin_percent: 20,
         approach_margin: Kgf(Q16::lit("0.02")),
         closing_time_constant: Seconds(Q16::lit("0.03")),
         pre_stretch_dwell_ms: 300,

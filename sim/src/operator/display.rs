@@ -164,6 +164,17 @@ pub fn tenths(display: &Display) -> Option<i32> {
     number(display)
 }
 
+/// Hundredths shown on a two-decimal number display (`20.04` → 2004, the calibration
+/// entry); `None` unless the second digit carries the decimal point and the digits read as a
+/// number.
+#[must_use]
+pub fn hundredths(display: &Display) -> Option<i32> {
+    if !has_point(display, 1) {
+        return None;
+    }
+    number(display)
+}
+
 /// The number of a labelled page (`SP 5` → 5, `PS10` → 10, `Kn15` → 15, `P 3` → 3) if the
 /// first two digits show `label` as the machine draws it.
 #[must_use]

@@ -132,8 +132,8 @@ enum Step {
     AwaitReferenceRequest { point: u8 },
     /// Looking at the gauge since `since`.
     ReadGauge { point: u8, since: u64 },
-    /// Keying `tenths` in for point `point`.
-    KeyReference { point: u8, tenths: i32 },
+    /// Keying `hundredths` in for point `point` (the entry is to 0.01 kg, as the gauge reads).
+    KeyReference { point: u8, hundredths: i32 },
     /// Waiting for the carriage to rest at home after the calibration.
     AwaitHomeAfterCalibration { since: Option<u64> },
     /// Toggling knot mode by holding Function.
@@ -326,7 +326,7 @@ impl Operator {
             Step::AwaitReferenceRequest { point } => {
                 // The machine shows the value to confirm (a number) with only the holding
                 // lamp once the point has settled; while pulling it shows `CALn`.
-                if display::tenths(&shown).is_some()
+                if display::hundredths(&shown).is_some()
                     && outputs.leds.holding
                     && !outputs.leds.pulling
                 {
@@ -339,15 +339,15 @@ impl Operator {
                 if now >= since + GAUGE_READ_MS {
                     let gauge = twin.reference_gauge();
                     self.gauge_readings.push(gauge);
-                    let tenths = ((gauge * 10.0).round() as i32).clamp(50, 550);
-                    Step::KeyReference { point, tenths }
+                    let hundredths = ((gauge * 100.0).round() as i32).clamp(500, 5_500);
+                    Step::KeyReference { point, hundredths }
                 } else {
                     self.step
                 }
             }
-            Step::KeyReference { point, tenths } => match display::tenths(&shown) {
+            Step::KeyReference { point, hundredths } => match display::hundredths(&shown) {
                 Some(value) => {
-                    if self.adjust(twin, value, tenths, 1) {
+                    if self.adjust(twin, value, hundredths, 1) {
                         self.tap(twin, Key::Start);
                         if point >= 3 {
                             Step::AwaitHomeAfterCalibration { since: None }

@@ -717,7 +717,7 @@ mod tests {
     fn a_bidirectional_sense_is_tared_and_does_not_trip_at_mid_rail() {
         let config = DriveConfig::new(
             limit::CurrentSense::PER_PHASE_BIDIRECTIONAL,
-            limit::BusSense::PAPER,
+            BusSense::PAPER,
             limit::CurrentLimit::PAPER,
             12_000,
         );

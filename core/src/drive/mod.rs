@@ -462,7 +462,13 @@ impl Drive {
         let hall = self.filter.update(sample.hall);
         match hall {
             HallState::Sector(sector) => self.track(sector),
-            HallState::Invalid(_) => self.latch(DriveFault::HallInvalid),
+            HallState::Invalid(_) => {
+                // The rotor may turn any number of sectors while the sensors read nothing
+                // valid: the next valid sector is a fresh start, not a step from the last one
+                // seen (counting it would credit a speed — a back-EMF — nobody measured).
+                self.last_sector = None;
+                self.latch(DriveFault::HallInvalid);
+            }
             HallState::Unknown => {}
         }
 
@@ -829,6 +835,27 @@ mod tests {
         drive.step(sample(Sector::S2));
         assert_eq!(drive.step(sample(Sector::S2)), DriveOutput::OFF);
         assert_eq!(drive.fault(), Some(DriveFault::SectorSkipped));
+    }
+
+    #[test]
+    fn a_valid_sector_after_an_invalid_code_is_a_fresh_start_not_a_step() {
+        let mut drive = settled(Sector::S5);
+        let invalid = DriveSample { hall: HallCode::from_raw(0), ..sample(Sector::S5) };
+        drive.step(invalid);
+        drive.step(invalid);
+        assert_eq!(drive.fault(), Some(DriveFault::HallInvalid));
+        // S5 → (invalid) → S0 would be a forward step; the drive must not count it.
+        drive.step(sample(Sector::S0));
+        drive.step(sample(Sector::S0));
+        let status = drive.status();
+        assert_eq!((status.steps, status.rotation), (0, None), "{status:?}");
+        // Nor is S0 → S1 after clearing a step with a known interval: one step, speed unknown.
+        drive.set_command(DriveCommand::Coast);
+        assert_eq!(drive.clear_fault(), Ok(()));
+        drive.step(sample(Sector::S1));
+        drive.step(sample(Sector::S1));
+        assert_eq!(drive.status().steps, 1);
+        assert_eq!(drive.interval, PwmTicks(0));
     }
 
     #[test]

@@ -472,7 +472,7 @@ pub struct MachineArgs {
     /// Break the string during the hold in every Kth cycle (0: never).
     #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_name = "K", value_parser = seed)]
     pub break_every: u64,
-    /// Inject a real fault (alternately a shorted phase and a stalled rotor) during the pull
+    /// Inject a real fault (in turn a 95 % phase short, a seized carriage and an 80 % phase short) during the pull
     /// in every Kth cycle (0: never).
     #[arg(long, allow_negative_numbers = true, default_value_t = 25, value_name = "K", value_parser = seed)]
     pub fault_every: u64,

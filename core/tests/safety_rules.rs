@@ -26,9 +26,9 @@ use taut_core::machine::FaultCode;
 use taut_core::machine::safety::{
     BREAK_MIN_PEAK, BREAK_PERSIST, LOAD_CELL_BOTTOM_RAIL, LOAD_CELL_TOP_RAIL, LOADED_PERSIST,
     NO_STRING_TENSION, NO_STRING_TRAVEL_STEPS, OVERLOAD_ABSOLUTE, OVERLOAD_MARGIN,
-    OVERLOAD_PERSIST, REVERSED_PERSIST, REVERSED_TENSION, STALL_DUTY, STALL_QUIET, STALL_QUIET_MS,
-    TRACK_LIMIT, TRACK_SLEW, TensionSample, TensionWatch, global_fault, load_cell_rail,
-    overload_limit, stall,
+    OVERLOAD_PERSIST, PEAK_RISE, REVERSED_PERSIST, REVERSED_TENSION, STALL_DUTY, STALL_QUIET,
+    STALL_QUIET_MS, TRACK_LIMIT, TRACK_SLEW, TensionSample, TensionWatch, global_fault,
+    load_cell_rail, overload_limit, stall,
 };
 use taut_core::units::{AdcCode, Kgf};
 
@@ -109,12 +109,12 @@ fn an_interrupted_overload_starts_counting_again() {
 
 #[test]
 fn a_single_spike_moves_the_tracked_tension_by_one_slew_only() {
-    // A +25 kgf spike on a 20 kgf hold: the tracked tension (and so the peak) rises by
-    // TRACK_SLEW, never to the spike; the overload counter does not start.
+    // A +25 kgf spike on a 20 kgf hold: the tracked tension rises by TRACK_SLEW, never to
+    // the spike, and the peak by PEAK_RISE; the overload counter does not start.
     let mut watch = settled(Kgf::from_int(20), Kgf::from_int(20));
     assert_eq!(watch.check(&sample(Kgf::from_int(45))), None);
     assert_eq!(watch.tension, Kgf::from_int(20).saturating_add(TRACK_SLEW));
-    assert_eq!(watch.peak, watch.tension);
+    assert_eq!(watch.peak, Kgf::from_int(20).saturating_add(PEAK_RISE));
     // A sample within one slew is taken exactly.
     assert_eq!(watch.check(&sample(Kgf::from_tenths(205))), None);
     assert_eq!(watch.tension, Kgf::from_tenths(205));
@@ -170,12 +170,17 @@ fn string_break_needs_the_peak_to_have_reached_the_minimum() {
 }
 
 #[test]
-fn the_peak_is_the_highest_tracked_tension() {
+fn the_peak_is_the_highest_tracked_tension_reached_at_the_peak_rise() {
     let mut watch = settled(Kgf::ZERO, Kgf::ZERO);
-    // 8 kgf for three ticks: tracked 1, 2, 3 kgf; the peak follows the tracked value.
+    // 8 kgf for three ticks: tracked 1, 2, 3 kgf; the peak rises PEAK_RISE a tick behind it.
     after(3, &mut watch, &sample(Kgf::from_int(8)));
-    assert_eq!(watch.peak, Kgf::from_int(3));
-    after(10, &mut watch, &sample(Kgf::from_int(8)));
+    assert_eq!(watch.tension, Kgf::from_int(3));
+    assert_eq!(watch.peak, Kgf::from_bits(PEAK_RISE.to_bits() * 3));
+    // A tracked tension within one rise of the peak is taken exactly.
+    let mut close = settled(Kgf::from_int(8), Kgf::from_int(8));
+    close.check(&sample(kgf_bits(Kgf::from_int(8), PEAK_RISE.to_bits())));
+    assert_eq!(close.peak, kgf_bits(Kgf::from_int(8), PEAK_RISE.to_bits()));
+    after(60, &mut watch, &sample(Kgf::from_int(8)));
     assert_eq!(watch.peak, Kgf::from_int(8));
     for tenths in [30, 79, 0] {
         watch.check(&sample(Kgf::from_tenths(tenths)));
@@ -307,8 +312,8 @@ fn tension_watch_invariant_at_its_bounds() {
     assert!(!valid([Kgf::ZERO, Kgf::ZERO, kgf_bits(minus_sixty, -STEP)], [0; 4]));
     assert!(!valid([sixty, sixty, kgf_bits(sixty, STEP)], [0; 4]));
     assert!(
-        !valid([Kgf::from_int(5), kgf_bits(Kgf::from_int(5), STEP), Kgf::ZERO], [0; 4]),
-        "tension above the peak"
+        valid([Kgf::from_int(5), kgf_bits(Kgf::from_int(5), STEP), Kgf::ZERO], [0; 4]),
+        "a peak lagging a rising tension"
     );
     assert!(!valid(zero, [OVERLOAD_PERSIST + 1, 0, 0, 0]));
     assert!(!valid(zero, [0, BREAK_PERSIST + 1, 0, 0]));

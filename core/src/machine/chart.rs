@@ -44,7 +44,8 @@ use crate::sense::calibration::{CALIBRATION_TARGETS, Calibration, CalibrationPoi
 use crate::sense::load_cell::LoadCellScale;
 use crate::store::{CALIBRATION_POINTS, CalibrationPoint, PRESET_COUNT, Record, Settings, Unit};
 use crate::tension::{
-    KnotBoost, Measurement, PreStretch, PullKind, PullSettings, Speed, TensionController,
+    KnotBoost, Measurement, PreStretch, PullKind, PullSettings, SPEED_STEP, Speed,
+    TensionController,
 };
 use crate::units::{Amps, Kgf};
 
@@ -74,8 +75,30 @@ pub const CALIBRATION_SPEED: u8 = 3;
 pub const ENTRY_MIN: u16 = 500;
 /// See [`ENTRY_MIN`].
 pub const ENTRY_MAX: u16 = 5_500;
-/// A pull that has not reached tension after this many ticks faults.
+/// A calibration point that has not reached tension after this many ticks faults, and no
+/// pull's limit is shorter ([`pull_timeout`]).
 pub const PULL_TIMEOUT: u32 = 40_000;
+/// The carriage travel a pull's time limit allows for at the speed setting's limit, mm: more
+/// than any machine's slack plus stretch (the twin's whole travel is 250 mm; a pull that
+/// needs more ends at the end switch, E-14, first).
+pub const PULL_TIMEOUT_TRAVEL_MM: u32 = 400;
+/// Added to the travel time for the approach's slow end and the string's creep while the
+/// tension closes, ms.
+pub const PULL_TIMEOUT_APPROACH_MS: u32 = 20_000;
+
+/// How long a pull at `speed` may take to reach tension: [`PULL_TIMEOUT_TRAVEL_MM`] at the
+/// speed's carriage limit plus [`PULL_TIMEOUT_APPROACH_MS`], and at least [`PULL_TIMEOUT`]
+/// (64.4 s at speed 1, 42.2 s at 2, 40 s from 3 up). A fixed 40 s faulted honest pulls of a
+/// soft string at speed 1 (9 mm/s: 250 mm of take-up alone is 28 s); a jammed carriage is a
+/// stall (E-09) long before, and a string slipping in its clamp still ends here.
+#[must_use]
+pub fn pull_timeout(speed: Speed) -> u32 {
+    // The speed's carriage limit in whole mm/s (9 per step: the step is an integer).
+    let step_mm_per_s = u32::try_from(SPEED_STEP.0.to_bits().checked_shr(16).unwrap_or(0));
+    let mm_per_s = u32::from(speed.get()).saturating_mul(step_mm_per_s.unwrap_or(1));
+    let travel_ms = PULL_TIMEOUT_TRAVEL_MM.saturating_mul(1_000).checked_div(mm_per_s).unwrap_or(0);
+    travel_ms.saturating_add(PULL_TIMEOUT_APPROACH_MS).max(PULL_TIMEOUT)
+}
 /// While the carriage works the display refreshes every 200 ms (5 Hz, what the eye reads
 /// comfortably) from the ≈ 64 ms running average, so single-tick switching spikes (paper
 /// fig. 22) never reach the digits and the last digit does not flicker.
@@ -621,7 +644,7 @@ impl Chart {
             )
             .unwrap_or(ENTRY_MIN);
             Some(State::calibration_entry(*point, entered))
-        } else if *elapsed >= PULL_TIMEOUT {
+        } else if *elapsed >= pull_timeout(self.pull_settings().speed()) {
             Some(State::fault(FaultCode::PullTimeout, Recovery::Home, 0))
         } else {
             None
@@ -738,7 +761,7 @@ impl Chart {
         } else if output.at_tension {
             self.time_to_tension = *elapsed;
             Some(State::holding())
-        } else if *elapsed >= PULL_TIMEOUT {
+        } else if *elapsed >= pull_timeout(self.pull_settings().speed()) {
             Some(State::fault(FaultCode::PullTimeout, Recovery::Home, 0))
         } else {
             None
@@ -1082,6 +1105,19 @@ pub(crate) fn public_state(state: &State) -> MachineState {
 mod tests {
     use super::*;
     use crate::store::SetPoint;
+
+    #[test]
+    fn the_pull_time_limit_covers_the_travel_at_the_set_speed() {
+        let limits: [u32; 9] = core::array::from_fn(|i| {
+            let Ok(speed) = Speed::new(u8::try_from(i + 1).unwrap_or(1)) else { panic!("{i}") };
+            pull_timeout(speed)
+        });
+        // 400 mm at 9·n mm/s + 20 s, never below 40 s.
+        assert_eq!(
+            limits,
+            [64_444, 42_222, 40_000, 40_000, 40_000, 40_000, 40_000, 40_000, 40_000]
+        );
+    }
 
     #[test]
     fn every_valid_setting_converts_to_pull_settings() {

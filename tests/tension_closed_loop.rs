@@ -32,7 +32,9 @@ const CONTROLLERS: [(&str, ControllerArg); 3] = [
 /// Scenario `index` of the original Monte-Carlo twin, seed 1.
 fn scenario(index: u64) -> Scenario {
     let seed = scenario_seed(1, index);
-    Scenario::on(index, TwinConfig::sample(seed), draw_target(seed))
+    let twin = TwinConfig::sample(seed);
+    let target = draw_target(seed, twin.string.kind);
+    Scenario::on(index, twin, target)
 }
 
 /// Scenarios of `report accuracy --seed 1` covering every string family and the target

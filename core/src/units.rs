@@ -279,6 +279,20 @@ impl AdcCode {
         Volts::from_bits(i32::from(self.0).saturating_mul(ADC_VOLT_BITS_PER_CODE))
     }
 
+    /// The mean input voltage of `count` conversions whose codes sum to `sum`, rounded to
+    /// Q15.16 (1.5 × 10⁻⁵ V): finer than one code (1.22 mV), so an average over many noisy
+    /// readings keeps the fraction a whole-code mean would drop. `count` 0 reads as 1.
+    #[must_use]
+    pub fn mean_volts(sum: u32, count: u16) -> Volts {
+        let count = u64::from(count.max(1));
+        let bits = u64::from(sum)
+            .saturating_mul(ADC_VOLT_BITS_PER_CODE.unsigned_abs().into())
+            .saturating_add(count.checked_div(2).unwrap_or(0))
+            .checked_div(count)
+            .unwrap_or(0);
+        Volts::from_bits(i32::try_from(bits).unwrap_or(i32::MAX))
+    }
+
     /// The code a voltage would convert to (rounded to nearest, clamped to 0 ..= 4095): the
     /// inverse of [`AdcCode::to_volts`], used by the digital twin and by tests.
     #[must_use]
@@ -294,6 +308,16 @@ impl AdcCode {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn mean_volts_keeps_the_fraction_of_a_code() {
+        // 100 readings, 37 of 41 and 63 of 42: 41.63 codes, not 41.
+        let mean = AdcCode::mean_volts(37 * 41 + 63 * 42, 100);
+        assert_eq!(mean.to_bits(), (4_163 * 80 + 50) / 100);
+        assert_eq!(AdcCode::mean_volts(41 * 64, 64), AdcCode::new(41).to_volts());
+        assert_eq!(AdcCode::mean_volts(7, 0), AdcCode::new(7).to_volts());
+        assert_eq!(AdcCode::mean_volts(u32::MAX, 1).to_bits(), i32::MAX);
+    }
 
     #[test]
     fn adc_code_saturates_to_twelve_bits() {

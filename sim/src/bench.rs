@@ -39,7 +39,7 @@ use std::fmt;
 
 use taut_core::drive::Direction;
 use taut_core::io::{Display, Inputs, Outputs};
-use taut_core::machine::{FaultCode, Machine, MachineState, SELF_TEST_TICKS};
+use taut_core::machine::{FaultCode, Machine, MachineState, SELF_TEST_SETTLE, SELF_TEST_TICKS};
 use taut_core::sense::calibration::{
     Calibration, CalibrationPoint as SensePoint, CalibrationPoints as SensePoints,
 };
@@ -50,7 +50,7 @@ use taut_core::tension::{
     ConfigError, ControlOutput, ControllerConfig, Measurement, PullKind, PullSettings,
     TensionController,
 };
-use taut_core::units::{AdcCode, Amps, Kgf};
+use taut_core::units::{Amps, Kgf};
 
 use crate::operator::{Operator, Plan, previous_job};
 use crate::params::{CurrentSenseParams, StringKind, TwinConfig};
@@ -140,7 +140,7 @@ pub fn calibration_of(record: &Record) -> Calibration {
 
 /// Ticks the self-test lets the load-cell amplifier settle before it averages (the
 /// machine's `SELF_TEST_SETTLE`).
-pub const TARE_SETTLE_TICKS: u16 = 16;
+pub const TARE_SETTLE_TICKS: u16 = SELF_TEST_SETTLE;
 
 /// Tares a freshly powered twin as the machine's self-test does: the bridge off for
 /// [`SELF_TEST_TICKS`], the mean load-cell code after [`TARE_SETTLE_TICKS`] is the zero.
@@ -153,9 +153,9 @@ pub fn tare(twin: &mut Twin) -> Option<LoadCellScale> {
             sum = sum.saturating_add(u32::from(row.inputs.load_cell.get()));
         }
     }
-    let count = u32::from(SELF_TEST_TICKS.saturating_sub(TARE_SETTLE_TICKS)).max(1);
-    let mean = AdcCode::new(u16::try_from(sum.checked_div(count).unwrap_or(0)).unwrap_or(u16::MAX));
-    LoadCellScale::NOMINAL.tared_at(mean).ok()
+    LoadCellScale::NOMINAL
+        .tared_at_mean(sum, SELF_TEST_TICKS.saturating_sub(TARE_SETTLE_TICKS))
+        .ok()
 }
 
 /// The controller's measurement from `inputs` through `scale` and `calibration`.

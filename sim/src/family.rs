@@ -185,8 +185,13 @@ pub mod ranges {
     pub const ZERO_VOLTS: Span = Span::linear(0.02, 0.15);
     /// Low-load deficit `c` (paper fig. 21: poor linearity below 5 kg).
     pub const LOW_LOAD_DEFICIT: Span = Span::linear(0.1, 0.5);
-    /// Scale `F_k` of the low-load non-linearity, kgf.
-    pub const LOW_LOAD_SCALE_KGF: Span = Span::linear(1.0, 4.0);
+    /// Scale `F_k` of the low-load non-linearity, kgf. The paper's own test (fig. 21) found
+    /// the chain linear from 5 to 40 kg and poorly linear below 5 kg, so the deficit must
+    /// have died away by 5–10 kgf: at `F_k` = 2.5 (the nominal, the top) and c = 0.5 it is
+    /// 0.17 kgf at 5 kgf and 0.02 at 10. (The earlier 1–4 kgf reached 0.11 kgf at the
+    /// 10 kg calibration point — a cell that fails the paper's linearity test — and the
+    /// 4-point line could not follow it: 0.03–0.06 kgf of calibration error at 8–20 kgf.)
+    pub const LOW_LOAD_SCALE_KGF: Span = Span::linear(0.5, 2.5);
     /// Relative gain change at 50 kgf (strain-gauge linearity class 0.1–0.3 %).
     pub const QUADRATIC: Span = Span::linear(-0.003, 0.003);
     /// Amplifier / anti-alias bandwidth, Hz.

@@ -69,6 +69,11 @@ pub struct StringSpec {
     pub free_length_m: f64,
     /// The Monte-Carlo range of the instantaneous stiffness, kgf/cm.
     pub stiffness_range_kgf_per_cm: (f64, f64),
+    /// The tensions the kind is strung at, kgf: what a stringer sets for it (manufacturers'
+    /// recommendations with margin — badminton 18–35 lb, tennis 33–77 lb). The reports draw
+    /// their targets here: a badminton string at 30 kgf breaks on a real machine, and on the
+    /// twin it needs more travel than the carriage has.
+    pub tension_range_kgf: (f64, f64),
     /// The two relaxation arms: (fraction of instantaneous stiffness, time constant s).
     pub relaxation: [RelaxationArm; 2],
 }
@@ -133,6 +138,7 @@ impl StringKind {
                 modulus_gpa: 2.0,
                 free_length_m: 0.45,
                 stiffness_range_kgf_per_cm: (1.4, 2.2),
+                tension_range_kgf: (8.0, 15.0),
                 relaxation: [arm(0.05, 1.5), arm(0.10, 40.0)],
             }),
             Self::BadmintonHard => Some(StringSpec {
@@ -140,6 +146,7 @@ impl StringKind {
                 modulus_gpa: 3.2,
                 free_length_m: 0.40,
                 stiffness_range_kgf_per_cm: (2.0, 3.2),
+                tension_range_kgf: (8.0, 16.0),
                 relaxation: [arm(0.04, 1.5), arm(0.08, 40.0)],
             }),
             Self::TennisGut => Some(StringSpec {
@@ -147,6 +154,7 @@ impl StringKind {
                 modulus_gpa: 2.0,
                 free_length_m: 0.50,
                 stiffness_range_kgf_per_cm: (4.5, 6.5),
+                tension_range_kgf: (15.0, 35.0),
                 relaxation: [arm(0.02, 2.0), arm(0.05, 60.0)],
             }),
             Self::TennisSynthetic => Some(StringSpec {
@@ -154,6 +162,7 @@ impl StringKind {
                 modulus_gpa: 2.8,
                 free_length_m: 0.50,
                 stiffness_range_kgf_per_cm: (6.0, 9.0),
+                tension_range_kgf: (15.0, 35.0),
                 relaxation: [arm(0.04, 1.5), arm(0.08, 40.0)],
             }),
             Self::TennisPolyester => Some(StringSpec {
@@ -161,6 +170,7 @@ impl StringKind {
                 modulus_gpa: 4.5,
                 free_length_m: 0.45,
                 stiffness_range_kgf_per_cm: (10.0, 15.0),
+                tension_range_kgf: (15.0, 35.0),
                 relaxation: [arm(0.03, 2.0), arm(0.10, 60.0)],
             }),
             Self::NoString => None,

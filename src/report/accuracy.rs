@@ -208,7 +208,7 @@ pub fn detail(results: &[ScenarioResult], lineup: &[Entry]) -> String {
 /// The subtitle of the report's plots: what was run.
 fn what_was_run(seed: u64, sensing: SensingArg, results: &[ScenarioResult]) -> String {
     format!(
-        "{} scenarios of the family (seed {seed}, sensing {}), speed 9, targets 8–35 kgf, the machine's own calibration; errors against the true tension",
+        "{} scenarios of the family (seed {seed}, sensing {}), speed 9, targets 8–35 kgf by string kind (badminton ≤ 16, tennis ≥ 15), the machine's own calibration; errors against the true tension",
         results.len(),
         format!("{sensing:?}").to_lowercase()
     )

@@ -7,7 +7,7 @@
 //! Machine `i` of the family ([`TwinConfig::family`]: inertia 0.5–2×, friction, bus
 //! 20–30 V, both kinds of current sensing, …, or the board `--sensing` names) powers up with
 //! factory defaults; the operator runs the 4-point calibration in the machine's calibration
-//! states, keys a target drawn from 8–35 kg and a speed drawn from 1–9, presses Start, holds
+//! states, keys a target drawn from the string kind's stringing range (badminton 8–15/16 kg, tennis 15–35 kg) and a speed drawn from 1–9, presses Start, holds
 //! for [`HOLD_MS`] and releases: boot, homing, calibration, set, pull, hold, release.
 //!
 //! # Injections (deterministic by cycle index)
@@ -35,12 +35,13 @@ use serde_json::{Value, json};
 use taut_core::drive::Phase;
 use taut_core::machine::{FaultCode, MachineState};
 use taut_core::store::{Record, SetPoint, Settings, Unit};
+use taut_sim::StringKind;
 use taut_sim::bench::{Bench, Session, fault_name, run_session};
 use taut_sim::operator::{Operator, Plan};
 use taut_sim::twin::Fault;
 use taut_sim::{SimRng, TwinConfig};
 
-use super::{TARGETS_KGF, cell, number, percentile, scenario_seed};
+use super::{cell, number, percentile, scenario_seed, target_range};
 use crate::cli::MachineArgs;
 use crate::output::{Progress, Status, check_writable, parallel, threads, write_json};
 
@@ -145,11 +146,13 @@ impl Cycle {
     }
 }
 
-/// The settings of cycle `seed`: a target from 8–35 kg (0.1 kg) and a speed from 1–9.
+/// The settings of cycle `seed` on a `kind` of string: a target from the kind's range
+/// ([`target_range`], 0.1 kg) and a speed from 1–9.
 #[must_use]
-pub fn settings(seed: u64) -> Settings {
+pub fn settings(seed: u64, kind: StringKind) -> Settings {
     let mut rng = SimRng::substream(seed, 0x5E77);
-    let tenths = (rng.range(TARGETS_KGF.0, TARGETS_KGF.1) * 10.0).round() as u16;
+    let (low, high) = target_range(kind);
+    let tenths = (rng.range(low, high) * 10.0).round() as u16;
     let speed = (rng.range(1.0, 10.0).floor() as u8).clamp(1, 9);
     SetPoint::new(Unit::Kilograms, tenths)
         .and_then(|sp| Settings::new(sp, speed, 0, 0))
@@ -165,7 +168,7 @@ pub fn run_cycle(args: &MachineArgs, index: u64) -> Cycle {
     let mut bench = Bench::power_up(&config, &Record::default().encode());
     let plan = Plan {
         calibrate: true,
-        settings: settings(seed),
+        settings: settings(seed, config.string.kind),
         knot_mode: false,
         pull_hold_ms: Some(HOLD_MS),
     };

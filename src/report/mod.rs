@@ -9,7 +9,7 @@
 //! # A scenario, and a pull on it
 //!
 //! A [`Scenario`] is a machine of the family ([`TwinConfig::family`], its string kind
-//! drawn with it) and a target drawn from 8–35 kgf, both from the scenario's seed. It is
+//! drawn with it) and a target drawn from the kind's stringing range within 8–35 kgf (badminton 8–15/16, tennis 15–35), both from the scenario's seed. It is
 //! commissioned first: the simulated operator runs the **machine's own 4-point calibration**
 //! on the bench against the twin's reference gauge ([`taut_sim::bench::commission`]); the
 //! calibration the machine stores is then used by every controller on that scenario
@@ -45,7 +45,7 @@ use taut_core::tension::{ControllerConfig, KnotBoost, PreStretch, PullKind, Pull
 use taut_sim::bench::{
     ControllerBench, ControllerRow, calibration_of, commission, factory_config, fault_name, to_kgf,
 };
-use taut_sim::{SimRng, TwinConfig};
+use taut_sim::{SimRng, StringKind, TwinConfig};
 
 use crate::cli::SensingArg;
 
@@ -141,11 +141,22 @@ pub const fn scenario_seed(seed: u64, index: u64) -> u64 {
     seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(index)
 }
 
-/// A target drawn from [`TARGETS_KGF`] with `seed`, to 0.1 kgf.
+/// The targets drawn for a `kind` of string: its stringing range within [`TARGETS_KGF`]
+/// (badminton 8–15/16 kgf, tennis 15–35 kgf; the whole range without a string).
 #[must_use]
-pub fn draw_target(seed: u64) -> f64 {
+pub fn target_range(kind: StringKind) -> (f64, f64) {
+    kind.spec().map_or(TARGETS_KGF, |spec| {
+        let (low, high) = spec.tension_range_kgf;
+        (low.max(TARGETS_KGF.0), high.min(TARGETS_KGF.1))
+    })
+}
+
+/// A target for a `kind` of string drawn from [`target_range`] with `seed`, to 0.1 kgf.
+#[must_use]
+pub fn draw_target(seed: u64, kind: StringKind) -> f64 {
     let mut rng = SimRng::substream(seed, 0x7A26);
-    (rng.range(TARGETS_KGF.0, TARGETS_KGF.1) * 10.0).round() / 10.0
+    let (low, high) = target_range(kind);
+    (rng.range(low, high) * 10.0).round() / 10.0
 }
 
 impl Scenario {
@@ -153,7 +164,9 @@ impl Scenario {
     #[must_use]
     pub fn new(seed: u64, index: u64, sensing: SensingArg) -> Self {
         let s = scenario_seed(seed, index);
-        Self { index, twin: sensing.apply(TwinConfig::family(s)), target_kgf: draw_target(s) }
+        let twin = sensing.apply(TwinConfig::family(s));
+        let target_kgf = draw_target(s, twin.string.kind);
+        Self { index, twin, target_kgf }
     }
 
     /// A scenario on a given machine.

@@ -3,7 +3,7 @@
 //! ([`TwinConfig::on_axis`]).
 //!
 //! At each point of each axis the report runs several scenarios — the string kinds in turn
-//! and targets drawn from 8–35 kgf — each commissioned through the machine's own calibration
+//! and targets drawn from each kind's stringing range within 8–35 kgf — each commissioned through the machine's own calibration
 //! and pulled by taut's controller (speed 9), and keeps per axis the worst hold error,
 //! overshoot and settle/t_min of the runs that did not fail, and the failures (see
 //! [`super`] for the figures).
@@ -50,7 +50,7 @@ pub struct Point {
 #[must_use]
 pub fn run_point(axis: Axis, position: f64, index: u64, seed: u64) -> Point {
     let string = STRINGS[(index % STRINGS.len() as u64) as usize];
-    let target_kgf = draw_target(scenario_seed(seed, index));
+    let target_kgf = draw_target(scenario_seed(seed, index), string);
     let scenario = Scenario::on(index, TwinConfig::on_axis(axis, position, string), target_kgf);
     let metrics = match commissioned_calibration(&scenario.twin) {
         Err(failure) => Metrics::failed(failure),
@@ -221,7 +221,7 @@ pub fn figure(args: &RobustnessArgs, axes: &[Axis], runs: &[Point]) -> Figure {
     Figure::new(
         "taut report robustness: each axis of the family alone, worst case per position",
         &format!(
-            "taut's controller, speed 9, {} scenario(s) per point (string kinds in turn, targets 8–35 kgf, seed {}), the machine's own calibration; 0 = the axis's low end, 1 = its high end",
+            "taut's controller, speed 9, {} scenario(s) per point (string kinds in turn, targets by kind within 8–35 kgf, seed {}), the machine's own calibration; 0 = the axis's low end, 1 = its high end",
             args.scenarios, args.seed
         ),
         "uncertainty axis",

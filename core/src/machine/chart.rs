@@ -50,8 +50,11 @@ use crate::tension::{
 use crate::units::{Amps, Kgf};
 
 /// Ticks the self-test takes: [`SELF_TEST_SETTLE`] ticks for the amplifier to settle,
-/// then 64 readings of the unloaded load cell averaged (the limits are watched throughout).
-pub const SELF_TEST_TICKS: u16 = 80;
+/// then 100 readings of the unloaded load cell averaged (the limits are watched throughout).
+/// 100 ms is five periods of 50 Hz mains and six of 60 Hz, so the hum averages out of the
+/// tare (over 64 ms, 3.2 periods of 50 Hz, up to a tenth of the hum's peak stayed in it:
+/// 0.01 kgf, an offset in every pull until the next boot).
+pub const SELF_TEST_TICKS: u16 = 116;
 /// Ticks at the start of the self-test whose load-cell readings are not averaged.
 pub const SELF_TEST_SETTLE: u16 = 16;
 /// The motor test's duty: 15 %.
@@ -512,15 +515,17 @@ impl Chart {
         }
         *elapsed = elapsed.saturating_add(1);
         if *elapsed >= SELF_TEST_TICKS {
-            // 64 samples of ≤ 4095: the sum fits, and ÷ 64 is the mean code.
-            let averaged = u32::from(SELF_TEST_TICKS.saturating_sub(SELF_TEST_SETTLE));
+            // 100 samples of ≤ 4095: the sum fits. The rail check reads the whole-code mean;
+            // the tare keeps the fraction.
+            let averaged = SELF_TEST_TICKS.saturating_sub(SELF_TEST_SETTLE);
             let mean = crate::units::AdcCode::new(
-                u16::try_from(code_sum.checked_div(averaged).unwrap_or(0)).unwrap_or(u16::MAX),
+                u16::try_from(code_sum.checked_div(u32::from(averaged)).unwrap_or(0))
+                    .unwrap_or(u16::MAX),
             );
             context.next = Some(if let Some(code) = safety::load_cell_rail(mean) {
                 State::fault(code, Recovery::SelfTest, 0)
             } else {
-                match self.scale.tared_at(mean) {
+                match self.scale.tared_at_mean(*code_sum, averaged) {
                     Ok(scale) => {
                         self.scale = scale;
                         let limits = sample.inputs.limits;

@@ -91,6 +91,16 @@ impl LoadCellScale {
         Self::new(code.to_volts(), self.kgf_per_volt)
     }
 
+    /// The same gain, re-zeroed at the mean of `count` unloaded readings whose codes sum to
+    /// `sum`, to Q15.16 volts — the self-test's tare: a whole-code mean is off by up to one
+    /// code (0.013 kgf), and the tare's error is an offset in every pull until the next boot.
+    ///
+    /// # Errors
+    /// [`ScaleError::ZeroOutOfRange`] when the mean is implausible.
+    pub fn tared_at_mean(self, sum: u32, count: u16) -> Result<Self, ScaleError> {
+        Self::new(AdcCode::mean_volts(sum, count), self.kgf_per_volt)
+    }
+
     /// Zero-load output.
     #[must_use]
     pub const fn zero(&self) -> Volts {

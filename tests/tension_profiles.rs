@@ -21,12 +21,13 @@
 use taut::report::commissioned_calibration;
 use taut_core::drive::Direction;
 use taut_core::sense::calibration::Calibration;
+use taut_core::tension::controller::BACK_OUT_BAND;
 use taut_core::tension::{
     ControllerConfig, KnotBoost, PreStretch, PullKind, PullPhase, PullSettings, Speed,
 };
 use taut_core::units::Kgf;
 use taut_sim::bench::{ControllerBench, ControllerRow, kgf};
-use taut_sim::{StringKind, TwinConfig};
+use taut_sim::{Axis, StringKind, TwinConfig};
 
 /// One tick of a pull, as these tests read it.
 struct Sample {
@@ -60,7 +61,8 @@ fn bench(twin: &TwinConfig, calibration: Calibration) -> ControllerBench {
 }
 
 /// One pull of `ms` ticks on a machine calibrated by its own 4-point calibration; asserts
-/// the drive never reverses.
+/// the drive reverses only to back out an excess (REQ-TEN-17: in the settle or the hold, the
+/// tension estimated more than the band above the reference).
 fn pull(twin: &TwinConfig, settings: &PullSettings, kind: PullKind, ms: u32) -> Vec<Sample> {
     let calibration = commissioned_calibration(twin).expect("calibration accepted");
     let mut rig = bench(twin, calibration);
@@ -68,11 +70,15 @@ fn pull(twin: &TwinConfig, settings: &PullSettings, kind: PullKind, ms: u32) -> 
     let mut trace = Vec::new();
     for _ in 0..ms {
         let row = rig.tick();
-        assert_ne!(
-            row.control.command.direction(),
-            Some(Direction::Release),
-            "REQ-TEN-09: a pull never reverses the bridge"
-        );
+        if row.control.command.direction() == Some(Direction::Release) {
+            let excess = kgf(row.control.tension) - kgf(row.control.reference);
+            assert!(
+                matches!(row.control.phase, PullPhase::Settle | PullPhase::Hold)
+                    && excess > kgf(BACK_OUT_BAND),
+                "REQ-TEN-09/17: reversed in {:?} {excess:.3} kgf over the reference",
+                row.control.phase
+            );
+        }
         trace.push(Sample::from(&row));
     }
     trace
@@ -103,6 +109,13 @@ fn pre_stretch_pulls_to_the_peak_then_settles_to_the_target() {
     let machines = [
         (TwinConfig::sample_kind(StringKind::TennisPolyester, 12), "tennis-poly"),
         (TwinConfig::sample_kind(StringKind::TennisSynthetic, 13), "tennis-synthetic"),
+        // The family's least efficient drivetrain (forward efficiency 0.5): the screw does
+        // not back-drive, so only the back-out (REQ-TEN-17) brings the tension down; before
+        // it the string took ~9 s to creep from the peak to the target.
+        (
+            TwinConfig::on_axis(Axis::Friction, 1.0, StringKind::TennisSynthetic),
+            "self-locking tennis-synthetic",
+        ),
     ];
     for (twin, name) in machines {
         let settings = PullSettings::new(
@@ -135,7 +148,7 @@ fn pre_stretch_pulls_to_the_peak_then_settles_to_the_target() {
         assert!(settle - pre >= 0.29, "{name}: the dwell is 300 ms");
         assert!(highest - peak <= 0.15, "{name}: peak overshoot {}", highest - peak);
         assert!(peak_error <= 0.3, "{name}: peak error {peak_error}");
-        assert!(arrived - settle < 6.0, "{name}: back at the target after {}", arrived - settle);
+        assert!(arrived - settle < 1.5, "{name}: back at the target after {}", arrived - settle);
         assert!(hold_error <= 0.15, "{name}: hold error {hold_error}");
         assert!(trace.iter().all(|s| !s.fault), "{name}: drive fault");
     }

@@ -39,7 +39,8 @@
 use taut_core::drive::{DUTY_MAX, Direction, DriveStatus};
 use taut_core::io::LimitSwitches;
 use taut_core::tension::controller::{
-    ProfileState, SLIP_DEAD_ZONE, SLIP_LEARNING_RATE, TAUT_GAINS, TAUT_PLANT, TensionController,
+    BACK_OUT_DUTY_MAX, ProfileState, SLIP_DEAD_ZONE, SLIP_LEARNING_RATE, TAUT_GAINS, TAUT_PLANT,
+    TensionController,
 };
 use taut_core::tension::estimator::{
     CLIP_ALLOWANCE, CLIP_STIFFNESS, EstimatorConfig, EstimatorState, LEARN_TICKS, STEP_MM_BITS,
@@ -487,11 +488,20 @@ pub fn controller_step_bounded(case: &StepCase) -> bool {
     let duty = out.command.duty();
     assert!(duty <= DUTY_MAX && duty.is_valid(), "REQ-TEN-02: duty {duty:?} above DUTY_MAX");
     if !matches!(phase, PullPhase::Idle | PullPhase::Release) {
-        assert_eq!(
-            out.command.direction(),
-            Some(Direction::Pull),
-            "REQ-TEN-09: a pull never coasts or reverses"
-        );
+        match out.command.direction() {
+            Some(Direction::Pull) => {}
+            // REQ-TEN-17: the back-out, only in the settle and the hold (the phase after
+            // the step: a settle may have closed into the hold), at its own duty cap.
+            Some(Direction::Release) => {
+                assert!(
+                    matches!(phase, PullPhase::Settle | PullPhase::Hold)
+                        && matches!(controller.phase(), PullPhase::Settle | PullPhase::Hold)
+                        && duty <= BACK_OUT_DUTY_MAX,
+                    "REQ-TEN-17: a release in {phase:?} at {duty:?}"
+                );
+            }
+            None => panic!("REQ-TEN-09: a pull never coasts"),
+        }
     }
     assert!(controller.is_valid(), "REQ-TEN-03: the step broke the invariant: {case:?}");
     true

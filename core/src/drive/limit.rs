@@ -45,8 +45,8 @@
 //! - `I_lim·R` with the *lowest* resistance the pair can have (cold windings, MOSFETs at their
 //!   best), so the real current is at most the limit.
 //!
-//! Above [`BusSense::regen_code`] the lower edge rises to `e/V_bus`: no braking current, so the
-//! bus stops being pumped; at [`BusSense::over_code`] the drive latches a fault and coasts.
+//! Above the regeneration threshold (`BusSense::regen_mv`, as `DriveConfig`'s `regen_code`) the lower edge rises to `e/V_bus`: no braking current, so the
+//! bus stops being pumped; at the overvoltage threshold (`BusSense::max_mv`) the drive latches a fault and coasts.
 //!
 //! # Current sensing
 //!

@@ -48,8 +48,9 @@ use crate::units::{AdcCode, Kgf};
 pub use chart::{
     AfterRelease, CALIBRATION_SETTLE, CALIBRATION_SPEED, CALIBRATION_WINDOW, CLEAR_ATTEMPT,
     ENTRY_MAX, ENTRY_MIN, MOTOR_TEST_DUTY, MOTOR_TEST_STEPS, MOTOR_TEST_TIMEOUT, PULL_TIMEOUT,
-    RELEASE_TIMEOUT, Recovery, SELF_TEST_SETTLE, SELF_TEST_TICKS, STORE_DELAY, VIEW_TIMEOUT, View,
-    calibration_settings, fault_persists, tension_display, to_pull_settings,
+    PULL_TIMEOUT_APPROACH_MS, PULL_TIMEOUT_TRAVEL_MM, RELEASE_TIMEOUT, Recovery, SELF_TEST_SETTLE,
+    SELF_TEST_TICKS, STORE_DELAY, VIEW_TIMEOUT, View, calibration_settings, fault_persists,
+    pull_timeout, tension_display, to_pull_settings,
 };
 pub use fault::FaultCode;
 pub use log::{PULL_LOG_CAPACITY, PullLog, PullRecord};

@@ -24,7 +24,7 @@
 //! 2. [`PullPhase::Approach`] — **braking**. A carriage at speed `v` into a string of
 //!    stiffness `K = ẏ/v`, braked at a constant deceleration `a`, adds `K·v²/(2a) = ẏ·v/(2a)`
 //!    of tension before it stops. The braking starts in the tick where that rise reaches
-//!    the gap left to the goal (the peak target less a margin of 0.02 kgf and 5 % of the
+//!    the gap left to the goal (the peak target less a margin of 0.02 kgf and 20 % of the
 //!    rise for the stiffness estimate's error; the tension lag-compensated by the sensing
 //!    delay): a comparison of two products, no division. At that tick the string's
 //!    stiffness `K̂ = ẏ/v` is identified (one division-free reciprocal), the law's plant is
@@ -42,6 +42,12 @@
 //!    slip in the motor current within a tick or two and brakes it before it runs to the
 //!    next cogging detent. "At tension" latches the first time the estimated tension is
 //!    within [`ProfileConfig::at_tension_band`] of the final target in this phase.
+//!
+//! In the settle and the hold a tension more than [`BACK_OUT_BAND`] above the reference,
+//! with the law asking for no pull at all, is **backed out**: the carriage is driven toward
+//! home at a speed proportional to the excess (REQ-TEN-17), so a pre-stretch peak or a
+//! braking overshoot comes down in a fraction of a second even on a drivetrain that does not
+//! back-drive, instead of waiting for the string to creep.
 //!
 //! With the **step** profile (the paper's simulation, used for the `paper_rsmc` and `pd`
 //! baselines) the reference is the target from the first tick and the law acts at once;
@@ -83,6 +89,26 @@ use crate::units::{Amps, Kgf, KgfPerSecond, Q16, Seconds, Volts};
 
 /// The most duty a release (homing) move uses: 60 %.
 pub const RELEASE_DUTY_MAX: Duty = Duty::from_raw_clamped(39_322);
+
+/// The back-out (REQ-TEN-17): in the settle and the hold, a tension more than this above the
+/// reference, with the law asking for no pull at all, is backed out by driving the carriage
+/// toward home: 0.03 kgf, above the estimate's noise (≈ 0.005 kgf) so an at-tension string
+/// never hunts between pulling and releasing.
+pub const BACK_OUT_BAND: Kgf = Kgf(Q16::lit("0.03"));
+
+/// The back-out's carriage speed per kgf of excess, mm/s: 10. The excess then decays with
+/// a time constant `1/(10·K)`: 67 ms on the stiffest string (1.5 kgf/mm, still 20 times the
+/// sensing lag), 0.7 s on the softest.
+pub const BACK_OUT_GAIN: i32 = 10;
+
+/// The back-out's slowest and fastest carriage speeds, mm/s: 1 (a smaller excess still
+/// moves the carriage through its static friction) and 20.
+pub const BACK_OUT_SPEED: (MmPerSecond, MmPerSecond) =
+    (MmPerSecond(Q16::const_from_int(1)), MmPerSecond(Q16::const_from_int(20)));
+
+/// The most duty a back-out uses: 20 % (the velocity feed-forward of 20 mm/s is ≈ 26 %
+/// of the 24 V bus; the string pulls the carriage the same way, so little is needed).
+pub const BACK_OUT_DUTY_MAX: Duty = Duty::from_raw_clamped(13_107);
 
 /// The shortest and longest control periods accepted: 50 µs to 10 ms.
 pub const PERIOD_RANGE_US: (u32, u32) = (50, 10_000);
@@ -950,10 +976,36 @@ impl TensionController {
         }
         .saturating_sub(slip_brake);
         let (command, saturated) = self.map.command(force, speed);
+        let command = if self.shaped && matches!(phase, PullPhase::Settle | PullPhase::Hold) {
+            self.back_out(command, y)
+        } else {
+            command
+        };
         self.profile.saturated = saturated;
         *force_out = force;
         self.transitions(phase, y);
         command
+    }
+
+    /// REQ-TEN-17, the back-out: the law's `command` unless it asks for no pull at all while
+    /// the tension `y` is more than [`BACK_OUT_BAND`] above the reference; then a release at
+    /// [`BACK_OUT_GAIN`] mm/s per kgf of excess (within [`BACK_OUT_SPEED`], duty at most
+    /// [`BACK_OUT_DUTY_MAX`]). A drivetrain that does not back-drive (a self-locking screw,
+    /// forward efficiency ≤ 0.5) holds a pre-stretch peak or a braking overshoot against
+    /// the short-braked motor until the string creeps down — seconds, 4.8 kgf still over a
+    /// 25 kgf target 1 s after a 20 % pre-stretch on the family's least efficient machine.
+    /// The reversal itself is the drive's (REQ-DRV-08: energised toward home only once the
+    /// rotor's back-EMF against it is below the current limit's).
+    fn back_out(&self, command: DriveCommand, y: Kgf) -> DriveCommand {
+        let excess = y.saturating_sub(self.reference_kgf());
+        if !command.duty().is_zero() || excess <= BACK_OUT_BAND {
+            return command;
+        }
+        let (slowest, fastest) = BACK_OUT_SPEED;
+        let speed =
+            MmPerSecond(excess.0.saturating_mul_int(BACK_OUT_GAIN).clamp(slowest.0, fastest.0));
+        let duty = self.map.velocity_duty(speed, Kgf::ZERO, BACK_OUT_DUTY_MAX);
+        DriveCommand::Drive { direction: Direction::Release, duty }
     }
 
     /// The phase changes that depend on the tension (the braking's end is in
@@ -1075,6 +1127,62 @@ mod tests {
         controller.start(&settings, PullKind::Main);
         controller.stop();
         assert_eq!(controller.step(&Measurement::default()).command, DriveCommand::Coast);
+    }
+
+    /// A taut controller settled in `phase` at a 25 kgf reference, the law primed by `ticks`
+    /// steps at `tension`; the last output.
+    fn held_at(phase: PullPhase, tension: Kgf, ticks: u16) -> ControlOutput {
+        let mut controller = TensionController::taut();
+        let settings = valid(PullSettings::new(
+            Kgf::from_int(25),
+            Speed::MAX,
+            PreStretch::NONE,
+            KnotBoost::NONE,
+        ));
+        controller.start(&settings, PullKind::Main);
+        let mut profile = controller.profile_state();
+        profile.phase = phase;
+        profile.reference = i64::from(Kgf::from_int(25).to_bits()) << 16;
+        profile.goal = Kgf::from_int(25);
+        controller.set_profile_state(profile);
+        let m = Measurement { tension, ..Measurement::default() };
+        let mut out = controller.step(&m);
+        for _ in 1..ticks {
+            out = controller.step(&m);
+        }
+        out
+    }
+
+    #[test]
+    fn an_excess_beyond_the_band_is_backed_out_in_the_settle_and_the_hold_only() {
+        let above = |excess: Kgf| Kgf::from_int(25).saturating_add(excess);
+        for phase in [PullPhase::Settle, PullPhase::Hold] {
+            // 0.5 kgf over: toward home at 5 mm/s, within the back-out's duty cap.
+            let out = held_at(phase, above(Kgf::from_tenths(5)), 50);
+            assert_eq!(out.command.direction(), Some(Direction::Release), "{phase:?}");
+            assert!(out.command.duty() <= BACK_OUT_DUTY_MAX);
+            assert!(!out.command.duty().is_zero());
+            // 5 kgf over: the speed is capped at 20 mm/s, the duty at the cap.
+            let far = held_at(phase, above(Kgf::from_int(5)), 50);
+            assert_eq!(far.command.direction(), Some(Direction::Release));
+            assert!(far.command.duty() >= out.command.duty());
+            assert!(far.command.duty() <= BACK_OUT_DUTY_MAX);
+            // Exactly the band over: the law's own (pulling) command.
+            let at_band = held_at(phase, above(BACK_OUT_BAND), 50);
+            assert_eq!(at_band.command.direction(), Some(Direction::Pull), "{phase:?}");
+            let below = held_at(phase, Kgf::from_tenths(249), 50);
+            assert_eq!(below.command.direction(), Some(Direction::Pull));
+        }
+        // The speed grows with the excess: 0.1 kgf over moves slower than 0.5 kgf over.
+        let slow = held_at(PullPhase::Hold, above(Kgf::from_tenths(1)), 50);
+        let fast = held_at(PullPhase::Hold, above(Kgf::from_tenths(5)), 50);
+        assert_eq!(slow.command.direction(), Some(Direction::Release));
+        assert!(slow.command.duty() < fast.command.duty());
+        // Never during the braking approach or the pre-stretch peak.
+        for phase in [PullPhase::Approach, PullPhase::PreStretch] {
+            let out = held_at(phase, above(Kgf::from_int(5)), 1);
+            assert_ne!(out.command.direction(), Some(Direction::Release), "{phase:?}");
+        }
     }
 
     /// A carriage pulled at one Hall step per tick into a `stiffness_milli` kgf/mm string

@@ -41,6 +41,7 @@
 //! machine it arrives as a latched drive fault, and the tick's mean current code alone
 //! never faults the machine.
 
+use taut_core::drive::limit::CurrentSense;
 use taut_core::drive::{DUTY_MAX, Direction, DriveCommand, DriveFault, DriveStatus, PwmTicks};
 use taut_core::io::{Inputs, Keys, LimitSwitches, Outputs};
 use taut_core::machine::{
@@ -48,7 +49,7 @@ use taut_core::machine::{
     safety::TensionWatch,
 };
 use taut_core::store::Record;
-use taut_core::units::{AdcCode, Kgf};
+use taut_core::units::{AdcCode, Kgf, Volts};
 
 /// One tick of inputs, in primitive values.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
@@ -102,6 +103,10 @@ impl TickInput {
                 rotation: None,
                 quiet_for: PwmTicks::from_micros(u32::from(self.quiet_ms).saturating_mul(1_000)),
                 energized: None,
+                // Any code of the paper's board, as the drive reports it (what the tick's
+                // motor-current input used to be converted with).
+                current: CurrentSense::PAPER.amps(AdcCode::new(self.motor_current), AdcCode::MIN),
+                bus: Volts::ZERO,
             },
             string_counter: self.string_counter,
             limits: LimitSwitches { home: self.home, end: self.end },

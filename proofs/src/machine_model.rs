@@ -50,12 +50,13 @@
 
 use std::collections::{HashMap, HashSet, VecDeque};
 
+use taut_core::drive::limit::CurrentSense;
 use taut_core::drive::{Direction, DriveCommand, DriveFault, DriveStatus, PwmTicks};
 use taut_core::io::{Inputs, Key as PanelKey, Keys, LimitSwitches, Outputs};
 use taut_core::machine::{MachineState, View, safety};
 use taut_core::sense::calibration::CALIBRATION_TARGETS;
 use taut_core::sense::load_cell::LoadCellScale;
-use taut_core::units::{AdcCode, Kgf};
+use taut_core::units::{AdcCode, Kgf, Volts};
 
 use crate::machine::{TickRecord, check_tick};
 
@@ -318,6 +319,8 @@ impl World {
                 rotation: None,
                 quiet_for: PwmTicks::from_micros(self.quiet_ms.saturating_mul(1_000)),
                 energized: None,
+                current: CurrentSense::PAPER.amps(motor_current, AdcCode::MIN),
+                bus: Volts::ZERO,
             },
             string_counter: u16::from_ne_bytes(
                 self.steps.to_ne_bytes()[..2].try_into().unwrap_or([0, 0]),

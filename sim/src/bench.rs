@@ -43,14 +43,13 @@ use taut_core::machine::{FaultCode, Machine, MachineState, SELF_TEST_SETTLE, SEL
 use taut_core::sense::calibration::{
     Calibration, CalibrationPoint as SensePoint, CalibrationPoints as SensePoints,
 };
-use taut_core::sense::current;
 use taut_core::sense::load_cell::LoadCellScale;
 use taut_core::store::{RECORD_LEN, Record, StoreError};
 use taut_core::tension::{
     ConfigError, ControlOutput, ControllerConfig, Measurement, PullKind, PullSettings,
     TensionController,
 };
-use taut_core::units::{Amps, Kgf};
+use taut_core::units::Kgf;
 
 use crate::operator::{Operator, Plan, previous_job};
 use crate::params::{CurrentSenseParams, StringKind, TwinConfig};
@@ -168,9 +167,9 @@ pub fn measurement(
     Measurement {
         tension: calibration.correct(scale.to_kgf(inputs.load_cell)),
         drive: inputs.drive,
-        current: Amps(current::amps(inputs.motor_current).0),
+        current: inputs.drive.current,
         limits: inputs.limits,
-        bus: taut_core::drive::BusSense::PAPER.volts(inputs.bus_voltage),
+        bus: inputs.drive.bus,
     }
 }
 

@@ -64,7 +64,7 @@
 
 use crate::drive::duty::{DUTY_MAX, Duty};
 use crate::drive::{PWM_TIMER_HZ, PwmTicks};
-use crate::units::{AdcCode, Volts};
+use crate::units::{AdcCode, Amps, Volts};
 
 /// The converter's full-scale code count (12 bit).
 const ADC_COUNTS: u32 = 4_096;
@@ -119,6 +119,17 @@ impl CurrentSense {
     /// An RC-filtered DC-link shunt with a bidirectional 0.1 V/A amplifier.
     pub const LINK_AVERAGE_BIDIRECTIONAL: Self =
         Self { reading: CurrentReading::LinkAverage, ..Self::PER_PHASE_BIDIRECTIONAL };
+
+    /// The current a sample `code` stands for with the sense's zero at `zero`: signed
+    /// (positive above the zero), to the milliampere, in this board's scale — what the
+    /// controller's motor current is (a mid-rail amplifier reads 0 A at its tared zero, not
+    /// the 12.5 A a fixed unidirectional scale would make of it).
+    #[must_use]
+    pub fn amps(&self, code: AdcCode, zero: AdcCode) -> Amps {
+        let codes = i64::from(code.get()).saturating_sub(i64::from(zero.get()));
+        let ma = codes.saturating_mul(i64::from(self.na_per_code)) / 1_000_000;
+        Amps::from_milli(i32::try_from(ma).unwrap_or(0))
+    }
 
     /// The codes a current of `ma` spans, rounded up.
     fn codes_for(&self, ma: u32) -> Option<u16> {
@@ -464,6 +475,39 @@ mod tests {
         let built =
             DriveConfig::new(CurrentSense::PAPER, BusSense::PAPER, CurrentLimit::PAPER, 12_000);
         assert_eq!(built, Ok(DriveConfig::PAPER));
+    }
+
+    #[test]
+    fn the_sense_converts_a_code_to_signed_milliamperes_from_its_zero() {
+        // 0.2 V/A unidirectional: 1 639 codes above code 0 are 10.003 A.
+        assert_eq!(
+            CurrentSense::PAPER.amps(AdcCode::new(1_639), AdcCode::MIN),
+            Amps::from_milli(10_003)
+        );
+        assert_eq!(CurrentSense::PAPER.amps(AdcCode::new(41), AdcCode::new(41)), Amps::ZERO);
+        // 0.1 V/A at mid-rail: 82 codes below the tared zero are −1.000 A (toward zero).
+        let bidirectional = CurrentSense::PER_PHASE_BIDIRECTIONAL;
+        assert_eq!(
+            bidirectional.amps(AdcCode::new(1_986), AdcCode::new(2_068)),
+            Amps::from_milli(-1_000)
+        );
+        assert_eq!(
+            bidirectional.amps(AdcCode::new(2_150), AdcCode::new(2_068)),
+            Amps::from_milli(1_000)
+        );
+        // The whole range converts without overflow: 4 095 codes of 12.2 mA.
+        assert_eq!(bidirectional.amps(AdcCode::MAX, AdcCode::MIN), Amps::from_milli(49_987));
+    }
+
+    #[test]
+    fn a_three_volt_three_referred_bus_divider_is_accepted() {
+        // The firmware's X-NUCLEO-IHM08M1: gain 0.0522 on a 3.3 V converter, 63.2 V full scale.
+        let bus = BusSense { full_scale_mv: 63_218, ..BusSense::PAPER };
+        let config = DriveConfig::new(CurrentSense::PAPER, bus, CurrentLimit::PAPER, 12_000);
+        let Ok(config) = config else { panic!("{config:?}") };
+        // Code 1 555 of that divider is 24.0 V, to the mV below (the paper's 1:12 would call it 22.8 V).
+        assert_eq!(config.bus().volts(AdcCode::new(1_555)), Volts::from_milli(23_999));
+        assert!(config.bus_over(AdcCode::new(2_592)) && !config.bus_over(AdcCode::new(2_591)));
     }
 
     #[test]

@@ -61,7 +61,7 @@ pub use hall::{HALL_CONFIRM_READS, HallCode, HallFilter, HallState, Sector, Sect
 pub use limit::{BusSense, DriveConfig, DutyWindow, TARE_SETTLE};
 
 use crate::io::LimitSwitches;
-use crate::units::{AdcCode, Amps};
+use crate::units::{AdcCode, Amps, Volts};
 
 /// Clock of the PWM timer: the STM32G431's TIM1 at 170 MHz.
 pub const PWM_TIMER_HZ: u32 = 170_000_000;
@@ -258,6 +258,11 @@ pub struct DriveStatus {
     pub quiet_for: PwmTicks,
     /// The direction the bridge is energised for, if any.
     pub energized: Option<Direction>,
+    /// The motor current of the last sample, in the board's own scale and from the zero the
+    /// drive tared (signed: positive above the zero).
+    pub current: Amps,
+    /// The bus voltage of the last sample, through the board's divider.
+    pub bus: Volts,
 }
 
 /// The drive's state. See the module docs for the order of decisions in [`Drive::step`].
@@ -284,6 +289,9 @@ pub struct Drive {
     applied: Duty,
     /// The leaky fold-back count ([`FOLD_BACK_RISE`], [`FOLD_BACK_TRIP`]).
     folded: u16,
+    /// The last sample's current and bus codes, for [`Drive::status`].
+    last_current: AdcCode,
+    last_bus: AdcCode,
 }
 
 /// The slew allowance for a call `elapsed` ticks after the previous one, duty raw units.
@@ -328,6 +336,8 @@ impl Drive {
             interval: PwmTicks(0),
             applied: Duty::ZERO,
             folded: 0,
+            last_current: config.sense().design_zero,
+            last_bus: AdcCode::new(0),
         }
     }
 
@@ -420,15 +430,18 @@ impl Drive {
         self.fault
     }
 
-    /// What the control tick needs to know.
+    /// What the control tick needs to know. The current and the bus are converted here, with
+    /// the board's configuration, so no other layer needs to know the board's scales.
     #[must_use]
-    pub const fn status(&self) -> DriveStatus {
+    pub fn status(&self) -> DriveStatus {
         DriveStatus {
             fault: self.fault,
             steps: self.steps,
             rotation: self.rotation,
             quiet_for: self.quiet_for,
             energized: self.energized,
+            current: self.config.sense().amps(self.last_current, self.current_zero()),
+            bus: self.config.bus().volts(self.last_bus),
         }
     }
 
@@ -446,6 +459,7 @@ impl Drive {
 
     /// One fast-loop step: see the module docs.
     pub fn step(&mut self, sample: DriveSample) -> DriveOutput {
+        (self.last_current, self.last_bus) = (sample.current, sample.bus_voltage);
         self.quiet_for = PwmTicks(self.quiet_for.0.saturating_add(sample.elapsed.0));
 
         // 1. Overcurrent and bus overvoltage, before anything else.
@@ -717,6 +731,34 @@ mod tests {
         let pumped = DriveSample { bus_voltage: AdcCode::new(2_731), ..sample(Sector::S0) };
         assert_eq!(drive.step(pumped), DriveOutput::OFF);
         assert_eq!(drive.fault(), Some(DriveFault::BusOvervoltage));
+    }
+
+    #[test]
+    fn the_status_reports_the_tared_current_and_the_bus_in_the_boards_scales() {
+        let config = DriveConfig::new(
+            limit::CurrentSense::PER_PHASE_BIDIRECTIONAL,
+            BusSense::PAPER,
+            limit::CurrentLimit::PAPER,
+            12_000,
+        );
+        let Ok(config) = config else { panic!("valid configuration") };
+        let mut drive = Drive::with_config(config);
+        assert_eq!((drive.status().current, drive.status().bus), (Amps::ZERO, Volts::ZERO));
+        let idle = DriveSample { current: AdcCode::new(2_068), ..sample(Sector::S0) };
+        for _ in 0..400 {
+            drive.step(idle);
+        }
+        // At the tared mid-rail zero: 0 A (a fixed 0.2 V/A unidirectional scale made 12.6 A
+        // of it); 82 codes above it ≈ +1 A (the bridge is off, so the tare itself moves 1/32
+        // of the way, 80 codes: 0.976 A). The bus: code 1 638 of the 1:12 divider.
+        assert_eq!(drive.status().current, Amps::ZERO);
+        drive.step(DriveSample { current: AdcCode::new(2_150), ..sample(Sector::S0) });
+        let status = drive.status();
+        let sense = limit::CurrentSense::PER_PHASE_BIDIRECTIONAL;
+        assert_eq!(status.current, sense.amps(AdcCode::new(2_150), drive.current_zero()));
+        assert_eq!(status.current, Amps::from_milli(976));
+        assert_eq!(status.bus, BusSense::PAPER.volts(BUS_24V));
+        assert_eq!(status.bus, Volts::from_milli(23_994));
     }
 
     #[test]

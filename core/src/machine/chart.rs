@@ -47,7 +47,7 @@ use crate::tension::{
     KnotBoost, Measurement, PreStretch, PullKind, PullSettings, SPEED_STEP, Speed,
     TensionController,
 };
-use crate::units::{Amps, Kgf};
+use crate::units::Kgf;
 
 /// Ticks the self-test takes: [`SELF_TEST_SETTLE`] ticks for the amplifier to settle,
 /// then 100 readings of the unloaded load cell averaged (the limits are watched throughout).
@@ -303,9 +303,9 @@ impl Chart {
         Measurement {
             tension,
             drive: sample.inputs.drive,
-            current: Amps(crate::sense::current::amps(sample.inputs.motor_current).0),
+            current: sample.inputs.drive.current,
             limits: sample.inputs.limits,
-            bus: crate::drive::BusSense::PAPER.volts(sample.inputs.bus_voltage),
+            bus: sample.inputs.drive.bus,
         }
     }
 

@@ -20,7 +20,10 @@ use embassy_stm32::peripherals::{PA15, PB3, PB10, TIM2};
 use embassy_stm32::timer::low_level::Timer;
 use embassy_stm32::timer::{Ch1, Ch2, Ch3, TimerPin};
 use taut_core::drive::hall::{HALL_VOTES, vote};
-use taut_core::drive::{Drive, DriveOutput, DriveSample, DriveStatus, HallCode, PwmTicks};
+use taut_core::drive::limit::{CurrentLimit, CurrentSense};
+use taut_core::drive::{
+    BusSense, Drive, DriveConfig, DriveOutput, DriveSample, DriveStatus, HallCode, PwmTicks,
+};
 use taut_core::io::LimitSwitches;
 use taut_core::units::AdcCode;
 use taut_firmware::bridge::{BridgeImage, main_output_enabled};
@@ -31,6 +34,23 @@ use super::{bridge, store};
 /// The drive, shared by the fast loop (which steps it) and the control tick (which commands
 /// it and reads its status). Every access is a short critical section.
 static DRIVE: Mutex<RefCell<Option<Drive>>> = Mutex::new(RefCell::new(None));
+
+/// The X-NUCLEO-IHM08M1's bus divider (gain 0.0522) on the 3.3 V converter: full scale
+/// 3.3 V / 0.0522 = 63.2 V (the core's `BusSense::PAPER` is the paper's 1 : 12 on 5 V, 60 V:
+/// with it the drive and the controller read this board's bus 5 % low). The bus limits —
+/// lockout, regeneration, overvoltage — are the paper board's.
+const BOARD_BUS: BusSense = BusSense { full_scale_mv: 63_218, ..BusSense::PAPER };
+
+/// The drive for this board: the paper's current sense and limit, this board's bus divider
+/// (the paper's configuration if that were ever rejected; it is not: core's
+/// `a_three_volt_three_referred_bus_divider_is_accepted` builds the same configuration).
+fn board_drive() -> Drive {
+    DriveConfig::new(CurrentSense::PAPER, BOARD_BUS, CurrentLimit::PAPER, OVERCURRENT_MA)
+        .map_or_else(|_| Drive::new(), Drive::with_config)
+}
+
+/// The overcurrent trip, mA: the drive's 12 A.
+const OVERCURRENT_MA: u32 = 12_000;
 
 /// DWT cycle count at the previous fast-loop call.
 static LAST_CALL: AtomicU32 = AtomicU32::new(0);
@@ -84,7 +104,7 @@ pub fn init(
     hall_b: Peri<'static, PB3>,
     hall_c: Peri<'static, PB10>,
 ) {
-    critical_section::with(|cs| DRIVE.borrow_ref_mut(cs).replace(Drive::new()));
+    critical_section::with(|cs| DRIVE.borrow_ref_mut(cs).replace(board_drive()));
 
     let af_a = TimerPin::<TIM2, Ch1>::af_num(&*hall_a);
     let af_b = TimerPin::<TIM2, Ch2>::af_num(&*hall_b);

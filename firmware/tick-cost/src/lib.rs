@@ -56,13 +56,13 @@ use taut_core::drive::{
 use taut_core::io::{Inputs, Keys, LimitSwitches, Outputs};
 use taut_core::machine::{Machine, MachineState};
 use taut_core::store::{RECORD_LEN, Record};
-use taut_core::units::AdcCode;
+use taut_core::units::{AdcCode, Amps, Volts};
 
 /// The session file's first bytes.
 pub const MAGIC: [u8; 8] = *b"TAUTSES1";
 
 /// Bytes of one tick's [`Inputs`] in the session.
-pub const INPUTS_LEN: usize = 25;
+pub const INPUTS_LEN: usize = 33;
 
 /// Bytes of the session header: magic (8), per-tick length (u16) and a reserved u16, tick
 /// count (u32), fingerprint (u32), store count (u32), the boot record ([`RECORD_LEN`]).
@@ -189,7 +189,7 @@ pub fn encode_inputs(inputs: &Inputs) -> [u8; INPUTS_LEN] {
         limits,
         keys,
     } = *inputs;
-    let DriveStatus { fault, steps, rotation, quiet_for, energized } = drive;
+    let DriveStatus { fault, steps, rotation, quiet_for, energized, current, bus } = drive;
     let mut bytes = [0; INPUTS_LEN];
     let mut out = Writer { bytes: &mut bytes, at: 0 };
     out.u32(now_ms);
@@ -201,6 +201,8 @@ pub fn encode_inputs(inputs: &Inputs) -> [u8; INPUTS_LEN] {
     out.u8(direction_code(rotation));
     out.u32(quiet_for.0);
     out.u8(direction_code(energized));
+    out.i32(current.to_bits());
+    out.i32(bus.to_bits());
     out.u16(string_counter);
     out.u8(u8::from(limits.home) | (u8::from(limits.end) << 1));
     out.u8(keys.bits());
@@ -220,6 +222,8 @@ pub fn decode_inputs(bytes: &[u8]) -> Inputs {
     let rotation = direction_from(input.u8());
     let quiet_for = PwmTicks(input.u32());
     let energized = direction_from(input.u8());
+    let current = Amps::from_bits(input.i32());
+    let bus = Volts::from_bits(input.i32());
     let string_counter = input.u16();
     let limit_bits = input.u8();
     let keys = Keys::from_bits(input.u8());
@@ -228,7 +232,7 @@ pub fn decode_inputs(bytes: &[u8]) -> Inputs {
         load_cell,
         motor_current,
         bus_voltage,
-        drive: DriveStatus { fault, steps, rotation, quiet_for, energized },
+        drive: DriveStatus { fault, steps, rotation, quiet_for, energized, current, bus },
         string_counter,
         limits: LimitSwitches { home: limit_bits & 1 != 0, end: limit_bits & 2 != 0 },
         keys,
@@ -579,6 +583,8 @@ mod tests {
                 rotation: Some(Direction::Release),
                 quiet_for: PwmTicks(987_654),
                 energized: Some(Direction::Pull),
+                current: Amps::from_bits(-123_457),
+                bus: Volts::from_bits(24 << 16),
             },
             string_counter: 65_000,
             limits: LimitSwitches { home: false, end: true },

@@ -733,8 +733,9 @@ mod tests {
         assert_eq!(drive.fault(), Some(DriveFault::BusOvervoltage));
     }
 
-    #[test]
-    fn the_status_reports_the_tared_current_and_the_bus_in_the_boards_scales() {
+    /// A drive on per-phase bidirectional sensing, fresh (`tare` false) or after 400 idle
+    /// periods with the amplifier 20 codes (0.24 A) above mid-rail.
+    fn bidirectional(tare: bool) -> Drive {
         let config = DriveConfig::new(
             limit::CurrentSense::PER_PHASE_BIDIRECTIONAL,
             BusSense::PAPER,
@@ -743,11 +744,18 @@ mod tests {
         );
         let Ok(config) = config else { panic!("valid configuration") };
         let mut drive = Drive::with_config(config);
-        assert_eq!((drive.status().current, drive.status().bus), (Amps::ZERO, Volts::ZERO));
         let idle = DriveSample { current: AdcCode::new(2_068), ..sample(Sector::S0) };
-        for _ in 0..400 {
+        for _ in 0..if tare { 400 } else { 0 } {
             drive.step(idle);
         }
+        drive
+    }
+
+    #[test]
+    fn the_status_reports_the_tared_current_and_the_bus_in_the_boards_scales() {
+        let fresh = bidirectional(false).status();
+        assert_eq!((fresh.current, fresh.bus), (Amps::ZERO, Volts::ZERO));
+        let mut drive = bidirectional(true);
         // At the tared mid-rail zero: 0 A (a fixed 0.2 V/A unidirectional scale made 12.6 A
         // of it); 82 codes above it ≈ +1 A (the bridge is off, so the tare itself moves 1/32
         // of the way, 80 codes: 0.976 A). The bus: code 1 638 of the 1:12 divider.
@@ -763,19 +771,8 @@ mod tests {
 
     #[test]
     fn a_bidirectional_sense_is_tared_and_does_not_trip_at_mid_rail() {
-        let config = DriveConfig::new(
-            limit::CurrentSense::PER_PHASE_BIDIRECTIONAL,
-            BusSense::PAPER,
-            limit::CurrentLimit::PAPER,
-            12_000,
-        );
-        let Ok(config) = config else { panic!("valid configuration") };
-        let mut drive = Drive::with_config(config);
         // The amplifier sits 20 codes (0.24 A) above mid-rail: tared away with the bridge off.
-        let idle = DriveSample { current: AdcCode::new(2_068), ..sample(Sector::S0) };
-        for _ in 0..400 {
-            drive.step(idle);
-        }
+        let mut drive = bidirectional(true);
         assert_eq!(drive.fault(), None);
         assert!(drive.current_zero().get().abs_diff(2_068) <= 1, "{:?}", drive.current_zero());
         // 12 A of winding current from the tared zero trips; 11.5 A does not.

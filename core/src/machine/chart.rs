@@ -44,8 +44,7 @@ use crate::sense::calibration::{CALIBRATION_TARGETS, Calibration, CalibrationPoi
 use crate::sense::load_cell::LoadCellScale;
 use crate::store::{CALIBRATION_POINTS, CalibrationPoint, PRESET_COUNT, Record, Settings, Unit};
 use crate::tension::{
-    KnotBoost, Measurement, PreStretch, PullKind, PullSettings, SPEED_STEP, Speed,
-    TensionController,
+    KnotBoost, Measurement, PreStretch, PullKind, PullSettings, Speed, TensionController,
 };
 use crate::units::Kgf;
 
@@ -96,9 +95,9 @@ pub const PULL_TIMEOUT_APPROACH_MS: u32 = 20_000;
 /// stall (E-09) long before, and a string slipping in its clamp still ends here.
 #[must_use]
 pub fn pull_timeout(speed: Speed) -> u32 {
-    // The speed's carriage limit in whole mm/s (9 per step: the step is an integer).
-    let step_mm_per_s = u32::try_from(SPEED_STEP.0.to_bits().checked_shr(16).unwrap_or(0));
-    let mm_per_s = u32::from(speed.get()).saturating_mul(step_mm_per_s.unwrap_or(1));
+    // The speed's carriage limit in whole mm/s (a whole number: 9 per step).
+    let limit_bits = speed.carriage_limit().0.to_bits().checked_shr(16).unwrap_or(0);
+    let mm_per_s = u32::try_from(limit_bits).unwrap_or(0);
     let travel_ms = PULL_TIMEOUT_TRAVEL_MM.saturating_mul(1_000).checked_div(mm_per_s).unwrap_or(0);
     travel_ms.saturating_add(PULL_TIMEOUT_APPROACH_MS).max(PULL_TIMEOUT)
 }
@@ -649,7 +648,8 @@ impl Chart {
             )
             .unwrap_or(ENTRY_MIN);
             Some(State::calibration_entry(*point, entered))
-        } else if *elapsed >= pull_timeout(self.pull_settings().speed()) {
+        } else if *elapsed >= PULL_TIMEOUT && *elapsed >= pull_timeout(self.pull_settings().speed())
+        {
             Some(State::fault(FaultCode::PullTimeout, Recovery::Home, 0))
         } else {
             None
@@ -766,7 +766,8 @@ impl Chart {
         } else if output.at_tension {
             self.time_to_tension = *elapsed;
             Some(State::holding())
-        } else if *elapsed >= pull_timeout(self.pull_settings().speed()) {
+        } else if *elapsed >= PULL_TIMEOUT && *elapsed >= pull_timeout(self.pull_settings().speed())
+        {
             Some(State::fault(FaultCode::PullTimeout, Recovery::Home, 0))
         } else {
             None

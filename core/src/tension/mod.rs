@@ -46,6 +46,6 @@ pub use estimator::{Estimate, EstimatorConfig, TensionEstimator};
 pub use law::{Improvements, NominalPlant, PdGains, Reference, RsmcGains};
 pub use motor::{DutyMap, MotorModel};
 pub use settings::{
-    KnotBoost, MmPerSecond, PreStretch, PullKind, PullSettings, SPEED_STEP, SettingsError, Speed,
-    TENSION_MAX, TENSION_MIN,
+    KnotBoost, MmPerSecond, PreStretch, PullKind, PullSettings, SettingsError, Speed, TENSION_MAX,
+    TENSION_MIN,
 };

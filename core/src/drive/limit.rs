@@ -56,13 +56,17 @@
 //! unidirectional amplifier, mid-rail for a bidirectional one — is tared by the drive while
 //! the bridge is off ([`TARE_SETTLE`]); the overcurrent threshold is 12 A of the reading on
 //! both kinds ([`DriveConfig::overcurrent`]): the winding current itself, or a link average
-//! that never exceeds it.
+//! that never exceeds it. The limit the window keeps to (8 A) is watched on both kinds too
+//! ([`DriveConfig::over_limit`]): a winding reading against it directly, a link average
+//! against the duty applied lately × the limit, so a shorted winding that the window cannot
+//! hold down is caught on an RC-filtered board at any duty, not only once `duty × I` reaches
+//! the trip.
 //!
 //! Every quantity is an integer in mV, mA, converter codes or duty raw units, with the
 //! divisions done in `u32`; the conversions are precomputed by [`DriveConfig::new`], which
 //! refuses a configuration whose arithmetic could overflow.
 
-use crate::drive::duty::{DUTY_MAX, Duty};
+use crate::drive::duty::{DUTY_MAX, DUTY_ONE, Duty};
 use crate::drive::{PWM_TIMER_HZ, PwmTicks};
 use crate::units::{AdcCode, Amps, Volts};
 
@@ -81,7 +85,10 @@ pub enum CurrentReading {
     /// DC-link shunt converted in the middle of the high side's on-time.
     Winding,
     /// The average of the DC-link current (an RC-filtered link shunt): ≈ duty × winding
-    /// current.
+    /// current. The board's filter must be at least two PWM periods long (τ ≥ 100 µs at
+    /// 20 kHz), so a sample anywhere in the period reads at most 127 % of `duty × I`
+    /// ([`DriveConfig::over_limit`]); a shorter filter is a winding reading's ripple, not an
+    /// average.
     LinkAverage,
 }
 
@@ -259,6 +266,16 @@ pub struct DriveConfig {
     over_code: u16,
 }
 
+/// A link-average reading's allowance over `D × I_lim` before it counts as over the limit:
+/// 130 % (the RC filter's ripple at its sampling instant, ≤ 127 % for `τ ≥ 2` PWM periods;
+/// see [`DriveConfig::over_limit`]).
+pub const LINK_RIPPLE_PERCENT: u64 = 130;
+
+/// The least duty a link-average reading is scaled by: 1/8. Below it `D × I` is too small a
+/// reading to tell a fault by (a short at such a duty drives no more than a healthy winding
+/// at full duty would); the reading is compared with `I_lim × 1.3 / 8` (1.3 A) instead.
+pub const LINK_DUTY_FLOOR: Duty = Duty::from_raw_clamped(8_192);
+
 /// The largest back-EMF the window considers, mV (above any bus the board supports).
 pub const EMF_MAX_MV: u32 = 60_000;
 
@@ -420,16 +437,39 @@ impl DriveConfig {
             && code.get().abs_diff(zero.get()) >= self.fold_back_codes
     }
 
-    /// Whether the sampled winding current is above the limit the window keeps a healthy
-    /// motor within (winding readings only). The window is computed with the lowest
-    /// resistance the pair can have, so a healthy motor reaches the limit only while the
-    /// Hall speed estimate lags a hard acceleration; a winding whose resistance is below that
-    /// (an inter-turn short) exceeds it in every period it conducts. The drive counts these
-    /// samples toward [`crate::drive::FOLD_BACK_TRIP`].
+    /// Whether the sampled current is above the limit the window keeps a healthy motor within
+    /// (evidence of a fault, counted toward [`crate::drive::FOLD_BACK_TRIP`]). The window is
+    /// computed with the lowest resistance the pair can have, so a healthy motor reaches the
+    /// limit only while the Hall speed estimate lags a hard acceleration; a winding whose
+    /// resistance is below that (an inter-turn short) exceeds it in every period it conducts.
+    ///
+    /// - A **winding** reading is compared with the limit itself.
+    /// - A **link-average** reading is `≈ D·I` (the bus carries the winding current only while
+    ///   the high side is on): it is compared with `D_hold × I_lim × 1.3`, where `D_hold` is
+    ///   the largest duty applied lately (`duty_hold`, which falls no faster than the slowest
+    ///   RC filter forgets, see [`crate::drive::DUTY_HOLD_DECAY_PER_PERIOD`]) and at least
+    ///   [`LINK_DUTY_FLOOR`]. The 1.3 covers the filter's ripple at its sampling instant: an
+    ///   RC of `τ ≥ 2` PWM periods fed `I` for `D` of each period reads at most
+    ///   `(1 − e^(−D·T/τ)) / (1 − e^(−T/τ)) · I ≤ 1.27·D·I`. A healthy motor (at most the
+    ///   limit × the lowest over the real resistance, ≈ 7.3 A) then stays below it at any
+    ///   sampling instant; a winding carrying 13 A or more — a shorted phase past the trip —
+    ///   exceeds it at every instant, which the plain trip comparison (a link average of
+    ///   `D·I` against 12 A) misses at every duty below ≈ 0.9.
     #[must_use]
-    pub fn over_limit(&self, code: AdcCode, zero: AdcCode) -> bool {
-        self.sense.reading == CurrentReading::Winding
-            && code.get().abs_diff(zero.get()) > self.limit_codes
+    pub fn over_limit(&self, code: AdcCode, zero: AdcCode, duty_hold: Duty) -> bool {
+        let codes = u32::from(code.get().abs_diff(zero.get()));
+        match self.sense.reading {
+            CurrentReading::Winding => codes > u32::from(self.limit_codes),
+            CurrentReading::LinkAverage => {
+                let duty = u64::from(duty_hold.max(LINK_DUTY_FLOOR).raw());
+                // codes / limit > duty / DUTY_ONE × 130 / 100, in integers.
+                let reading = u64::from(codes).saturating_mul(u64::from(DUTY_ONE) * 100);
+                let allowed = duty
+                    .saturating_mul(u64::from(self.limit_codes))
+                    .saturating_mul(LINK_RIPPLE_PERCENT);
+                reading > allowed
+            }
+        }
     }
 
     /// The duty at which the winding current is zero for a back-EMF `emf_mv` (same sign
@@ -524,9 +564,7 @@ mod tests {
         assert_eq!(BusSense::PAPER.volts(AdcCode::new(0)), Volts::ZERO);
     }
 
-    #[test]
-    fn a_link_average_sense_neither_folds_back_nor_counts_over_the_limit() {
-        assert_eq!(CurrentSense::LINK_AVERAGE_BIDIRECTIONAL.reading, CurrentReading::LinkAverage);
+    fn link_average_board() -> DriveConfig {
         let Ok(config) = DriveConfig::new(
             CurrentSense::LINK_AVERAGE_BIDIRECTIONAL,
             BusSense::PAPER,
@@ -535,11 +573,21 @@ mod tests {
         ) else {
             panic!("the link-average board is a valid configuration");
         };
+        config
+    }
+
+    #[test]
+    fn a_link_average_sense_never_folds_back_and_judges_the_limit_by_the_duty() {
+        assert_eq!(CurrentSense::LINK_AVERAGE_BIDIRECTIONAL.reading, CurrentReading::LinkAverage);
+        let config = link_average_board();
         let zero = AdcCode::new(2_048);
         let high = AdcCode::new(2_048 + 900); // 11 A of reading: under the trip
         assert!(!config.fold_back(high, zero));
-        assert!(!config.over_limit(high, zero));
         assert!(!config.overcurrent(high, zero));
+        // 11 A of link average is over the limit at any duty: at full duty it is 11 A of
+        // winding current (> 8 A × 1.3 = 10.4 A), at less it is more.
+        assert!(config.over_limit(high, zero, DUTY_MAX));
+        assert!(config.over_limit(high, zero, Duty::ZERO));
         // A winding sense reading the same current does both.
         let Ok(winding) = DriveConfig::new(
             CurrentSense::PER_PHASE_BIDIRECTIONAL,
@@ -549,16 +597,42 @@ mod tests {
         ) else {
             panic!("the per-phase board is a valid configuration");
         };
-        assert!(winding.fold_back(high, zero) && winding.over_limit(high, zero));
+        assert!(winding.fold_back(high, zero) && winding.over_limit(high, zero, DUTY_MAX));
+    }
+
+    #[test]
+    fn a_link_average_is_over_the_limit_beyond_duty_times_limit_times_thirteen_tenths() {
+        let config = link_average_board();
+        let zero = AdcCode::new(2_048);
+        // 8 A at 12.2 mA per code: 656 codes (rounded up); × 1.3 = 852.8 codes at full duty.
+        assert_eq!(config.limit_codes, 656);
+        let half = Duty::from_raw_clamped(32_768);
+        // At half duty: 426.4 codes allowed — a winding current of 10.4 A.
+        assert!(!config.over_limit(AdcCode::new(2_048 + 426), zero, half));
+        assert!(config.over_limit(AdcCode::new(2_048 + 427), zero, half));
+        // Braking current reads below the zero and counts the same.
+        assert!(!config.over_limit(AdcCode::new(2_048 - 426), zero, half));
+        assert!(config.over_limit(AdcCode::new(2_048 - 427), zero, half));
+        // Below the floor (1/8) the floor is the duty: 106.6 codes (1.3 A).
+        for duty in [Duty::ZERO, Duty::from_raw_clamped(4_000), LINK_DUTY_FLOOR] {
+            assert!(!config.over_limit(AdcCode::new(2_048 + 106), zero, duty));
+            assert!(config.over_limit(AdcCode::new(2_048 + 107), zero, duty));
+        }
+        // Just above the floor the duty itself counts.
+        let above = Duty::from_raw_clamped(16_384);
+        assert!(!config.over_limit(AdcCode::new(2_048 + 213), zero, above));
+        assert!(config.over_limit(AdcCode::new(2_048 + 214), zero, above));
     }
 
     #[test]
     fn over_the_limit_is_strictly_beyond_its_codes() {
         let config = DriveConfig::PAPER;
-        // 8 A at 6.1 mA per code: 1 311 codes (rounded up).
+        // 8 A at 6.1 mA per code: 1 311 codes (rounded up), whatever the duty.
         let zero = AdcCode::new(0);
-        assert!(!config.over_limit(AdcCode::new(1_311), zero));
-        assert!(config.over_limit(AdcCode::new(1_312), zero));
+        for duty in [Duty::ZERO, DUTY_MAX] {
+            assert!(!config.over_limit(AdcCode::new(1_311), zero, duty));
+            assert!(config.over_limit(AdcCode::new(1_312), zero, duty));
+        }
     }
 
     #[test]

@@ -99,6 +99,13 @@ pub const DUTY_SLEW_PER_PERIOD: u16 = 3_277;
 /// in every other period the bridge conducts, and is cleared when the bridge is all off.
 pub const FOLD_BACK_RISE: u16 = 8;
 
+/// How fast the duty a link-average current reading is judged by ([`Drive::step`]'s
+/// `duty_hold`: the largest duty applied lately) falls, duty raw units per PWM period: 164,
+/// 1/400 of full scale, so from [`DUTY_MAX`] to zero in ≈ 19 ms. An RC-filtered link reading
+/// forgets an earlier, higher duty with its time constant (at most ≈ 1 ms, 20 periods), so
+/// the held duty never falls below the duty the reading still reflects.
+pub const DUTY_HOLD_DECAY_PER_PERIOD: u16 = 164;
+
 /// The over-limit count at which the drive latches an overcurrent: 320 — 40 consecutive
 /// periods (2 ms) above the limit, or more than one period in nine kept up (an inter-turn
 /// short exceeds it in the sectors that conduct through the shorted phase, never 40 periods
@@ -289,9 +296,19 @@ pub struct Drive {
     applied: Duty,
     /// The leaky fold-back count ([`FOLD_BACK_RISE`], [`FOLD_BACK_TRIP`]).
     folded: u16,
+    /// The largest duty applied lately, falling by [`DUTY_HOLD_DECAY_PER_PERIOD`]: what a
+    /// link-average current reading is judged by ([`limit::DriveConfig::over_limit`]).
+    duty_hold: Duty,
     /// The last sample's current and bus codes, for [`Drive::status`].
     last_current: AdcCode,
     last_bus: AdcCode,
+}
+
+/// The held duty's fall for a call `elapsed` ticks after the previous one, duty raw units.
+fn hold_decay_for(elapsed: PwmTicks) -> u16 {
+    let ticks = elapsed.0.min(170_000);
+    let decay = ticks.saturating_mul(u32::from(DUTY_HOLD_DECAY_PER_PERIOD)) / 8_500;
+    u16::try_from(decay).unwrap_or(u16::MAX)
 }
 
 /// The slew allowance for a call `elapsed` ticks after the previous one, duty raw units.
@@ -336,6 +353,7 @@ impl Drive {
             interval: PwmTicks(0),
             applied: Duty::ZERO,
             folded: 0,
+            duty_hold: Duty::ZERO,
             last_current: config.sense().design_zero,
             last_bus: AdcCode::new(0),
         }
@@ -531,7 +549,8 @@ impl Drive {
             target.max(Duty::from_raw_clamped(self.applied.raw().saturating_sub(slew)))
         };
         let folding = self.config.fold_back(sample.current, self.current_zero());
-        let over_limit = self.config.over_limit(sample.current, self.current_zero());
+        let over_limit =
+            self.config.over_limit(sample.current, self.current_zero(), self.duty_hold);
         self.folded = if over_limit {
             self.folded.saturating_add(FOLD_BACK_RISE)
         } else {
@@ -551,6 +570,7 @@ impl Drive {
             window.clamp(slewed)
         };
         self.applied = duty;
+        self.hold_duty(duty, sample.elapsed);
         DriveOutput { pattern, duty }
     }
 
@@ -566,6 +586,7 @@ impl Drive {
     /// has been all-off for [`TARE_SETTLE`].
     fn off_with(&mut self, pattern: SwitchPattern, sample: DriveSample) -> DriveOutput {
         self.applied = Duty::ZERO;
+        self.hold_duty(Duty::ZERO, sample.elapsed);
         if pattern.is_all_off() {
             self.off_for = PwmTicks(self.off_for.0.saturating_add(sample.elapsed.0));
             if self.off_for >= TARE_SETTLE {
@@ -575,6 +596,18 @@ impl Drive {
             self.off_for = PwmTicks(0);
         }
         DriveOutput { pattern, duty: Duty::ZERO }
+    }
+
+    /// The held duty after a call that applied `applied` `elapsed` ticks after the previous.
+    fn hold_duty(&mut self, applied: Duty, elapsed: PwmTicks) {
+        let fallen = self.duty_hold.raw().saturating_sub(hold_decay_for(elapsed));
+        self.duty_hold = applied.max(Duty::from_raw_clamped(fallen));
+    }
+
+    /// The duty a link-average current reading is judged by: the largest applied lately.
+    #[must_use]
+    pub const fn duty_hold(&self) -> Duty {
+        self.duty_hold
     }
 
     /// One step of the current sense's tare: the zero moves 1/32 of the way to the sample
@@ -825,6 +858,83 @@ mod tests {
         // One in nine balances out; one in ten never accumulates.
         assert!(!trips_within(9, 20_000));
         assert!(!trips_within(10, 20_000));
+    }
+
+    /// A link-average board (RC-filtered DC-link shunt, bidirectional amplifier) at rest,
+    /// driven toward Pull at the window's edge; returns the drive and the duty it applies.
+    fn link_board_driving() -> (Drive, DriveSample, Duty) {
+        let Ok(config) = DriveConfig::new(
+            limit::CurrentSense::LINK_AVERAGE_BIDIRECTIONAL,
+            BusSense::PAPER,
+            limit::CurrentLimit::PAPER,
+            12_000,
+        ) else {
+            panic!("the link-average board is a valid configuration");
+        };
+        let mut drive = Drive::with_config(config);
+        let rest = DriveSample { current: AdcCode::new(2_048), ..sample(Sector::S0) };
+        let still = DriveSample { elapsed: REVERSAL_QUIET, ..rest };
+        drive.step(still);
+        drive.step(still);
+        drive.set_command(pull(30_000));
+        // 50 ms: the duty has slewed to the window's edge (which still widens slowly toward
+        // I_lim·R/V as the time since the last Hall step bounds the back-EMF ever lower).
+        for _ in 0..1_000 {
+            drive.step(rest);
+        }
+        let duty = drive.applied();
+        (drive, rest, duty)
+    }
+
+    /// The code an RC-filtered link reads for `winding_ma` at `duty`, `percent` of `D·I`.
+    fn link_code(duty: Duty, winding_ma: u64, percent: u64) -> AdcCode {
+        let link_ma = u64::from(duty.raw()).saturating_mul(winding_ma).saturating_mul(percent)
+            / (65_536 * 100);
+        // 12.207 031 mA per code above the mid-rail zero.
+        let codes = link_ma.saturating_mul(1_000_000) / 12_207_031;
+        AdcCode::new(2_048_u16.saturating_add(u16::try_from(codes).unwrap_or(u16::MAX)))
+    }
+
+    #[test]
+    fn a_link_average_board_counts_a_winding_current_past_the_limit_by_the_duty() {
+        // Near rest on 24 V the window holds the duty at its upper edge, ≈ I_lim·R/V ≈ 0.23.
+        let (drive, _, duty) = link_board_driving();
+        assert_eq!(drive.window(Direction::Pull, BUS_24V).map(|w| w.high), Some(duty));
+        assert!((14_000..15_400).contains(&duty.raw()), "{}", duty.raw());
+        // A shorted winding carrying 13 A reads ≈ 0.23 × 13 = 3.0 A on the link: far below
+        // the 12 A trip, but past D × 8 A × 1.3 in every period: latched in 40 periods.
+        let (mut drive, _, duty) = link_board_driving();
+        let short = DriveSample { current: link_code(duty, 13_000, 100), ..sample(Sector::S0) };
+        for period in 1..FOLD_BACK_TRIP_PERIODS {
+            drive.step(short);
+            assert_eq!(drive.fault(), None, "period {period}");
+        }
+        assert_eq!(drive.step(short), DriveOutput::OFF);
+        assert_eq!(drive.fault(), Some(DriveFault::Overcurrent));
+        // A healthy winding at the window's limit (8 A × 0.7 Ω over the real pair's 0.764 Ω:
+        // 7.3 A), read at the RC ripple's crest (127 % of D·I), never counts.
+        let (mut drive, _, duty) = link_board_driving();
+        let crest = DriveSample { current: link_code(duty, 7_330, 127), ..sample(Sector::S0) };
+        for _ in 0..20_000 {
+            drive.step(crest);
+        }
+        assert_eq!(drive.fault(), None);
+        assert_eq!(drive.duty_hold(), drive.applied());
+    }
+
+    #[test]
+    fn the_held_duty_falls_from_full_to_zero_in_about_nineteen_milliseconds() {
+        let (mut drive, rest, duty) = link_board_driving();
+        assert_eq!(drive.duty_hold(), duty);
+        drive.set_command(DriveCommand::Coast);
+        let mut periods = 0u32;
+        while !drive.duty_hold().is_zero() && periods < 1_000 {
+            drive.step(rest);
+            periods = periods.saturating_add(1);
+        }
+        // The window's edge (≈ 14 800 raw) / 164 per period: ≈ 91 periods (4.5 ms).
+        assert_eq!(periods, u32::from(duty.raw()).div_ceil(164));
+        assert_eq!(u32::from(DUTY_MAX.raw()).div_ceil(u32::from(DUTY_HOLD_DECAY_PER_PERIOD)), 380);
     }
 
     #[test]

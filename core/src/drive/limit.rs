@@ -618,6 +618,11 @@ mod tests {
             assert!(!config.over_limit(AdcCode::new(2_048 + 106), zero, duty));
             assert!(config.over_limit(AdcCode::new(2_048 + 107), zero, duty));
         }
+        // Exactly at the allowance is not over it: 533 codes at duty 40 960 (0.625) is
+        // 0.625 × 656 × 1.3 = 533.0 codes to the bit.
+        let exact = Duty::from_raw_clamped(40_960);
+        assert!(!config.over_limit(AdcCode::new(2_048 + 533), zero, exact));
+        assert!(config.over_limit(AdcCode::new(2_048 + 534), zero, exact));
         // Just above the floor the duty itself counts.
         let above = Duty::from_raw_clamped(16_384);
         assert!(!config.over_limit(AdcCode::new(2_048 + 213), zero, above));

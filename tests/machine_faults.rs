@@ -186,8 +186,7 @@ fn machine_fault_e09_stall_or_e10_overcurrent_on_a_jam_at_speed() {
 fn machine_fault_e09_stall_scripted() {
     // Scripted inputs: a pull commanding high duty while the Hall count stands still.
     // Speed 9: the take-up drives at high duty.
-    let settings =
-        taut_core::store::Settings::new(taut_core::store::SetPoint::DEFAULT, 9, 0, 0).unwrap();
+    let settings = Settings::new(taut_core::store::SetPoint::DEFAULT, 9, 0, 0).unwrap();
     let mut machine = Machine::new(Record { settings, ..Record::default() });
     let mut now = 0u32;
     let mut inputs = boot_inputs();

@@ -195,7 +195,12 @@ pub fn detail(results: &[ScenarioResult], lineup: &[Entry]) -> String {
         );
         for (entry, m) in lineup.iter().zip(&r.metrics) {
             let state = m.failure.as_ref().map_or_else(
-                || format!("hold {:.3} over {:.3}", m.hold_error_kgf, m.overshoot_kgf),
+                || {
+                    format!(
+                        "hold {:.3} (offset {:+.3}, sensing {:+.3}) over {:.3}",
+                        m.hold_error_kgf, m.hold_offset_kgf, m.sense_offset_kgf, m.overshoot_kgf
+                    )
+                },
                 Failure::name,
             );
             let _ = write!(out, "  {}: {state}", entry.name);

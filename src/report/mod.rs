@@ -104,6 +104,11 @@ pub struct Metrics {
     pub settle_ratio: Option<f64>,
     /// Largest |true − target| in the hold window, kgf.
     pub hold_error_kgf: f64,
+    /// Mean true − target in the hold window, kgf: the static part of the hold error.
+    pub hold_offset_kgf: f64,
+    /// Mean true − measured (the machine's calibrated reading) in the hold window, kgf: the
+    /// part of the static error that is the sensing's (calibration, load cell), not the law's.
+    pub sense_offset_kgf: f64,
     /// Largest true tension above the target before the hold window, kgf.
     pub overshoot_kgf: f64,
     /// Total variation of duty per second in the hold window.
@@ -258,6 +263,12 @@ pub fn metrics(trace: &[ControllerRow], target: f64, t_min: Option<f64>) -> Metr
     let hold_complete = hold.last().is_some_and(|r| r.t_s >= from + HOLD_WINDOW_S.1 - 0.01);
     let hold_error_kgf =
         hold.iter().map(|r| (r.truth.tension_kgf - target).abs()).fold(0.0, f64::max);
+    let mean = |f: &dyn Fn(&ControllerRow) -> f64| {
+        if hold.is_empty() { 0.0 } else { hold.iter().map(|r| f(r)).sum::<f64>() / hold.len() as f64 }
+    };
+    let hold_offset_kgf = mean(&|r| r.truth.tension_kgf - target);
+    let sense_offset_kgf =
+        mean(&|r| r.truth.tension_kgf - taut_sim::bench::kgf(r.control.tension));
     let overshoot_kgf = trace
         .iter()
         .filter(|r| r.t_s < from + HOLD_WINDOW_S.0)
@@ -280,6 +291,8 @@ pub fn metrics(trace: &[ControllerRow], target: f64, t_min: Option<f64>) -> Metr
         settle_s,
         settle_ratio: settle_s.zip(t_min).map(|(s, t)| s / t),
         hold_error_kgf,
+        hold_offset_kgf,
+        sense_offset_kgf,
         overshoot_kgf,
         chattering: variation / (HOLD_WINDOW_S.1 - HOLD_WINDOW_S.0),
         peak_current_a,

@@ -120,6 +120,20 @@ pub const FOLD_BACK_TRIP: u16 = 320;
 /// ([`FOLD_BACK_TRIP`] / [`FOLD_BACK_RISE`]).
 pub const FOLD_BACK_TRIP_PERIODS: u16 = FOLD_BACK_TRIP / FOLD_BACK_RISE;
 
+/// How long the window's lower edge may hold the duty above the command before the drive
+/// latches an overcurrent: 500 ms of PWM-timer ticks (net: a lifted period adds its ticks,
+/// any other call takes its ticks off). The lower edge lifts the duty only to bound the
+/// braking current while the rotor turns faster than the command would drive it; a healthy
+/// rotor braked at the window's limit (≈ 8 A, ≈ 0.5 N·m) stops from full speed in tens of
+/// milliseconds (≈ 35 ms at twice the nominal inertia), and coasting from full speed on a
+/// low-friction drivetrain (the bus at its regeneration threshold) takes ≈ 0.4 s. A rotor the
+/// lower edge keeps lifting for longer does not slow under braking: the motor makes less
+/// back-EMF than the window computes from its Hall speed (an inter-turn short lowers one
+/// phase's turns), so the lower edge itself drives motoring current past the limit — on a
+/// link-average board, where no sample need show it. The current cannot be held by the
+/// window, which is what [`DriveFault::Overcurrent`] means.
+pub const LIFT_LIMIT: PwmTicks = PwmTicks::from_micros(500_000);
+
 /// Bus current that trips the drive: 12 A (motor rated 5.5 A; 50 kgf needs ≈ 3.5 A; stall
 /// at 24 V would be ≈ 29 A).
 pub const OVERCURRENT_LIMIT: Amps = Amps::from_int(12);
@@ -299,6 +313,8 @@ pub struct Drive {
     /// The largest duty applied lately, falling by [`DUTY_HOLD_DECAY_PER_PERIOD`]: what a
     /// link-average current reading is judged by ([`limit::DriveConfig::over_limit`]).
     duty_hold: Duty,
+    /// Net ticks the window's lower edge has held the duty above the command ([`LIFT_LIMIT`]).
+    lifted_for: PwmTicks,
     /// The last sample's current and bus codes, for [`Drive::status`].
     last_current: AdcCode,
     last_bus: AdcCode,
@@ -354,6 +370,7 @@ impl Drive {
             applied: Duty::ZERO,
             folded: 0,
             duty_hold: Duty::ZERO,
+            lifted_for: PwmTicks(0),
             last_current: config.sense().design_zero,
             last_bus: AdcCode::new(0),
         }
@@ -556,7 +573,12 @@ impl Drive {
         } else {
             self.folded.saturating_sub(1)
         };
-        if self.folded >= FOLD_BACK_TRIP {
+        self.lifted_for = if self.command.duty() < window.low {
+            PwmTicks(self.lifted_for.0.saturating_add(sample.elapsed.0))
+        } else {
+            PwmTicks(self.lifted_for.0.saturating_sub(sample.elapsed.0))
+        };
+        if self.folded >= FOLD_BACK_TRIP || self.lifted_for >= LIFT_LIMIT {
             self.latch(DriveFault::Overcurrent);
             return self.off(sample);
         }
@@ -577,6 +599,7 @@ impl Drive {
     /// All off: no high side conducts (a fault, coast, or a pattern the dead time holds off).
     fn off(&mut self, sample: DriveSample) -> DriveOutput {
         self.folded = 0;
+        self.lifted_for = PwmTicks(0);
         self.energized = None;
         self.sequencer.all_off();
         self.off_with(SwitchPattern::ALL_OFF, sample)
@@ -587,6 +610,7 @@ impl Drive {
     fn off_with(&mut self, pattern: SwitchPattern, sample: DriveSample) -> DriveOutput {
         self.applied = Duty::ZERO;
         self.hold_duty(Duty::ZERO, sample.elapsed);
+        self.lifted_for = PwmTicks(self.lifted_for.0.saturating_sub(sample.elapsed.0));
         if pattern.is_all_off() {
             self.off_for = PwmTicks(self.off_for.0.saturating_add(sample.elapsed.0));
             if self.off_for >= TARE_SETTLE {
@@ -602,6 +626,12 @@ impl Drive {
     fn hold_duty(&mut self, applied: Duty, elapsed: PwmTicks) {
         let fallen = self.duty_hold.raw().saturating_sub(hold_decay_for(elapsed));
         self.duty_hold = applied.max(Duty::from_raw_clamped(fallen));
+    }
+
+    /// Net ticks the window's lower edge has held the duty above the command ([`LIFT_LIMIT`]).
+    #[must_use]
+    pub const fn lifted_for(&self) -> PwmTicks {
+        self.lifted_for
     }
 
     /// The duty a link-average current reading is judged by: the largest applied lately.
@@ -935,6 +965,61 @@ mod tests {
         // The window's edge (≈ 14 800 raw) / 164 per period: ≈ 91 periods (4.5 ms).
         assert_eq!(periods, u32::from(duty.raw()).div_ceil(164));
         assert_eq!(u32::from(DUTY_MAX.raw()).div_ceil(u32::from(DUTY_HOLD_DECAY_PER_PERIOD)), 380);
+    }
+
+    /// A rotor turning forward one sector every 20 PWM periods (≈ 15.7 V of back-EMF: the
+    /// window's lower edge at 24 V is ≈ 0.42), driven toward `Pull` at `duty` for `calls`
+    /// periods from `drive`'s state; returns the drive's fault after the last call.
+    fn turning_forward(drive: &mut Drive, first: &mut u32, calls: u32, duty: u16) {
+        drive.set_command(pull(duty));
+        for _ in 0..calls {
+            let sector = Sector::S0.advanced(u8::try_from((*first / 20) % 6).unwrap_or(0));
+            drive.step(sample(sector));
+            *first += 1;
+        }
+    }
+
+    #[test]
+    fn a_lower_edge_that_keeps_lifting_the_duty_latches_an_overcurrent_at_the_lift_limit() {
+        // A command below the lower edge (a healthy rotor braking, or a shorted winding's
+        // runaway): the net lifted time rises by each period's ticks and latches at the limit.
+        let mut drive = settled(Sector::S0);
+        let mut call = 0;
+        turning_forward(&mut drive, &mut call, 200, 6_554);
+        let lifted = drive.lifted_for();
+        assert!(lifted.0 > 0, "the lower edge lifts a 10 % command at ≈ 15.7 V of back-EMF");
+        let periods_left = (LIFT_LIMIT.0 - lifted.0) / 8_500;
+        turning_forward(&mut drive, &mut call, periods_left - 1, 6_554);
+        assert_eq!(drive.fault(), None, "one period short of the limit");
+        assert_eq!(drive.lifted_for().0, LIFT_LIMIT.0 - 8_500);
+        turning_forward(&mut drive, &mut call, 1, 6_554);
+        assert_eq!(drive.fault(), Some(DriveFault::Overcurrent));
+        assert_eq!(drive.pattern(), SwitchPattern::ALL_OFF);
+    }
+
+    #[test]
+    fn lifted_time_is_net_so_braking_spells_between_driving_never_add_up_to_a_fault() {
+        // 0.4 s lifted, 0.4 s at a command above the lower edge, 0.4 s lifted again: the net
+        // never reaches the 0.5 s limit (a healthy rotor braking now and then).
+        let mut drive = settled(Sector::S0);
+        let mut call = 0;
+        for _ in 0..3 {
+            turning_forward(&mut drive, &mut call, 8_000, 6_554);
+            assert_eq!(drive.fault(), None);
+            assert!(drive.lifted_for().0 > 0);
+            turning_forward(&mut drive, &mut call, 8_000, 60_000);
+            assert_eq!(drive.fault(), None);
+            assert_eq!(drive.lifted_for().0, 0, "driving above the lower edge takes it back");
+        }
+        // Coasting takes it back too.
+        turning_forward(&mut drive, &mut call, 8_000, 6_554);
+        drive.set_command(DriveCommand::Coast);
+        for _ in 0..8_000 {
+            drive.step(sample(Sector::S0.advanced(u8::try_from((call / 20) % 6).unwrap_or(0))));
+            call += 1;
+        }
+        assert_eq!(drive.lifted_for().0, 0);
+        assert_eq!(drive.fault(), None);
     }
 
     #[test]

@@ -204,10 +204,10 @@ impl ProfileConfig {
         rate_filter: Seconds(Q16::lit("0.016")),
         sensing_lag: Seconds(Q16::lit("0.003")),
         spike_clip: true,
-        observer_gain: Some(Q16::lit("0.05")),
+        observer_gain: Some(Q16::lit("0.02")),
         adapt_plant: true,
         hall_in_hold: true,
-        observer_gain_hold: None,
+        observer_gain_hold: Some(Q16::lit("0.05")),
         slip_damping: Some(Q16::ONE),
         nominal_stiffness: Q16::lit("0.5"),
     };

@@ -264,11 +264,14 @@ pub fn metrics(trace: &[ControllerRow], target: f64, t_min: Option<f64>) -> Metr
     let hold_error_kgf =
         hold.iter().map(|r| (r.truth.tension_kgf - target).abs()).fold(0.0, f64::max);
     let mean = |f: &dyn Fn(&ControllerRow) -> f64| {
-        if hold.is_empty() { 0.0 } else { hold.iter().map(|r| f(r)).sum::<f64>() / hold.len() as f64 }
+        if hold.is_empty() {
+            0.0
+        } else {
+            hold.iter().map(|r| f(r)).sum::<f64>() / hold.len() as f64
+        }
     };
     let hold_offset_kgf = mean(&|r| r.truth.tension_kgf - target);
-    let sense_offset_kgf =
-        mean(&|r| r.truth.tension_kgf - taut_sim::bench::kgf(r.control.tension));
+    let sense_offset_kgf = mean(&|r| r.truth.tension_kgf - taut_sim::bench::kgf(r.control.tension));
     let overshoot_kgf = trace
         .iter()
         .filter(|r| r.t_s < from + HOLD_WINDOW_S.0)

@@ -379,6 +379,12 @@ impl DriveConfig {
         self.trip_codes
     }
 
+    /// The window's current limit in codes of the board's reading (from its zero).
+    #[must_use]
+    pub const fn limit_codes(&self) -> u16 {
+        self.limit_codes
+    }
+
     /// Whether a bus code is at or above the configured maximum.
     #[must_use]
     pub const fn bus_over(&self, code: AdcCode) -> bool {

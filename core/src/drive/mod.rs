@@ -41,6 +41,10 @@
 //!    threshold, and always clamped into the **duty window** — so the winding current stays
 //!    within the limit whatever the command, the rotor speed or the bus voltage (`limit`).
 //!
+//! Between steps 2 and 3 the drive also watches the **winding balance** ([`balance`]): the
+//! three conducting pairs' currents, compared once per fast revolution; a sustained imbalance
+//! (an inter-turn short) latches an overcurrent like the other rules of step 1.
+//!
 //! While the bridge has been all-off for [`TARE_SETTLE`] the drive tares the current sense
 //! (no current can flow), so an amplifier's offset — mid-rail on a bidirectional board — is
 //! subtracted before the overcurrent comparison; a zero outside its tolerance is a fault.
@@ -48,12 +52,14 @@
 //! The requirements this module meets are `REQ-DRV-*` in `docs/SPEC.md`; each is proven by a
 //! Kani harness in `proofs/`, checked exhaustively under `cargo test` and fuzzed.
 
+pub mod balance;
 pub mod commutation;
 pub mod dead_time;
 pub mod duty;
 pub mod hall;
 pub mod limit;
 
+pub use balance::{IMBALANCE_STRIKES, WindingBalance};
 pub use commutation::{Gates, LegState, Phase, SwitchPattern, six_step};
 pub use dead_time::{DEAD_TIME, DeadTimeSequencer};
 pub use duty::{DUTY_MAX, Duty};
@@ -315,6 +321,8 @@ pub struct Drive {
     duty_hold: Duty,
     /// Net ticks the window's lower edge has held the duty above the command ([`LIFT_LIMIT`]).
     lifted_for: PwmTicks,
+    /// The three conducting pairs' currents, revolution by revolution ([`balance`]).
+    balance: WindingBalance,
     /// The last sample's current and bus codes, for [`Drive::status`].
     last_current: AdcCode,
     last_bus: AdcCode,
@@ -371,6 +379,7 @@ impl Drive {
             folded: 0,
             duty_hold: Duty::ZERO,
             lifted_for: PwmTicks(0),
+            balance: WindingBalance::new(),
             last_current: config.sense().design_zero,
             last_bus: AdcCode::new(0),
         }
@@ -494,6 +503,8 @@ impl Drive {
 
     /// One fast-loop step: see the module docs.
     pub fn step(&mut self, sample: DriveSample) -> DriveOutput {
+        // The sector and the bridge while this sample's current flowed (the previous call's).
+        let (sampled_sector, sampled_driving) = (self.last_sector, !self.applied.is_zero());
         (self.last_current, self.last_bus) = (sample.current, sample.bus_voltage);
         self.quiet_for = PwmTicks(self.quiet_for.0.saturating_add(sample.elapsed.0));
 
@@ -519,6 +530,20 @@ impl Drive {
                 self.latch(DriveFault::HallInvalid);
             }
             HallState::Unknown => {}
+        }
+
+        // The winding balance, revolution by revolution (an inter-turn short).
+        let reading =
+            i32::from(sample.current.get()).saturating_sub(i32::from(self.current_zero().get()));
+        if self.balance.update(
+            sampled_sector,
+            self.last_sector,
+            sampled_driving,
+            reading,
+            sample.elapsed,
+            self.config.limit_codes(),
+        ) {
+            self.latch(DriveFault::Overcurrent);
         }
 
         // 3. Faulted: all off (the command was dropped when the fault latched).
@@ -1020,6 +1045,40 @@ mod tests {
         }
         assert_eq!(drive.lifted_for().0, 0);
         assert_eq!(drive.fault(), None);
+    }
+
+    /// `revolutions` forward revolutions at 20 periods per sector (6 ms each) under a 60 %
+    /// pull, the sampled winding current `ma[k % 3]` mA in sector `k`; returns the fault.
+    fn turning_with_pair_currents(revolutions: u32, ma: [u32; 3]) -> (Drive, u32) {
+        let mut drive = settled(Sector::S0);
+        drive.set_command(pull(39_322));
+        let mut latched_in = 0;
+        for revolution in 1..=revolutions {
+            for sector in Sector::ALL {
+                let code = ma[usize::from(sector.index() % 3)] * 1_311 / 8_000;
+                let current = AdcCode::new(u16::try_from(code).unwrap_or(0));
+                for _ in 0..20 {
+                    drive.step(DriveSample { current, ..sample(sector) });
+                }
+            }
+            if latched_in == 0 && drive.fault().is_some() {
+                latched_in = revolution;
+            }
+        }
+        (drive, latched_in)
+    }
+
+    #[test]
+    fn a_winding_whose_pairs_carry_unequal_currents_latches_an_overcurrent() {
+        // Two pairs through a shorted phase at 6 A, the third at 0.5 A: every fast revolution
+        // is a strike (REQ-DRV-11); no sample is near the 8 A limit or the trip.
+        let (drive, latched_in) = turning_with_pair_currents(40, [6_000, 6_000, 500]);
+        assert_eq!(drive.fault(), Some(DriveFault::Overcurrent));
+        assert_eq!(drive.pattern(), SwitchPattern::ALL_OFF);
+        assert!((20..=22).contains(&latched_in), "latched in revolution {latched_in}");
+        // The same currents in every pair: never.
+        let (balanced, _) = turning_with_pair_currents(100, [6_000, 6_000, 6_000]);
+        assert_eq!(balanced.fault(), None);
     }
 
     #[test]

@@ -226,6 +226,52 @@ mod tests {
         assert_eq!(weak.strikes(), 0);
     }
 
+    /// A balance with these pair means (1/16 codes), judged once.
+    fn judged(means: [i32; 3]) -> u8 {
+        let mut balance = WindingBalance { means, ..WindingBalance::new() };
+        balance.judge(LIMIT);
+        balance.strikes()
+    }
+
+    #[test]
+    fn each_threshold_of_a_strike_is_strict_at_its_boundary() {
+        // In 1/16 codes the limit is 1 311 × 16; the mean threshold is a sum of 6 × limit,
+        // the spread threshold 4 × limit, the relative one 6 × spread > sum.
+        let limit = i32::from(LIMIT);
+        // The mean at exactly 1 A is judged (a strike: one pair carries it all).
+        assert_eq!(judged([6 * limit, 0, 0]), 1);
+        assert_eq!(judged([6 * limit - 1, 0, 0]), 0);
+        // A spread of exactly 2 A is not a strike; one more 1/16 code is.
+        let m = 874;
+        assert_eq!(judged([4 * limit + m, m, m]), 0);
+        assert_eq!(judged([4 * limit + m + 1, m, m]), 1);
+        // A spread of exactly half the mean (6 × spread = sum) is not a strike.
+        assert_eq!(judged([15_000, 12_000, 9_000]), 0);
+        assert_eq!(judged([15_000, 11_999, 9_000]), 1);
+        // A negative mean (a bidirectional board while braking) is judged by its size.
+        assert_eq!(judged([-6 * limit, 0, 0]), 1);
+    }
+
+    #[test]
+    fn a_revolution_of_exactly_ten_milliseconds_is_judged() {
+        let mut balance = WindingBalance {
+            means: [9_000 * 16, 9_000 * 16, 0],
+            seen: 0b11_1111,
+            ticks: PwmTicks(REVOLUTION_MAX.0 - 8_500),
+            strikes: 0,
+        };
+        balance.update(Some(Sector::S5), Some(Sector::S0), false, 0, PwmTicks(8_500), LIMIT);
+        assert_eq!(balance.strikes(), 1);
+        let mut longer = WindingBalance {
+            means: [9_000 * 16, 9_000 * 16, 0],
+            seen: 0b11_1111,
+            ticks: PwmTicks(REVOLUTION_MAX.0 - 8_499),
+            strikes: 0,
+        };
+        longer.update(Some(Sector::S5), Some(Sector::S0), false, 0, PwmTicks(8_500), LIMIT);
+        assert_eq!(longer.strikes(), 0);
+    }
+
     #[test]
     fn a_balanced_revolution_takes_a_strike_back() {
         let mut balance = WindingBalance::new();

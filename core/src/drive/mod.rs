@@ -1023,6 +1023,20 @@ mod tests {
     }
 
     #[test]
+    fn a_command_exactly_at_the_lower_edge_is_not_lifted() {
+        // One sector every 20 periods: after the first steps the interval and the window are
+        // constant, so the command can sit exactly on the lower edge.
+        let mut drive = settled(Sector::S0);
+        let mut call = 0;
+        turning_forward(&mut drive, &mut call, 200, 6_554);
+        let low = drive.window(Direction::Pull, BUS_24V).map(|w| w.low.raw()).unwrap_or(0);
+        assert!(low > 6_554);
+        turning_forward(&mut drive, &mut call, 12_000, low);
+        assert_eq!(drive.lifted_for().0, 0);
+        assert_eq!(drive.fault(), None);
+    }
+
+    #[test]
     fn lifted_time_is_net_so_braking_spells_between_driving_never_add_up_to_a_fault() {
         // 0.4 s lifted, 0.4 s at a command above the lower edge, 0.4 s lifted again: the net
         // never reaches the 0.5 s limit (a healthy rotor braking now and then).
@@ -1079,6 +1093,10 @@ mod tests {
         // The same currents in every pair: never.
         let (balanced, _) = turning_with_pair_currents(100, [6_000, 6_000, 6_000]);
         assert_eq!(balanced.fault(), None);
+        // A spread of 1.5 A on a 2 A mean — more than half the mean, less than a quarter of
+        // the board's 8 A limit: never.
+        let (small, _) = turning_with_pair_currents(100, [2_500, 2_500, 1_000]);
+        assert_eq!(small.fault(), None);
     }
 
     #[test]

@@ -24,8 +24,10 @@
 //! reading) *and* above half their mean is a strike, any other judged revolution takes one
 //! back. [`IMBALANCE_STRIKES`] net strikes are an overcurrent the window cannot hold (E-10).
 //! Measured on the twin's family (both sensing kinds, Hall mounting error ±5°, inertia,
-//! friction, bus 20–30 V): no healthy revolution in 390 machine cycles was a strike, while 29
-//! of 60 injected 80–95 % shorts made 10 or more (most hundreds).
+//! friction, bus 20–30 V): while the rule was drafted, no healthy revolution of 390 machine
+//! cycles was a strike (exact per-revolution means) while 29 of 60 injected 80–95 % shorts
+//! made 10 or more; as built, 0 false faults in 1000 machine cycles and 52 of 60 shorts latched
+//! (with the drive's other rules).
 //!
 //! Everything here is additions, shifts and comparisons: no division in the fast loop.
 

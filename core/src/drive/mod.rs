@@ -1129,6 +1129,30 @@ mod tests {
     }
 
     #[test]
+    fn a_latched_fault_starts_the_over_limit_count_afresh() {
+        // 30 periods at 9 A (over the 8 A limit, under the 9.5 A fold-back): the count is at
+        // 240 of 320. The comparator then trips; the fault's all-off clears the count, so
+        // after the clear 10 more periods over the limit (80) do not latch again.
+        let mut drive = settled(Sector::S0);
+        drive.set_command(pull(10_000));
+        let over = DriveSample { current: AdcCode::new(1_475), ..sample(Sector::S0) };
+        for _ in 0..30 {
+            drive.step(over);
+        }
+        assert_eq!(drive.fault(), None);
+        drive.step(DriveSample { overcurrent_trip: true, ..sample(Sector::S0) });
+        assert_eq!(drive.fault(), Some(DriveFault::OvercurrentTrip));
+        drive.step(sample(Sector::S0));
+        drive.set_command(DriveCommand::Coast);
+        assert_eq!(drive.clear_fault(), Ok(()));
+        drive.set_command(pull(10_000));
+        for _ in 0..10 {
+            drive.step(over);
+        }
+        assert_eq!(drive.fault(), None);
+    }
+
+    #[test]
     fn comparator_trip_refuses_clear_while_active() {
         let mut drive = Drive::new();
         let tripped = DriveSample { overcurrent_trip: true, ..sample(Sector::S0) };

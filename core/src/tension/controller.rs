@@ -180,7 +180,9 @@ pub struct ProfileConfig {
     /// Keep fusing the Hall travel into the tension estimate once the braking is over (in
     /// the hold, where the carriage moves by single steps, or not at all).
     pub hall_in_hold: bool,
-    /// The observer's gain once the braking is over (`None`: keep `observer_gain`).
+    /// The observer's gain in the braking (`None`: keep `observer_gain`).
+    pub observer_gain_braking: Option<Q16>,
+    /// The observer's gain once the braking is over (`None`: keep the gain it had).
     pub observer_gain_hold: Option<Q16>,
     /// Friction-aware hold: damp the carriage's slips, seen in the motor current, with
     /// this many times the stall pull per unit of back-EMF duty (`None`: off).
@@ -204,9 +206,10 @@ impl ProfileConfig {
         rate_filter: Seconds(Q16::lit("0.016")),
         sensing_lag: Seconds(Q16::lit("0.003")),
         spike_clip: true,
-        observer_gain: Some(Q16::lit("0.02")),
+        observer_gain: Some(Q16::lit("0.05")),
         adapt_plant: true,
         hall_in_hold: true,
+        observer_gain_braking: Some(Q16::lit("0.02")),
         observer_gain_hold: Some(Q16::lit("0.05")),
         slip_damping: Some(Q16::ONE),
         nominal_stiffness: Q16::lit("0.5"),
@@ -434,6 +437,8 @@ pub struct TensionController {
     shaped: bool,
     adapt_plant: bool,
     hall_in_hold: bool,
+    /// The observer's gain in the braking.
+    braking_gain: Option<Q16>,
     /// The observer's gain after the braking.
     hold_gain: Option<Q16>,
     /// `dt` in Q0.32 seconds.
@@ -577,6 +582,7 @@ impl TensionController {
             shaped: p.shaped,
             adapt_plant: p.adapt_plant,
             hall_in_hold: p.hall_in_hold,
+            braking_gain: p.observer_gain_braking,
             hold_gain: p.observer_gain_hold,
             dt_q32,
             closing_step,
@@ -620,6 +626,7 @@ impl TensionController {
             shaped: false,
             adapt_plant: false,
             hall_in_hold: false,
+            braking_gain: None,
             hold_gain: None,
             dt_q32: 4_294_967,
             closing_step: 1 << 27,
@@ -809,6 +816,9 @@ impl TensionController {
             }
         }
         self.estimator.set_stiffness(Q16::from_bits(stiffness));
+        if let Some(alpha) = self.braking_gain {
+            self.estimator.set_observer_gain(alpha);
+        }
         let start = predicted.clamp(0, self.profile.peak.to_bits());
         self.estimator.set_tension(Kgf::from_bits(start));
         let goal = self.braking_goal(rise).clamp(start, self.profile.peak.to_bits());

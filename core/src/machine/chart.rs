@@ -3,8 +3,8 @@
 //! # Theory of operation
 //!
 //! This file is the machine's behaviour, written for [`statig`]: each `#[state]` function is
-//! one state of `docs/spec/machine.md`, each `#[superstate]` a group of states sharing rules,
-//! each `#[action]` what happens on entering or leaving one.
+//! one state of `docs/SPEC.md` ("The machine", States), each `#[superstate]` a group of
+//! states sharing rules, each `#[action]` what happens on entering or leaving one.
 //!
 //! ```text
 //! operational ─┬─ self_test            (boot: limits, load cell, tare)

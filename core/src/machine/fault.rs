@@ -10,8 +10,8 @@
 //! Codes `E-20`…`E-22` are **notices**: the machine goes on working (on defaults, or on the
 //! previous calibration) and shows the code until the next key press.
 //!
-//! The table with causes and how to clear each code is in `docs/spec/machine.md`; the doc
-//! line of each variant is its one-line meaning.
+//! The table with causes and how to clear each code is in `docs/SPEC.md` ("Fault codes");
+//! the doc line of each variant is its one-line meaning.
 
 use crate::drive::DriveFault;
 use crate::store::StoreError;

@@ -17,8 +17,9 @@
 //!    [`Outputs`].
 //!
 //! The statechart is in `chart.rs` (one function per state; its header draws the state
-//! tree); read it next to `docs/spec/machine.md`, whose tables it implements. Its safety rules are in [`safety`], the fault codes in [`fault`], the
-//! panel's keys, digits and beeper in [`panel`], the pull log in [`log`].
+//! tree); read it next to `docs/SPEC.md`'s "The machine" section, whose tables it
+//! implements. Its safety rules are in [`safety`], the fault codes in [`fault`], the panel's
+//! keys, digits and beeper in [`panel`], the pull log in [`log`].
 //!
 //! The drive's fast loop is separate ([`crate::drive::Drive`]): the machine sees it only
 //! through [`Inputs::drive`] and steers it only through [`Outputs::drive`] and

@@ -30,7 +30,7 @@
 //!
 //! Everything is fixed point (Q15.16 signals, 64-bit products and sums, no division in the
 //! step), allocation-free and panic-free; gains are validated once at construction. The
-//! requirements are `REQ-TEN-*` in `docs/spec/tension.md`.
+//! requirements are `REQ-TEN-*` in `docs/SPEC.md`.
 
 pub mod controller;
 pub mod estimator;

@@ -11,7 +11,7 @@ use std::ops::RangeInclusive;
 use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use taut_core::store::{SetPoint, Unit};
+use taut_core::settings::{SetPoint, Unit};
 use taut_sim::{CurrentSenseParams, StringKind, TwinConfig};
 
 /// What `taut --help` says after the options.

@@ -4,7 +4,8 @@
 
 use std::fmt::Write as _;
 
-use taut_core::tension::{PullKind, PullPhase};
+use taut_core::settings::PullKind;
+use taut_core::tension::PullPhase;
 use taut_sim::bench::{ControllerBench, ControllerRow, kgf};
 use taut_sim::{StringKind, TwinConfig};
 

@@ -21,7 +21,7 @@ use taut::job::summary::{Summary, entered, panel_kgf};
 use taut::job::{CycleOptions, CycleRun, run};
 use taut::plot::Content;
 use taut_core::machine::{FaultCode, MachineState};
-use taut_core::store::Unit;
+use taut_core::settings::Unit;
 use taut_sim::StringKind;
 use taut_sim::bench::{Commissioning, Row, commission, factory_config};
 
@@ -221,7 +221,7 @@ fn a_higher_speed_pulls_to_tension_sooner() {
     let time = |speed| {
         let run = job(CycleOptions { speed, hold_ms: 1_000, ..CycleOptions::default() });
         assert!(run.completed);
-        assert_eq!(run.settings.speed(), speed, "the operator keyed the speed in");
+        assert_eq!(run.settings.speed().get(), speed, "the operator keyed the speed in");
         summary(&run).time_to_tension_s.expect("reached")
     };
     let (slow, fast) = (time(2), time(9));
@@ -243,7 +243,7 @@ fn other_speeds_and_strings_complete_the_cycle() {
         };
         let run = job(options);
         assert!(run.completed, "{string}");
-        assert_eq!(run.settings.speed(), speed);
+        assert_eq!(run.settings.speed().get(), speed);
         let target: f64 = tension.parse().unwrap();
         for row in hold_rows(&run) {
             assert!((row.truth.tension_kgf - target).abs() <= HOLD_MARGIN_KGF, "{string}: {row:?}");

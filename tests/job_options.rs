@@ -18,7 +18,7 @@ use taut::job::CycleOptions;
 use taut::job::figure::timeline;
 use taut::plot::{Figure, Panel, Series};
 use taut_core::machine::MachineState;
-use taut_core::store::Unit;
+use taut_core::settings::Unit;
 use taut_sim::bench::Transition;
 
 #[derive(Parser)]
@@ -65,7 +65,7 @@ fn command_line_options_become_the_operators_settings() {
     let defaults = args(&[]).unwrap();
     assert_eq!(defaults, CycleOptions::default());
     let settings = defaults.settings().unwrap();
-    assert_eq!((settings.set_point().tenths(), settings.speed()), (250, 5));
+    assert_eq!((settings.set_point().tenths(), settings.speed().get()), (250, 5));
 
     let o = args(&[
         "--tension",
@@ -88,7 +88,7 @@ fn command_line_options_become_the_operators_settings() {
     assert_eq!(o.string, taut_sim::StringKind::TennisPolyester);
     assert_eq!((o.speed, o.pre_stretch_percent, o.knot_percent), (9, 10, Some(15)));
     assert_eq!((o.seed, o.hold_ms, o.calibrate), (Some(7), 2_500, false));
-    assert_eq!(o.pull_kind(), taut_core::tension::PullKind::Knot);
+    assert_eq!(o.pull_kind(), taut_core::settings::PullKind::Knot);
     assert_eq!(o.twin_config(), taut_sim::TwinConfig::family_kind(o.string, 7));
     assert_eq!(args(&["--knot", "20"]).unwrap().knot_percent, Some(20));
 

@@ -19,8 +19,10 @@ use machine_support::{Rig, RigExt as _};
 use taut_core::drive::{DriveCommand, HallCode, Phase};
 use taut_core::io::{Inputs, Key, Keys, LimitSwitches};
 use taut_core::machine::{FaultCode, Machine, MachineState, panel};
+use taut_core::sense::calibration::CalibrationPoint;
 use taut_core::sense::load_cell::LoadCellScale;
-use taut_core::store::{CalibrationPoint, Record, Settings, StoreError};
+use taut_core::settings::{SetPoint, Settings};
+use taut_core::store::{Record, StoreError};
 use taut_core::units::Kgf;
 use taut_sim::{Fault, LimitSwitch, LoadCellFault, StringKind, TwinConfig};
 
@@ -186,7 +188,7 @@ fn machine_fault_e09_stall_or_e10_overcurrent_on_a_jam_at_speed() {
 fn machine_fault_e09_stall_scripted() {
     // Scripted inputs: a pull commanding high duty while the Hall count stands still.
     // Speed 9: the take-up drives at high duty.
-    let settings = Settings::new(taut_core::store::SetPoint::DEFAULT, 9, 0, 0).unwrap();
+    let settings = Settings::new(SetPoint::DEFAULT, 9, 0, 0).unwrap();
     let mut machine = Machine::new(Record { settings, ..Record::default() });
     let mut now = 0u32;
     let mut inputs = boot_inputs();
@@ -359,7 +361,7 @@ fn machine_fault_e09_jam_at_low_speed() {
 /// clamp), at `speed`.
 fn pull_timeout_after(speed: u8) -> u32 {
     let settings = Settings::default().with_speed_stepped(i8::try_from(speed).unwrap() - 5);
-    assert_eq!(settings.speed(), speed);
+    assert_eq!(settings.speed().get(), speed);
     let mut machine = Machine::new(Record { settings, ..Record::default() });
     let mut now = 0u32;
     let mut inputs = boot_inputs();
@@ -496,7 +498,10 @@ fn machine_notice_e20_corrupt_record_uses_defaults() {
     rig.expect_state(MachineState::Ready, 30_000);
     assert_eq!(rig.outputs().display, panel::fault(20));
     assert_eq!(rig.machine().fault(), None, "a notice, not a fault");
-    assert_eq!(*rig.machine().record(), Record::default());
+    let record = rig.machine().record();
+    assert_eq!((record.settings, record.presets), (Settings::DEFAULT, Record::default().presets));
+    assert_eq!((record.calibration, record.counters.pulls), (None, 0));
+    assert_eq!(record.counters.boots, 1, "the defaults count this boot");
     rig.press(Key::Down);
     assert_eq!(rig.outputs().display, panel::tenths(250), "the key acknowledged the notice only");
 }

@@ -18,7 +18,8 @@ mod machine_support;
 use machine_support::{Rig, RigExt as _, display_tenths};
 use taut_core::io::Key;
 use taut_core::machine::{CALIBRATION_WINDOW, MachineState, View, panel};
-use taut_core::store::{Record, Unit};
+use taut_core::settings::Unit;
+use taut_core::store::Record;
 use taut_sim::{StringKind, TwinConfig};
 
 /// Boot on `config` and calibrate with the twin's reference gauge; returns the rig in Ready.
@@ -151,7 +152,7 @@ fn machine_flow_panel_settings_units_and_presets() {
     let settings = rig.machine().record().settings;
     assert_eq!(settings.set_point().unit(), Unit::Pounds);
     assert_eq!(
-        (settings.speed(), settings.pre_stretch_percent(), settings.knot_percent()),
+        (settings.speed().get(), settings.pre_stretch().percent(), settings.knot().percent()),
         (6, 10, 5)
     );
     // Up steps by 0.5 lb; holding Up repeats.
@@ -210,4 +211,44 @@ fn machine_flow_hold_duty_at_full_tension() {
         max_duty = max_duty.max(rig.outputs().drive.duty().raw());
     }
     println!("hold at {:.2} kgf: max duty {max_duty} / 65536", rig.twin().truth().tension_kgf);
+}
+
+/// REQ-STORE-05: every power-up is counted in the record and stored once the machine idles
+/// in Ready, so a record from format version 1 (no boot counter) is read with its settings
+/// and calibration kept, and rewritten in today's format without the operator doing
+/// anything.
+#[test]
+fn machine_flow_boots_are_counted_and_an_old_record_is_rewritten() {
+    use taut_core::store::{FORMAT_V1, FORMAT_VERSION};
+    use taut_proofs::machine_store::as_version_1;
+
+    let config = TwinConfig::nominal(StringKind::TennisSynthetic);
+    let mut keyed = Rig::new(&config, Record::default());
+    keyed.expect_state(MachineState::Ready, 30_000);
+    keyed.press(Key::Up);
+    keyed.run(3_000);
+    let settings = keyed.machine().record().settings;
+    assert_eq!(Record::decode(keyed.flash()).map(|r| r.counters.boots), Ok(1));
+    assert_eq!(Record::decode(keyed.flash()).map(|r| r.settings), Ok(settings));
+
+    // The same record as version 1 wrote it: no boot counter.
+    let mut old_record = *keyed.machine().record();
+    old_record.counters.boots = 0;
+    let old = as_version_1(old_record.encode());
+    assert_eq!(Record::decode_version(&old).map(|(_, version)| version), Ok(FORMAT_V1));
+    let mut flash = old;
+    for boot in 1..=3 {
+        let mut rig = Rig::power_up(&config, &flash);
+        rig.expect_state(MachineState::Ready, 30_000);
+        assert_eq!(rig.machine().notice(), None, "a version-1 record is not a corrupt one");
+        rig.run(3_000);
+        assert!(rig.store_writes() >= 1, "boot {boot}: the counted boot was not stored");
+        flash = *rig.flash();
+        let (stored, version) = Record::decode_version(&flash).expect("the stored record");
+        assert_eq!(version, FORMAT_VERSION, "boot {boot}: rewritten in today's format");
+        assert_eq!(stored.counters.boots, boot);
+        assert_eq!(stored.settings, settings, "boot {boot}: the keyed settings are kept");
+        assert_eq!(stored.presets, old_record.presets);
+        assert_eq!(stored.counters.pulls, old_record.counters.pulls);
+    }
 }

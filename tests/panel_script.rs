@@ -94,8 +94,8 @@ fn keys_walk_the_settings_pages_and_change_the_set_point() {
     // 0.6 s held, every 0.1 s): 1 + 7 steps.
     assert!(transcript.contains("hold up 1250"));
     let settings = s.bench().machine().record().settings;
-    assert_eq!(settings.speed(), 7);
-    assert_eq!(settings.pre_stretch_percent(), 5);
+    assert_eq!(settings.speed().get(), 7);
+    assert_eq!(settings.pre_stretch().percent(), 5);
     assert_eq!(
         settings.set_point().tenths(),
         580,
@@ -224,25 +224,14 @@ mod format {
         Check, Command, LONGEST_MS, Lamp, MOST_PRESSES, Script, StatePattern,
     };
     use taut_core::io::Key;
+    use taut_core::machine::MachineState;
 
     fn key() -> impl Strategy<Value = Key> {
         prop::sample::select(Key::ALL.to_vec())
     }
 
     fn check() -> impl Strategy<Value = Check> {
-        let states = vec![
-            StatePattern::SelfTest,
-            StatePattern::MotorTest,
-            StatePattern::Homing,
-            StatePattern::CalibrationWindow,
-            StatePattern::CalibrationPull,
-            StatePattern::CalibrationEntry,
-            StatePattern::Ready,
-            StatePattern::Pulling,
-            StatePattern::Holding,
-            StatePattern::Releasing,
-            StatePattern::AnyFault,
-        ];
+        let states = MachineState::KINDS.map(StatePattern::Kind).to_vec();
         let lamps = vec![Lamp::Kg, Lamp::Lb, Lamp::Pull, Lamp::Hold, Lamp::Fault, Lamp::Knot];
         prop_oneof![
             prop::sample::select(states).prop_map(Check::State),

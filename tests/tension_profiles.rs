@@ -21,10 +21,9 @@
 use taut::report::commissioned_calibration;
 use taut_core::drive::Direction;
 use taut_core::sense::calibration::Calibration;
+use taut_core::settings::{KnotBoost, PreStretch, PullKind, PullSettings, Speed};
 use taut_core::tension::controller::BACK_OUT_BAND;
-use taut_core::tension::{
-    ControllerConfig, KnotBoost, PreStretch, PullKind, PullPhase, PullSettings, Speed,
-};
+use taut_core::tension::{ControllerConfig, PullPhase};
 use taut_core::units::Kgf;
 use taut_sim::bench::{ControllerBench, ControllerRow, kgf};
 use taut_sim::{Axis, StringKind, TwinConfig};

@@ -16,8 +16,12 @@
 //! - [`io`]: the per-tick [`io::Inputs`] / [`io::Outputs`] boundary to hardware.
 //! - [`drive`]: Hall decoding, six-step table, dead time, duty bound, reversal, overcurrent.
 //! - [`sense`]: ADC codes → amperes and kilograms-force; the 4-point calibration.
+//! - [`settings`]: what the operator sets (tension, speed, pre-stretch, knot, unit), validated
+//!   once and shared by the panel, the record and the controller.
 //! - [`tension`]: the tension controller (RSMC as published, taut's RSMC, PD) and pull profile.
 //! - [`machine`]: the operator's statig machine, panel, safety rules and fault codes.
+//! - [`mechanism`]: the drive train's nameplate (pole pairs, gear ratio, lead) and every
+//!   Hall-step ↔ travel conversion derived from it.
 //! - [`store`]: the persisted record.
 #![no_std]
 #![forbid(unsafe_code)]
@@ -34,7 +38,9 @@
 pub mod drive;
 pub mod io;
 pub mod machine;
+pub mod mechanism;
 pub mod sense;
+pub mod settings;
 pub mod store;
 pub mod tension;
 pub mod units;

@@ -264,7 +264,11 @@ fn block_on<F: Future>(future: F) -> F::Output {
 /// Record number `sequence`: the core's own record format, with the counters (and so the
 /// CRC and most bytes of the tail) different for every save.
 fn record(sequence: u32) -> [u8; RECORD_LEN] {
-    let counters = Counters { pulls: sequence, string_used_mm: sequence.wrapping_mul(7_919) };
+    let counters = Counters {
+        pulls: sequence,
+        string_used_mm: sequence.wrapping_mul(7_919),
+        boots: sequence / 8,
+    };
     Record { counters, ..Record::default() }.encode()
 }
 

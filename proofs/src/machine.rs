@@ -451,10 +451,8 @@ mod verification {
     use taut_core::machine::KeyEvent;
     use taut_core::sense::calibration::{Calibration, CalibrationError, CalibrationPoints};
     use taut_core::sense::load_cell::LoadCellScale;
-    use taut_core::store::Unit;
-    use taut_core::tension::{
-        ControlOutput, Measurement, PullKind, PullPhase, PullSettings, TensionController,
-    };
+    use taut_core::settings::{PullKind, PullSettings, Unit};
+    use taut_core::tension::{ControlOutput, Measurement, PullPhase, TensionController};
 
     // # The whole-tick harnesses: one per machine state, every REQ-SAFE property
     //
@@ -644,7 +642,7 @@ mod verification {
             #[kani::unwind(5)]
             #[kani::stub(taut_core::tension::TensionController::step, any_control_step)]
             #[kani::stub(taut_core::tension::TensionController::start, any_start)]
-            #[kani::stub(taut_core::tension::PullSettings::peak_target, any_peak_target)]
+            #[kani::stub(taut_core::settings::PullSettings::peak_target, any_peak_target)]
             #[kani::stub(taut_core::machine::KeyPad::tick, $keys)]
             #[kani::stub(taut_core::sense::load_cell::LoadCellScale::to_kgf, any_tension)]
             #[kani::stub(taut_core::sense::calibration::Calibration::correct, any_corrected)]

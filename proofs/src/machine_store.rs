@@ -11,18 +11,53 @@
 //! and mutated bytes, exhaustive over single-bit flips and every settings field value), and
 //! the `machine` fuzz target (its record bytes go through `Record::decode`).
 
+use taut_core::sense::calibration::CalibrationPoint;
+use taut_core::settings::{SetPoint, Settings, Unit};
 use taut_core::store::{
-    CalibrationPoint, Counters, PRESET_COUNT, RECORD_LEN, Record, SetPoint, Settings, Unit,
+    Counters, FORMAT_V1, FORMAT_VERSION, PRESET_COUNT, RECORD_LEN, Record, checksum,
 };
 use taut_core::units::Kgf;
 
 /// REQ-STORE-01: decoding any bytes terminates without panic; an accepted record is valid
 /// and its encoding is exactly the bytes it came from.
 pub fn decode_is_total(bytes: &[u8; RECORD_LEN]) {
-    if let Ok(record) = Record::decode(bytes) {
+    if let Ok((record, version)) = Record::decode_version(bytes) {
         assert!(record.is_valid(), "REQ-STORE-01: decoded an invalid record");
-        assert_eq!(&record.encode(), bytes, "REQ-STORE-01: decoding is not canonical");
+        decoded_is_canonical(bytes, &record, version);
     }
+}
+
+/// REQ-STORE-01 and REQ-STORE-05, the canonical-form half of decoding: a record decoded from
+/// today's format re-encodes to exactly its bytes; one migrated from version 1 re-encodes in
+/// today's format, decodes back to itself, and differs from the version-1 bytes only where
+/// the formats differ ([`as_version_1`] undoes the migration exactly) — so the migration
+/// loses and changes no setting, calibration point or counter.
+pub fn decoded_is_canonical(stored: &[u8], record: &Record, version: u8) {
+    let encoded = record.encode();
+    if version == FORMAT_VERSION {
+        assert_eq!(&encoded[..], stored, "REQ-STORE-01: decoding is not canonical");
+    } else {
+        assert_eq!(version, FORMAT_V1, "REQ-STORE-05: decoded a version it does not know");
+        assert_eq!(record.counters.boots, 0, "REQ-STORE-05: version 1 has no boot counter");
+        assert_eq!(Record::decode(&encoded), Ok(*record), "REQ-STORE-05: migrated record");
+        assert_eq!(&as_version_1(encoded)[..], stored, "REQ-STORE-05: migration changed a field");
+    }
+}
+
+/// Today's encoding of a record with no boots as format version 1 wrote it: the version
+/// byte 1, the calibration block's first byte (offset 64) a 0/1 flag instead of the point
+/// count, the boot counter's bytes (zero) reserved, the CRC resealed.
+#[must_use]
+pub fn as_version_1(mut bytes: [u8; RECORD_LEN]) -> [u8; RECORD_LEN] {
+    if let Some(version) = bytes.get_mut(2) {
+        *version = FORMAT_V1;
+    }
+    if let Some(flag) = bytes.get_mut(64) {
+        *flag = u8::from(*flag != 0);
+    }
+    let (body, crc) = bytes.split_at_mut(RECORD_LEN - 4);
+    crc.copy_from_slice(&checksum(body).to_le_bytes());
+    bytes
 }
 
 /// REQ-STORE-02: every record round-trips through its encoding.
@@ -74,6 +109,8 @@ pub struct RecordInput {
     pub pulls: u32,
     /// String used, mm.
     pub string_mm: u32,
+    /// Boots.
+    pub boots: u32,
 }
 
 impl RecordInput {
@@ -96,7 +133,11 @@ impl RecordInput {
             settings,
             presets: [preset; PRESET_COUNT],
             calibration,
-            counters: Counters { pulls: self.pulls, string_used_mm: self.string_mm },
+            counters: Counters {
+                pulls: self.pulls,
+                string_used_mm: self.string_mm,
+                boots: self.boots,
+            },
         })
     }
 }

@@ -32,14 +32,13 @@
 //!   machine powered up with a record whose calibration fails shows the notice `E-22`
 //!   instead of using it, and one whose calibration passes shows no notice.
 
+use crate::machine_store::{as_version_1, decoded_is_canonical};
 use taut_core::machine::{FaultCode, Machine};
 use taut_core::sense::calibration::{
-    self, Calibration, CalibrationPoints, GAIN_RANGE_Q30, KNEE, OFFSET_LIMIT, REFERENCE_MAX,
+    Calibration, CalibrationPoint, GAIN_RANGE_Q30, KNEE, OFFSET_LIMIT, REFERENCE_MAX,
 };
-use taut_core::store::{
-    CalibrationPoint, Counters, MAGIC, PRESET_COUNT, RECORD_LEN, Record, SetPoint, Settings,
-    StoreError, Unit,
-};
+use taut_core::settings::{SetPoint, Settings, Unit};
+use taut_core::store::{Counters, MAGIC, PRESET_COUNT, RECORD_LEN, Record, StoreError};
 use taut_core::units::Kgf;
 
 /// Where the CRC starts: the last four bytes of the record.
@@ -120,7 +119,7 @@ pub fn check_input(input: &[u8]) {
 
 /// REQ-STORE-01 and REQ-UI-08 on one input: see the module docs.
 pub fn decoder_is_sound(bytes: &[u8]) {
-    match Record::decode(bytes) {
+    match Record::decode_version(bytes) {
         Err(error) => {
             if bytes.len() < RECORD_LEN {
                 assert_eq!(error, StoreError::TooShort, "REQ-STORE-01: short input");
@@ -133,7 +132,7 @@ pub fn decoder_is_sound(bytes: &[u8]) {
                 "REQ-UI-08: a record that fails to load is notice E-20"
             );
         }
-        Ok(record) => {
+        Ok((record, version)) => {
             let Some(stored) = bytes.get(..RECORD_LEN) else {
                 panic!("REQ-STORE-01: accepted {} bytes as a record", bytes.len());
             };
@@ -144,7 +143,7 @@ pub fn decoder_is_sound(bytes: &[u8]) {
                 "REQ-STORE-01: accepted a record whose CRC does not match its body"
             );
             assert!(record.is_valid(), "REQ-STORE-01: decoded an invalid record");
-            assert_eq!(&record.encode()[..], stored, "REQ-STORE-01: decoding is not canonical");
+            decoded_is_canonical(stored, &record, version);
             stored_calibration_is_validated(&record);
         }
     }
@@ -158,7 +157,7 @@ pub fn stored_calibration_is_validated(record: &Record) {
         assert_eq!(notice, None, "REQ-UI-08: a notice for a record without calibration");
         return;
     };
-    match Calibration::new(&calibration_points(&stored)) {
+    match Calibration::new(&stored) {
         Err(_) => assert_eq!(
             notice,
             Some(FaultCode::StoredCalibrationInvalid),
@@ -172,23 +171,12 @@ pub fn stored_calibration_is_validated(record: &Record) {
     }
 }
 
-/// The stored points as the machine rebuilds them: the zero reading is 0 kgf by definition
-/// (the record keeps the four loaded points only).
-#[must_use]
-pub fn calibration_points(stored: &[CalibrationPoint; 4]) -> CalibrationPoints {
-    let mut points = CalibrationPoints { zero: Kgf::ZERO, ..CalibrationPoints::IDENTITY };
-    for (slot, point) in points.points.iter_mut().zip(stored) {
-        *slot = calibration::CalibrationPoint { raw: point.raw, reference: point.reference };
-    }
-    points
-}
-
 /// The validated range, stated from the documented limits rather than from the fit.
 fn within_validated_range(accepted: &Calibration) {
     let points = accepted.points();
-    let mut previous_raw = points.zero;
+    let mut previous_raw = Kgf::ZERO;
     let mut previous_reference = Kgf::ZERO;
-    for point in &points.points {
+    for point in points {
         assert!(
             point.raw > previous_raw && point.reference > previous_reference,
             "REQ-UI-08: accepted calibration points that do not increase: {points:?}"
@@ -230,12 +218,12 @@ pub fn seed_records() -> Vec<(&'static str, Record)> {
     };
     let calibrated = Record {
         calibration: Some(points([(98, 100), (199, 200), (300, 300), (401, 400)])),
-        counters: Counters { pulls: 1_234, string_used_mm: 987_654 },
+        counters: Counters { pulls: 1_234, string_used_mm: 987_654, boots: 17 },
         ..Record::default()
     };
     let mut pounds = Record {
         settings: settings(Unit::Pounds, 550, 7, 10, 15),
-        counters: Counters { pulls: 1, string_used_mm: 250 },
+        counters: Counters { pulls: 1, string_used_mm: 250, boots: 1 },
         ..Record::default()
     };
     let presets = [
@@ -260,7 +248,7 @@ pub fn seed_records() -> Vec<(&'static str, Record)> {
         settings: settings(Unit::Kilograms, 500, 9, 30, 20),
         presets: [settings(Unit::Pounds, 1100, 1, 0, 0); PRESET_COUNT],
         calibration: Some(points([(95, 100), (195, 200), (295, 300), (395, 400)])),
-        counters: Counters { pulls: u32::MAX, string_used_mm: u32::MAX },
+        counters: Counters { pulls: u32::MAX, string_used_mm: u32::MAX, boots: u32::MAX },
     };
     vec![
         ("default", Record::default()),
@@ -281,6 +269,11 @@ pub fn seed_inputs() -> Vec<(String, Vec<u8>)> {
             input.extend_from_slice(&record.encode());
             out.push((format!("{name}_{suffix}"), input));
         }
+        // The same record as format version 1 wrote it (no boot counter), for the migration.
+        let old = Record { counters: Counters { boots: 0, ..record.counters }, ..record };
+        let mut input = vec![Mode::Raw.selector()];
+        input.extend_from_slice(&as_version_1(old.encode()));
+        out.push((format!("{name}_v1_raw"), input));
     }
     out
 }

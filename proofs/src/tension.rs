@@ -38,19 +38,21 @@
 
 use taut_core::drive::{DUTY_MAX, Direction, DriveStatus};
 use taut_core::io::LimitSwitches;
+use taut_core::mechanism::STEP_MM_BITS;
+use taut_core::settings::MmPerSecond;
 use taut_core::tension::controller::{
     BACK_OUT_DUTY_MAX, ProfileState, SLIP_DEAD_ZONE, SLIP_LEARNING_RATE, TAUT_GAINS, TAUT_PLANT,
     TensionController,
 };
 use taut_core::tension::estimator::{
-    CLIP_ALLOWANCE, CLIP_STIFFNESS, EstimatorConfig, EstimatorState, LEARN_TICKS, STEP_MM_BITS,
-    SlipDamper, SlipState, TensionEstimator,
+    CLIP_ALLOWANCE, CLIP_STIFFNESS, EstimatorConfig, EstimatorState, LEARN_TICKS, SlipDamper,
+    SlipState, TensionEstimator,
 };
 use taut_core::tension::law::{
     Reference, Rsmc, RsmcGains, RsmcState, Saturation, mul_wide, narrow, reciprocal_q24,
 };
 use taut_core::tension::motor::{DutyMap, ForceToDuty, MotorModel};
-use taut_core::tension::{ControllerConfig, Measurement, MmPerSecond, PullPhase};
+use taut_core::tension::{ControllerConfig, Measurement, PullPhase};
 use taut_core::units::{Amps, Kgf, KgfPerSecond, Q16, Seconds, Volts};
 
 /// A saturation flag from a selector (`% 3`).
@@ -516,8 +518,8 @@ pub fn controller_step_bounded(case: &StepCase) -> bool {
 mod verification {
     use super::*;
     use taut_core::drive::{DriveCommand, Duty};
+    use taut_core::mechanism::MAX_STEPS_PER_TICK;
     use taut_core::tension::Estimate;
-    use taut_core::tension::estimator::MAX_STEPS_PER_TICK;
     use taut_core::tension::law::{Pd, RsmcOutput};
     use taut_core::tension::motor::SpeedEstimator;
 

@@ -9,8 +9,11 @@
 )]
 
 use proptest::prelude::*;
+use taut_core::store::FORMAT_V1;
 use taut_core::store::{RECORD_LEN, Record, StoreError};
-use taut_proofs::machine_store::{RecordInput, SettingsInput, decode_is_total, round_trips};
+use taut_proofs::machine_store::{
+    RecordInput, SettingsInput, as_version_1, decode_is_total, round_trips,
+};
 
 fn sample_records() -> Vec<Record> {
     let mut out = vec![Record::default()];
@@ -25,6 +28,7 @@ fn sample_records() -> Vec<Record> {
             calibration_bits: (655_360, 660_000),
             pulls: 12_345,
             string_mm: 6_789_012,
+            boots: 0,
         };
         out.push(input.record().expect("valid sample"));
     }
@@ -48,6 +52,28 @@ fn machine_store_bit_flips_exhaustive() {
         }
     }
     println!("machine_store_bit_flips_exhaustive: {cases} corrupted records, all rejected");
+}
+
+/// REQ-STORE-05: every sample record written by format version 1 is read, migrated, with
+/// every field kept; a single-bit flip of the old bytes is still refused.
+#[test]
+fn machine_store_version_1_records_migrate() {
+    let mut cases = 0u32;
+    for record in sample_records() {
+        let old = as_version_1(record.encode());
+        assert_eq!(Record::decode_version(&old), Ok((record, FORMAT_V1)));
+        decode_is_total(&old);
+        for index in 0..RECORD_LEN {
+            for bit in 0..8 {
+                let mut corrupt = old;
+                corrupt[index] ^= 1 << bit;
+                decode_is_total(&corrupt);
+                assert!(Record::decode(&corrupt).is_err(), "v1 flip {index}:{bit} accepted");
+                cases += 1;
+            }
+        }
+    }
+    println!("machine_store_version_1_records_migrate: {cases} corrupted version-1 records");
 }
 
 #[test]

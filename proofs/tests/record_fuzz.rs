@@ -22,8 +22,8 @@ use proptest::prelude::*;
 use taut_core::sense::calibration::Calibration;
 use taut_core::store::{RECORD_LEN, Record, StoreError};
 use taut_proofs::record_fuzz::{
-    CRC_OFFSET, Mode, calibration_points, check_input, crc32c, decoder_is_sound, prepare, reseal,
-    seed_inputs, seed_records,
+    CRC_OFFSET, Mode, check_input, crc32c, decoder_is_sound, prepare, reseal, seed_inputs,
+    seed_records,
 };
 
 fn seed_dir() -> PathBuf {
@@ -55,7 +55,7 @@ fn record_fuzz_seeds_reach_the_field_checks() {
             panic!("{name}: the seed is not an accepted record: {decoded:?}");
         };
         if let Some(points) = record.calibration {
-            match Calibration::new(&calibration_points(&points)) {
+            match Calibration::new(&points) {
                 Ok(_) => used += 1,
                 Err(_) => refused += 1,
             }
@@ -161,12 +161,13 @@ fn decode_edited(
     Record::decode(&bytes)
 }
 
-/// REQ-STORE-03: the reserved bytes (3 and 105–123) must be zero even when the CRC is good, so
-/// a later format that uses them cannot be misread as this one.
+/// REQ-STORE-03: the reserved bytes (3 and 109–123; 105–108 are the boot counter) must be
+/// zero even when the CRC is good, so a later format that uses them cannot be misread as this
+/// one.
 #[test]
 fn record_rules_reserved_bytes_are_refused_behind_a_good_crc() {
     for (name, record) in seed_records() {
-        for index in std::iter::once(3).chain(105..CRC_OFFSET) {
+        for index in std::iter::once(3).chain(109..CRC_OFFSET) {
             for value in [1u8, 0x80, 0xFF] {
                 let decoded = decode_edited(&record, |bytes| bytes[index] = value);
                 assert_eq!(
@@ -181,7 +182,7 @@ fn record_rules_reserved_bytes_are_refused_behind_a_good_crc() {
 
 /// REQ-STORE-03: every settings block (the current one and the nine presets) is checked field
 /// by field behind a good CRC, at each field's first invalid value; the calibration block's
-/// presence flag is 0 or 1, and an absent calibration is all zeros.
+/// point count is 0 or the build's four, and an absent calibration is all zeros.
 #[test]
 fn record_rules_fields_are_refused_behind_a_good_crc() {
     let record = seed_records()[0].1;
@@ -216,7 +217,7 @@ fn record_rules_fields_are_refused_behind_a_good_crc() {
         assert!(decoded.is_ok(), "block {block}: the largest valid values were refused");
     }
     let calibration_flag = 64;
-    for flag in [2u8, 0xFF] {
+    for flag in [1u8, 2, 3, 5, 0xFF] {
         let decoded = decode_edited(&record, |b| b[calibration_flag] = flag);
         assert_eq!(decoded, Err(StoreError::InvalidCalibration), "flag {flag}");
     }
@@ -224,7 +225,8 @@ fn record_rules_fields_are_refused_behind_a_good_crc() {
         let decoded = decode_edited(&record, |b| b[index] = 1);
         assert_eq!(decoded, Err(StoreError::InvalidCalibration), "stray calibration byte {index}");
     }
-    // Flag 1 takes the 32 bytes as the four points, whatever they hold (validated at boot).
-    let decoded = decode_edited(&record, |b| b[calibration_flag] = 1);
+    // A count of 4 takes the 32 bytes as the four points, whatever they hold (validated at
+    // boot).
+    let decoded = decode_edited(&record, |b| b[calibration_flag] = 4);
     assert_eq!(decoded.map(|r| r.calibration.is_some()), Ok(true));
 }

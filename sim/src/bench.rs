@@ -40,14 +40,12 @@ use std::fmt;
 use taut_core::drive::Direction;
 use taut_core::io::{Display, Inputs, Outputs};
 use taut_core::machine::{FaultCode, Machine, MachineState, SELF_TEST_SETTLE, SELF_TEST_TICKS};
-use taut_core::sense::calibration::{
-    Calibration, CalibrationPoint as SensePoint, CalibrationPoints as SensePoints,
-};
+use taut_core::sense::calibration::Calibration;
 use taut_core::sense::load_cell::LoadCellScale;
+use taut_core::settings::{PullKind, PullSettings};
 use taut_core::store::{RECORD_LEN, Record, StoreError};
 use taut_core::tension::{
-    ConfigError, ControlOutput, ControllerConfig, Measurement, PullKind, PullSettings,
-    TensionController,
+    ConfigError, ControlOutput, ControllerConfig, Measurement, TensionController,
 };
 use taut_core::units::Kgf;
 
@@ -97,25 +95,18 @@ pub fn machine_for(config: &TwinConfig, stored: Result<Record, StoreError>) -> M
     Machine::from_stored(stored)
 }
 
-/// A short name of a machine state, for progress lines, legends, JSON and the panel.
+/// A short name of a machine state, for progress lines, legends, JSON and the panel: the
+/// core's one name table ([`MachineState::name`]) in words, with the calibration point
+/// (1–4) or the fault code added.
 #[must_use]
 pub fn state_name(state: MachineState) -> String {
+    let words = state.name().replace('-', " ");
     match state {
-        MachineState::SelfTest => "self-test".to_owned(),
-        MachineState::MotorTest => "motor test".to_owned(),
-        MachineState::Homing => "homing".to_owned(),
-        MachineState::CalibrationWindow => "calibration window".to_owned(),
-        MachineState::CalibrationPull { point } => {
-            format!("calibration pull {}", point.saturating_add(1))
+        MachineState::CalibrationPull { point } | MachineState::CalibrationEntry { point } => {
+            format!("{words} {}", point.saturating_add(1))
         }
-        MachineState::CalibrationEntry { point } => {
-            format!("calibration entry {}", point.saturating_add(1))
-        }
-        MachineState::Ready => "ready".to_owned(),
-        MachineState::Pulling => "pulling".to_owned(),
-        MachineState::Holding => "holding".to_owned(),
-        MachineState::Releasing => "releasing".to_owned(),
         MachineState::Fault(code) => fault_name(code),
+        _ => words,
     }
 }
 
@@ -129,11 +120,7 @@ pub fn fault_name(code: FaultCode) -> String {
 /// when there is none, or when it does not validate — the machine then shows `E-22`).
 #[must_use]
 pub fn calibration_of(record: &Record) -> Calibration {
-    let Some(stored) = record.calibration else { return Calibration::IDENTITY };
-    let mut points = SensePoints { zero: Kgf::ZERO, ..SensePoints::IDENTITY };
-    for (slot, point) in points.points.iter_mut().zip(stored) {
-        *slot = SensePoint { raw: point.raw, reference: point.reference };
-    }
+    let Some(points) = record.calibration else { return Calibration::IDENTITY };
     Calibration::new(&points).unwrap_or(Calibration::IDENTITY)
 }
 

@@ -28,9 +28,9 @@ pub mod summary;
 use std::io::{IsTerminal as _, Write as _};
 use std::time::{Duration, Instant};
 
-use taut_core::machine::{PullRecord, to_pull_settings};
-use taut_core::store::{Record, SetPoint, Settings};
-use taut_core::tension::PullKind;
+use taut_core::machine::PullRecord;
+use taut_core::settings::{PullKind, SetPoint, Settings};
+use taut_core::store::Record;
 use taut_sim::bench::{
     Bench, Commissioning, Progress, Row, Session, SessionError, Transition, commission,
     factory_config, kgf, run_session, state_name,
@@ -181,7 +181,7 @@ impl CycleRun {
     /// The tension held and the pull's peak target, kgf.
     #[must_use]
     pub fn targets_kgf(&self) -> (f64, f64) {
-        let pull = to_pull_settings(&self.settings);
+        let pull = self.settings.pull();
         let kind = self.options.pull_kind();
         (kgf(pull.final_target(kind)), kgf(pull.peak_target(kind)))
     }

@@ -6,7 +6,7 @@ use serde_json::{Value, json};
 use taut_core::drive::Direction;
 use taut_core::drive::duty::DUTY_ONE;
 use taut_core::machine::{FaultCode, MachineState};
-use taut_core::store::Unit;
+use taut_core::settings::Unit;
 use taut_core::units::Kgf;
 use taut_sim::bench::{Row, fault_name, kgf, state_name};
 use taut_sim::operator::display;

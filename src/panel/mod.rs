@@ -35,7 +35,8 @@ pub mod terminal;
 
 use taut_core::io::{Key, Keys, Outputs};
 use taut_core::machine::{FaultCode, MachineState};
-use taut_core::store::{RECORD_LEN, Record, Unit};
+use taut_core::settings::Unit;
+use taut_core::store::{RECORD_LEN, Record};
 use taut_sim::bench::{Bench, SessionError, commission, factory_config, kgf, state_name};
 use taut_sim::operator::{Page, page_shown};
 use taut_sim::{StringKind, StringState, TwinConfig};

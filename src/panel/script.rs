@@ -116,73 +116,33 @@ impl Lamp {
     }
 }
 
-/// A machine state as a script names it.
+/// A machine state as a script names it: a kind by the core's name
+/// ([`MachineState::name`]: `self-test` … `releasing`, `fault` for any fault), or one fault by
+/// its code (`E-15`).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub enum StatePattern {
-    /// Self-test.
-    SelfTest,
-    /// Motor test.
-    MotorTest,
-    /// Homing.
-    Homing,
-    /// Calibration window.
-    CalibrationWindow,
-    /// Any calibration pull.
-    CalibrationPull,
-    /// Any calibration entry.
-    CalibrationEntry,
-    /// Ready.
-    Ready,
-    /// Pulling.
-    Pulling,
-    /// Holding.
-    Holding,
-    /// Releasing.
-    Releasing,
-    /// Any fault.
-    AnyFault,
+    /// Every state of this kind ([`MachineState::KINDS`]).
+    Kind(MachineState),
     /// The fault with this number.
     Fault(u8),
 }
 
 impl StatePattern {
     fn parse(word: &str) -> Option<Self> {
-        Some(match word {
-            "self-test" => Self::SelfTest,
-            "motor-test" => Self::MotorTest,
-            "homing" => Self::Homing,
-            "calibration-window" => Self::CalibrationWindow,
-            "calibration-pull" => Self::CalibrationPull,
-            "calibration-entry" => Self::CalibrationEntry,
-            "ready" => Self::Ready,
-            "pulling" => Self::Pulling,
-            "holding" => Self::Holding,
-            "releasing" => Self::Releasing,
-            "fault" => Self::AnyFault,
-            _ => {
-                let number = word.strip_prefix("E-").or_else(|| word.strip_prefix("e-"))?;
-                Self::Fault(number.parse().ok()?)
-            }
-        })
+        if let Some(kind) = MachineState::KINDS.into_iter().find(|kind| kind.name() == word) {
+            return Some(Self::Kind(kind));
+        }
+        let number = word.strip_prefix("E-").or_else(|| word.strip_prefix("e-"))?;
+        Some(Self::Fault(number.parse().ok()?))
     }
 
     /// Whether `state` is one this pattern names.
     #[must_use]
     pub fn matches(self, state: MachineState) -> bool {
         match (self, state) {
-            (Self::SelfTest, MachineState::SelfTest)
-            | (Self::MotorTest, MachineState::MotorTest)
-            | (Self::Homing, MachineState::Homing)
-            | (Self::CalibrationWindow, MachineState::CalibrationWindow)
-            | (Self::CalibrationPull, MachineState::CalibrationPull { .. })
-            | (Self::CalibrationEntry, MachineState::CalibrationEntry { .. })
-            | (Self::Ready, MachineState::Ready)
-            | (Self::Pulling, MachineState::Pulling)
-            | (Self::Holding, MachineState::Holding)
-            | (Self::Releasing, MachineState::Releasing)
-            | (Self::AnyFault, MachineState::Fault(_)) => true,
+            (Self::Kind(kind), _) => kind.name() == state.name(),
             (Self::Fault(number), MachineState::Fault(code)) => code.number() == number,
-            _ => false,
+            (Self::Fault(_), _) => false,
         }
     }
 }
@@ -280,17 +240,7 @@ impl StatePattern {
     #[must_use]
     pub fn name(self) -> String {
         match self {
-            Self::SelfTest => "self-test".to_owned(),
-            Self::MotorTest => "motor-test".to_owned(),
-            Self::Homing => "homing".to_owned(),
-            Self::CalibrationWindow => "calibration-window".to_owned(),
-            Self::CalibrationPull => "calibration-pull".to_owned(),
-            Self::CalibrationEntry => "calibration-entry".to_owned(),
-            Self::Ready => "ready".to_owned(),
-            Self::Pulling => "pulling".to_owned(),
-            Self::Holding => "holding".to_owned(),
-            Self::Releasing => "releasing".to_owned(),
-            Self::AnyFault => "fault".to_owned(),
+            Self::Kind(kind) => kind.name().to_owned(),
             Self::Fault(number) => format!("E-{number:02}"),
         }
     }
@@ -781,7 +731,7 @@ mod tests {
                 &Command::Press(Key::Down, 3),
                 &Command::Down(Key::Function),
                 &Command::Up(Key::Function),
-                &Command::Until(Check::State(StatePattern::Holding), 20_000),
+                &Command::Until(Check::State(StatePattern::Kind(MachineState::Holding)), 20_000),
                 &Command::Until(Check::Display("SP 5".to_owned()), UNTIL_LIMIT_MS),
                 &Command::Until(Check::Lamp(Lamp::Hold, true), 500),
                 &Command::Until(Check::Tension(20.0, 30.0), UNTIL_LIMIT_MS),
@@ -821,10 +771,19 @@ mod tests {
     #[test]
     fn state_patterns_match_their_states() {
         use taut_core::machine::FaultCode;
-        assert!(StatePattern::CalibrationPull.matches(MachineState::CalibrationPull { point: 2 }));
-        assert!(StatePattern::AnyFault.matches(MachineState::Fault(FaultCode::StringBreak)));
-        assert!(StatePattern::Fault(15).matches(MachineState::Fault(FaultCode::StringBreak)));
-        assert!(!StatePattern::Fault(16).matches(MachineState::Fault(FaultCode::StringBreak)));
-        assert!(!StatePattern::Ready.matches(MachineState::Releasing));
+        let pattern = |word: &str| StatePattern::parse(word).unwrap();
+        let broken = MachineState::Fault(FaultCode::StringBreak);
+        assert!(pattern("calibration-pull").matches(MachineState::CalibrationPull { point: 2 }));
+        assert!(pattern("fault").matches(broken));
+        assert!(pattern("E-15").matches(broken));
+        assert!(!pattern("E-16").matches(broken));
+        assert!(!pattern("ready").matches(MachineState::Releasing));
+        assert!(!pattern("E-15").matches(MachineState::Ready));
+        assert_eq!(StatePattern::parse("standby"), None);
+        // Every kind's name parses back to it, and the script prints it the same way.
+        for kind in MachineState::KINDS {
+            assert_eq!(pattern(kind.name()), StatePattern::Kind(kind));
+            assert_eq!(pattern(kind.name()).name(), kind.name());
+        }
     }
 }

@@ -41,7 +41,8 @@ pub mod machine;
 pub mod robustness;
 
 use taut_core::sense::calibration::Calibration;
-use taut_core::tension::{ControllerConfig, KnotBoost, PreStretch, PullKind, PullSettings, Speed};
+use taut_core::settings::{KnotBoost, PreStretch, PullKind, PullSettings, Speed};
+use taut_core::tension::ControllerConfig;
 use taut_sim::bench::{
     ControllerBench, ControllerRow, calibration_of, commission, factory_config, fault_name, to_kgf,
 };

@@ -40,12 +40,13 @@ use crate::machine::log::{PullRecord, string_mm};
 use crate::machine::panel::{self, Beep, KeyEvent};
 use crate::machine::safety::{self, TensionSample, TensionWatch};
 use crate::machine::{Checkpoint, MachineState};
-use crate::sense::calibration::{CALIBRATION_TARGETS, Calibration, CalibrationPoints};
-use crate::sense::load_cell::LoadCellScale;
-use crate::store::{CALIBRATION_POINTS, CalibrationPoint, PRESET_COUNT, Record, Settings, Unit};
-use crate::tension::{
-    KnotBoost, Measurement, PreStretch, PullKind, PullSettings, Speed, TensionController,
+use crate::sense::calibration::{
+    CALIBRATION_POINTS, CALIBRATION_TARGETS, Calibration, CalibrationPoint, CalibrationPoints,
 };
+use crate::sense::load_cell::LoadCellScale;
+use crate::settings::{KnotBoost, PreStretch, PullKind, PullSettings, Speed, Unit};
+use crate::store::{PRESET_COUNT, Record};
+use crate::tension::{Measurement, TensionController};
 use crate::units::Kgf;
 
 /// Ticks the self-test takes: [`SELF_TEST_SETTLE`] ticks for the amplifier to settle,
@@ -249,7 +250,7 @@ pub struct Chart {
     /// String-encoder counts of the present pull.
     pub string_counts: i32,
     /// The calibration points taken so far.
-    pub calibration_points: [CalibrationPoint; CALIBRATION_POINTS],
+    pub calibration_points: CalibrationPoints,
     /// Consecutive moving ticks with the load cell at a rail.
     pub rail_ticks: u8,
     /// Consecutive ticks the carriage was expected to move under at least the stall duty.
@@ -270,7 +271,7 @@ impl Chart {
     pub fn new(record: Record) -> Self {
         let (calibration, notice) = match record.calibration {
             None => (Calibration::IDENTITY, None),
-            Some(points) => match Calibration::new(&calibration_points(&points)) {
+            Some(points) => match Calibration::new(&points) {
                 Ok(calibration) => (calibration, None),
                 Err(_) => (Calibration::IDENTITY, Some(FaultCode::StoredCalibrationInvalid)),
             },
@@ -308,6 +309,14 @@ impl Chart {
         }
     }
 
+    /// Counts a power-up in the record and marks it for storing (it is written once the
+    /// machine idles in Ready, which also rewrites a record migrated from an older format in
+    /// today's).
+    pub fn count_boot(&mut self) {
+        self.record.counters.boots = self.record.counters.boots.saturating_add(1);
+        self.dirty = true;
+    }
+
     /// Where a fault raised now recovers to.
     const fn recovery(&self) -> Recovery {
         if self.booting { Recovery::SelfTest } else { Recovery::Home }
@@ -322,7 +331,7 @@ impl Chart {
 
     /// The operator's settings as controller settings.
     fn pull_settings(&self) -> PullSettings {
-        to_pull_settings(&self.record.settings)
+        self.record.settings.pull()
     }
 
     /// The tension while the carriage works: the calibrated running average, refreshed every
@@ -361,17 +370,6 @@ impl Chart {
     }
 }
 
-/// The controller settings for panel settings. Every valid [`Settings`] converts (a unit
-/// test checks all of them); the fallback is unreachable and only keeps this panic-free.
-#[must_use]
-pub fn to_pull_settings(settings: &Settings) -> PullSettings {
-    let speed = Speed::new(settings.speed()).unwrap_or(Speed::MIN);
-    let pre = PreStretch::new(settings.pre_stretch_percent()).unwrap_or(PreStretch::NONE);
-    let knot = KnotBoost::new(settings.knot_percent()).unwrap_or(KnotBoost::NONE);
-    PullSettings::new(settings.set_point().to_kgf(), speed, pre, knot)
-        .unwrap_or_else(|_| calibration_settings(0))
-}
-
 /// The controller settings for calibration point `point` (0–3): its target by the raw
 /// reading, [`CALIBRATION_SPEED`], no pre-stretch.
 #[must_use]
@@ -379,17 +377,6 @@ pub fn calibration_settings(point: u8) -> PullSettings {
     let target = CALIBRATION_TARGETS.get(usize::from(point)).copied().unwrap_or(Kgf::from_int(10));
     let speed = Speed::new(CALIBRATION_SPEED).unwrap_or(Speed::MIN);
     PullSettings::new(target, speed, PreStretch::NONE, KnotBoost::NONE).unwrap_or_default()
-}
-
-/// The stored points as the calibration's input (zero is the tare: 0 by definition).
-#[must_use]
-pub fn calibration_points(points: &[CalibrationPoint; CALIBRATION_POINTS]) -> CalibrationPoints {
-    let mut out = CalibrationPoints { zero: Kgf::ZERO, ..CalibrationPoints::IDENTITY };
-    for (slot, point) in out.points.iter_mut().zip(points) {
-        slot.raw = point.raw;
-        slot.reference = point.reference;
-    }
-    out
 }
 
 /// A tension on the display in `unit`.
@@ -945,7 +932,7 @@ impl Chart {
         if usize::from(next_point) < CALIBRATION_POINTS {
             return State::calibration_pull(next_point, 0, 0);
         }
-        match Calibration::new(&calibration_points(&self.calibration_points)) {
+        match Calibration::new(&self.calibration_points) {
             Ok(calibration) => {
                 self.calibration = calibration;
                 self.record.calibration = Some(self.calibration_points);
@@ -1048,9 +1035,9 @@ impl Chart {
         let settings = self.record.settings;
         match view {
             View::Tension => panel::tenths(i32::from(settings.set_point().tenths())),
-            View::Speed => panel::labelled(b"SP", settings.speed()),
-            View::PreStretch => panel::labelled(b"PS", settings.pre_stretch_percent()),
-            View::Knot => panel::labelled(b"Kn", settings.knot_percent()),
+            View::Speed => panel::labelled(b"SP", settings.speed().get()),
+            View::PreStretch => panel::labelled(b"PS", settings.pre_stretch().percent()),
+            View::Knot => panel::labelled(b"Kn", settings.knot().percent()),
             View::Unit => match settings.set_point().unit() {
                 Unit::Kilograms => panel::text(b" kg "),
                 Unit::Pounds => panel::text(b" lb "),
@@ -1110,7 +1097,7 @@ pub(crate) fn public_state(state: &State) -> MachineState {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::store::SetPoint;
+    use crate::settings::{SetPoint, Settings};
 
     #[test]
     fn the_pull_time_limit_covers_the_travel_at_the_set_speed() {
@@ -1137,7 +1124,7 @@ mod tests {
                             let Ok(settings) = Settings::new(point, speed, pre, knot) else {
                                 panic!("{point:?} {speed} {pre} {knot} must be valid")
                             };
-                            let pull = to_pull_settings(&settings);
+                            let pull = settings.pull();
                             assert_eq!(pull.tension(), point.to_kgf());
                             assert_eq!(pull.speed().get(), speed);
                             assert_eq!(pull.pre_stretch().percent(), pre);

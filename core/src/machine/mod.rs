@@ -51,7 +51,7 @@ pub use chart::{
     ENTRY_MAX, ENTRY_MIN, MOTOR_TEST_DUTY, MOTOR_TEST_STEPS, MOTOR_TEST_TIMEOUT, PULL_TIMEOUT,
     PULL_TIMEOUT_APPROACH_MS, PULL_TIMEOUT_TRAVEL_MM, RELEASE_TIMEOUT, Recovery, SELF_TEST_SETTLE,
     SELF_TEST_TICKS, STORE_DELAY, VIEW_TIMEOUT, View, calibration_settings, fault_persists,
-    pull_timeout, tension_display, to_pull_settings,
+    pull_timeout, tension_display,
 };
 pub use fault::FaultCode;
 pub use log::{PULL_LOG_CAPACITY, PullLog, PullRecord};
@@ -98,6 +98,42 @@ pub enum MachineState {
 }
 
 impl MachineState {
+    /// One state of each kind (calibration point 0, the first fault code): the list the
+    /// names below are checked against, and that scripts look names up in.
+    pub const KINDS: [Self; 11] = [
+        Self::SelfTest,
+        Self::MotorTest,
+        Self::Homing,
+        Self::CalibrationWindow,
+        Self::CalibrationPull { point: 0 },
+        Self::CalibrationEntry { point: 0 },
+        Self::Ready,
+        Self::Pulling,
+        Self::Holding,
+        Self::Releasing,
+        Self::Fault(FaultCode::LimitsBoth),
+    ];
+
+    /// The state's kind as one word — the one table of state names: the panel script's
+    /// patterns, the host tool's legends, progress lines and JSON all use it (with the
+    /// calibration point or the fault code added where they show one).
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::SelfTest => "self-test",
+            Self::MotorTest => "motor-test",
+            Self::Homing => "homing",
+            Self::CalibrationWindow => "calibration-window",
+            Self::CalibrationPull { .. } => "calibration-pull",
+            Self::CalibrationEntry { .. } => "calibration-entry",
+            Self::Ready => "ready",
+            Self::Pulling => "pulling",
+            Self::Holding => "holding",
+            Self::Releasing => "releasing",
+            Self::Fault(_) => "fault",
+        }
+    }
+
     /// Whether the machine may drive the motor in this state.
     #[must_use]
     pub const fn is_moving(self) -> bool {
@@ -238,10 +274,13 @@ impl Machine {
 }
 
 impl<const LOG: usize> Machine<LOG> {
-    /// A machine with a pull log of capacity `LOG` at power-up with `record`.
+    /// A machine with a pull log of capacity `LOG` at power-up with `record` (the boot is
+    /// counted in it).
     #[must_use]
     pub fn with_record(record: Record) -> Self {
-        Self::build(Chart::new(record), chart::power_up(), Sample::default(), KeyPad::new())
+        let mut chart = Chart::new(record);
+        chart.count_boot();
+        Self::build(chart, chart::power_up(), Sample::default(), KeyPad::new())
     }
 
     /// As [`Machine::from_stored`], with a pull log of capacity `LOG`.
@@ -251,6 +290,7 @@ impl<const LOG: usize> Machine<LOG> {
             Ok(record) => Self::with_record(record),
             Err(error) => {
                 let mut chart = Chart::new(Record::default());
+                chart.count_boot();
                 chart.notice = Some(FaultCode::from_store(error));
                 Self::build(chart, chart::power_up(), Sample::default(), KeyPad::new())
             }
@@ -415,7 +455,20 @@ impl<const LOG: usize> Machine<LOG> {
 mod tests {
     use super::*;
     use crate::sense::load_cell::LoadCellScale;
-    use crate::store::Unit;
+    use crate::settings::Unit;
+
+    /// Every kind has its own name, and the payload (point, fault code) never changes it.
+    #[test]
+    fn each_state_kind_has_one_name() {
+        for (index, kind) in MachineState::KINDS.iter().enumerate() {
+            for other in MachineState::KINDS.iter().skip(index + 1) {
+                assert_ne!(kind.name(), other.name());
+            }
+        }
+        assert_eq!(MachineState::CalibrationPull { point: 3 }.name(), "calibration-pull");
+        assert_eq!(MachineState::CalibrationEntry { point: 2 }.name(), "calibration-entry");
+        assert_eq!(MachineState::Fault(FaultCode::Overload).name(), "fault");
+    }
 
     /// Feeds `ticks` ticks reading `code`; returns the last outputs.
     fn holding_with(machine: &mut Machine, code: AdcCode, ticks: u32, now: &mut u32) -> Outputs {

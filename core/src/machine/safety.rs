@@ -82,8 +82,8 @@ pub const BREAK_MIN_PEAK: Kgf = Kgf::from_int(5);
 pub const PEAK_RISE: Kgf = Kgf(Q16::lit("0.15"));
 
 /// Carriage travel without tension that means no string is clamped: 150 mm, in Hall steps
-/// (1 step = 25.4 mm / 480): 150 × 480 / 25.4 = 2 835.
-pub const NO_STRING_TRAVEL_STEPS: i32 = 2_835;
+/// ([`crate::mechanism::steps_in_mm`]: 150 × 480 / 25.4 = 2 835).
+pub const NO_STRING_TRAVEL_STEPS: i32 = crate::mechanism::steps_in_mm(150);
 
 /// "Without tension": below 1 kgf.
 pub const NO_STRING_TENSION: Kgf = Kgf::from_int(1);

@@ -4,23 +4,29 @@
 //!
 //! The paper's calibration (section 6.2): a reference force gauge is hooked in at the
 //! machine's right side, the machine pulls to **10, 20, 30 and 40 kg** by its own (raw)
-//! reading, and at each point the operator keys in what the gauge shows. Together with the
-//! reading at no load (the **zero** point, whose true value is exactly 0 kgf) that gives
-//! five pairs (raw reading, reference reading): [`CalibrationPoints`].
+//! reading, and at each point the operator keys in what the gauge shows: the
+//! [`CALIBRATION_POINTS`] pairs (raw reading, reference reading) of [`CalibrationPoints`].
+//! The fifth pair is implicit: the load cell is tared before the calibration, so the
+//! **zero** point reads raw 0 at a true 0 kgf by definition.
+//!
+//! The number of points is one constant, [`CALIBRATION_POINTS`]: the targets
+//! ([`calibration_targets`], 10 kgf apart from 10 kgf), the fit, the stored record's layout
+//! and the machine's calibration states all follow it (a test builds the fit and the record
+//! layout for five points).
 //!
 //! The paper's own load-cell test (fig. 21) found the chain linear from 5 to 40 kg but
 //! **poorly linear below 5 kg**. taut therefore corrects in two pieces:
 //!
 //! - **Working range, at and above the knee (5 kgf true):** a straight line
-//!   `true = gain × raw + offset`, fitted by least squares through the four loaded points.
+//!   `true = gain × raw + offset`, fitted by least squares through the loaded points.
 //!   A line, rather than a polyline through every point, because the reference gauge has its
 //!   own error (a good digital tension calibrator: σ ≈ 0.02 kgf) and the least-squares fit
-//!   averages it over the four points: the fitted line's error is σ·√(1/4 + (x − x̄)²/Σ(xᵢ − x̄)²),
+//!   averages it over the points (for four): the fitted line's error is σ·√(1/4 + (x − x̄)²/Σ(xᵢ − x̄)²),
 //!   i.e. 0.5 σ at 25 kgf and ≤ 0.9 σ anywhere in 8–40 kgf, where a polyline would pass every
 //!   point's full error σ straight into the tensions near that point.
 //! - **Below the knee:** the sensor's non-linearity there is not captured by any of the loaded
 //!   points, so the fitted line is not trusted; instead the correction interpolates linearly
-//!   from the zero point (raw `zero` → 0 kgf, exact by definition) to the line's value at the
+//!   from the zero point (raw 0 → 0 kgf, exact by definition) to the line's value at the
 //!   knee (raw `knee` → 5 kgf). The correction is continuous and strictly increasing over the
 //!   whole range. Below 5 kgf the machine only needs to know "the slack is gone" and "the
 //!   string is loose", for which this is more than adequate; no pull is ever set below 5 kgf.
@@ -32,10 +38,11 @@
 //!
 //! [`Calibration::new`] rejects a set of points that cannot come from a healthy chain and a
 //! careful operator ([`CalibrationError`]): raw or reference readings not strictly
-//! increasing, a reference outside the plausible band, a fitted gain off by more than 25 %
+//! increasing from the zero point, a reference outside the plausible band, a fitted gain off by more than 25 %
 //! or an offset beyond ±3 kgf (the four-point calibration corrects a chain, it cannot make a
 //! broken one right), a point more than 0.5 kgf off the fitted line (a mistyped reading),
-//! and a zero reading at or above the knee. The per-sample [`Calibration::correct`] has no
+//! and a low-range sensitivity (zero point to knee) more than ×2 off the fitted one. The
+//! per-sample [`Calibration::correct`] has no
 //! error path.
 //!
 //! # Fixed point
@@ -49,9 +56,33 @@
 
 use crate::units::Kgf;
 
+/// The number of loaded calibration points: 10, 20, 30 and 40 kgf (the paper's four).
+pub const CALIBRATION_POINTS: usize = 4;
+
+/// The first calibration target and the spacing of the others: 10 kgf.
+pub const CALIBRATION_SPACING: Kgf = Kgf::from_int(10);
+
 /// The tensions the calibration pulls to, by the raw reading: 10, 20, 30, 40 kgf.
-pub const CALIBRATION_TARGETS: [Kgf; 4] =
-    [Kgf::from_int(10), Kgf::from_int(20), Kgf::from_int(30), Kgf::from_int(40)];
+pub const CALIBRATION_TARGETS: [Kgf; CALIBRATION_POINTS] = calibration_targets();
+
+/// The targets of an `N`-point calibration: `CALIBRATION_SPACING × (1, 2, …, N)`.
+#[must_use]
+#[allow(
+    clippy::indexing_slicing,
+    reason = "a const fn cannot call `get_mut`; `index < N` is the loop's own bound, and a \
+              `const` that indexed out of bounds would fail to compile rather than panic"
+)]
+pub const fn calibration_targets<const N: usize>() -> [Kgf; N] {
+    let mut out = [Kgf::ZERO; N];
+    let mut bits = 0_i32;
+    let mut index = 0;
+    while index < N {
+        bits = bits.saturating_add(CALIBRATION_SPACING.to_bits());
+        out[index] = Kgf::from_bits(bits);
+        index = index.saturating_add(1);
+    }
+    out
+}
 
 /// The true tension above which the straight-line fit is used: 5 kgf (paper fig. 21).
 pub const KNEE: Kgf = Kgf::from_int(5);
@@ -78,7 +109,7 @@ const ONE_Q30: i32 = 1 << 30;
 /// Why a calibration was rejected.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
 pub enum CalibrationError {
-    /// The raw readings (zero, then the four points) or the reference readings do not
+    /// The raw readings (the tare's 0, then the points) or the reference readings do not
     /// strictly increase.
     NotMonotonic,
     /// A reference reading lies outside `[KNEE, REFERENCE_MAX]`.
@@ -89,8 +120,8 @@ pub enum CalibrationError {
     OffsetOutOfRange,
     /// A point lies more than [`RESIDUAL_LIMIT`] from the fitted line (a mistyped reading).
     PointOffLine,
-    /// The no-load reading is at or above the line's 5 kgf reading, or implies a low-range
-    /// sensitivity more than ×2 away from the fitted one.
+    /// The line's 5 kgf reading is at or below the tare's 0, or the zero-to-knee piece's
+    /// sensitivity is more than ×2 away from the fitted one.
     ZeroImplausible,
 }
 
@@ -104,26 +135,31 @@ pub struct CalibrationPoint {
     pub reference: Kgf,
 }
 
-/// The raw material of a calibration, as stored in the persisted record.
-#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
-pub struct CalibrationPoints {
-    /// The machine's reading with no string loaded (true tension 0).
-    pub zero: Kgf,
-    /// The four loaded points, in increasing order.
-    pub points: [CalibrationPoint; 4],
-}
+/// The raw material of a calibration, as the persisted record keeps it: the loaded points in
+/// increasing order (the zero point is the tare's, raw 0 at 0 kgf).
+///
+/// The record keeps the measured points, not derived coefficients: the correction is rebuilt
+/// from them (and re-validated) at boot, so a change to how the correction is computed never
+/// needs a format change.
+pub type CalibrationPoints = [CalibrationPoint; CALIBRATION_POINTS];
 
-impl CalibrationPoints {
-    /// Points that make the identity correction: raw = reference at 10/20/30/40 kgf, zero 0.
-    pub const IDENTITY: Self = Self {
-        zero: Kgf::ZERO,
-        points: [
-            CalibrationPoint { raw: CALIBRATION_TARGETS[0], reference: CALIBRATION_TARGETS[0] },
-            CalibrationPoint { raw: CALIBRATION_TARGETS[1], reference: CALIBRATION_TARGETS[1] },
-            CalibrationPoint { raw: CALIBRATION_TARGETS[2], reference: CALIBRATION_TARGETS[2] },
-            CalibrationPoint { raw: CALIBRATION_TARGETS[3], reference: CALIBRATION_TARGETS[3] },
-        ],
-    };
+/// Points that make the identity correction: raw = reference at each target.
+pub const IDENTITY_POINTS: CalibrationPoints = identity_points();
+
+/// The identity points of an `N`-point calibration.
+#[allow(
+    clippy::indexing_slicing,
+    reason = "a const fn cannot call `get_mut`; `index < N` is the loop's own bound"
+)]
+const fn identity_points<const N: usize>() -> [CalibrationPoint; N] {
+    let targets = calibration_targets::<N>();
+    let mut out = [CalibrationPoint { raw: Kgf::ZERO, reference: Kgf::ZERO }; N];
+    let mut index = 0;
+    while index < N {
+        out[index] = CalibrationPoint { raw: targets[index], reference: targets[index] };
+        index = index.saturating_add(1);
+    }
+    out
 }
 
 /// A validated load-cell correction. See the module docs for the two pieces.
@@ -180,84 +216,32 @@ fn ratio_q30(num: i64, den: i64) -> Option<i32> {
 impl Calibration {
     /// The identity correction: `correct(raw) == raw` everywhere.
     pub const IDENTITY: Self = Self {
-        points: CalibrationPoints::IDENTITY,
+        points: IDENTITY_POINTS,
         gain_q30: ONE_Q30,
         offset: Kgf::ZERO,
         knee_raw: KNEE,
         low_slope_q30: ONE_Q30,
     };
 
-    /// Fits and validates a correction from five points (see the module docs).
+    /// Fits and validates a correction from the points (see the module docs).
     ///
     /// # Errors
     /// [`CalibrationError`] when the points cannot come from a healthy chain.
     pub fn new(points: &CalibrationPoints) -> Result<Self, CalibrationError> {
-        let mut previous_raw = points.zero;
-        let mut previous_reference = Kgf::ZERO;
-        for point in &points.points {
-            if point.raw <= previous_raw || point.reference <= previous_reference {
-                return Err(CalibrationError::NotMonotonic);
-            }
-            if point.reference < KNEE || point.reference > REFERENCE_MAX {
-                return Err(CalibrationError::ReferenceOutOfRange);
-            }
-            previous_raw = point.raw;
-            previous_reference = point.reference;
-        }
-
-        // Least squares on the raw bits: gain = (nΣxy − ΣxΣy) / (nΣx² − (Σx)²).
-        // |x|, |y| < 2³¹ bits but are bounded in practice by the plausibility checks below;
-        // every sum saturates, and a saturated sum fails those checks.
-        let (mut sx, mut sy, mut sxx, mut sxy) = (0_i64, 0_i64, 0_i64, 0_i64);
-        for point in &points.points {
-            let x = i64::from(point.raw.to_bits());
-            let y = i64::from(point.reference.to_bits());
-            sx = sx.saturating_add(x);
-            sy = sy.saturating_add(y);
-            sxx = sxx.saturating_add(x.saturating_mul(x));
-            sxy = sxy.saturating_add(x.saturating_mul(y));
-        }
-        let n = 4_i64;
-        let den = n.saturating_mul(sxx).saturating_sub(sx.saturating_mul(sx));
-        let num = n.saturating_mul(sxy).saturating_sub(sx.saturating_mul(sy));
-        let gain_q30 = ratio_q30(num, den).ok_or(CalibrationError::GainOutOfRange)?;
-        if gain_q30 < GAIN_RANGE_Q30.0 || gain_q30 > GAIN_RANGE_Q30.1 {
-            return Err(CalibrationError::GainOutOfRange);
-        }
-        // offset = (Σy − gain·Σx) / n, in Q15.16 bits.
-        let gain_sx = i64::from(gain_q30).saturating_mul(sx).saturating_add(1 << 29) >> 30;
-        let offset_bits = sy.saturating_sub(gain_sx).saturating_add(2) >> 2;
-        let offset_bits =
-            i32::try_from(offset_bits).map_err(|_| CalibrationError::OffsetOutOfRange)?;
-        let offset = Kgf::from_bits(offset_bits);
-        if offset.abs() > OFFSET_LIMIT {
-            return Err(CalibrationError::OffsetOutOfRange);
-        }
-
-        let mut calibration =
-            Self { points: *points, gain_q30, offset, knee_raw: KNEE, low_slope_q30: ONE_Q30 };
-        for point in &points.points {
-            let residual = calibration.on_line(point.raw).saturating_sub(point.reference);
-            if residual.abs() > RESIDUAL_LIMIT {
-                return Err(CalibrationError::PointOffLine);
-            }
-        }
-
+        let Line { gain_q30, offset } = fit_line(points)?;
         // knee_raw = (KNEE − offset) / gain; gain ∈ [0.8, 1.25] and |offset| ≤ 3 keep it in
         // 1.6 ..= 10 kgf, far inside i32 bits after the division.
         let knee_num = i64::from(KNEE.saturating_sub(offset).to_bits()) << 30;
         let knee_bits = knee_num.checked_div(i64::from(gain_q30)).unwrap_or(0);
         let knee_raw = Kgf::from_bits(i32::try_from(knee_bits).unwrap_or(0));
-        let span = i64::from(knee_raw.saturating_sub(points.zero).to_bits());
+        let span = i64::from(knee_raw.to_bits());
         if span <= 0 {
             return Err(CalibrationError::ZeroImplausible);
         }
         let low_slope_q30 = ratio_q30(i64::from(KNEE.to_bits()), span)
             .filter(|slope| *slope >= LOW_SLOPE_RANGE_Q30.0 && *slope <= LOW_SLOPE_RANGE_Q30.1)
             .ok_or(CalibrationError::ZeroImplausible)?;
-        calibration.knee_raw = knee_raw;
-        calibration.low_slope_q30 = low_slope_q30;
-        Ok(calibration)
+        Ok(Self { points: *points, gain_q30, offset, knee_raw, low_slope_q30 })
     }
 
     /// The points this correction was fitted from (what the stored record keeps).
@@ -286,8 +270,7 @@ impl Calibration {
 
     /// The straight line's value at `raw`.
     fn on_line(&self, raw: Kgf) -> Kgf {
-        let bits = mul_q30(raw, self.gain_q30).saturating_add(i64::from(self.offset.to_bits()));
-        Kgf::from_bits(saturate_i32(bits))
+        Line { gain_q30: self.gain_q30, offset: self.offset }.at(raw)
     }
 
     /// The true tension for an uncorrected reading `raw`: the line at and above the knee,
@@ -297,8 +280,7 @@ impl Calibration {
         if raw >= self.knee_raw {
             self.on_line(raw)
         } else {
-            let above_zero = raw.saturating_sub(self.points.zero);
-            Kgf::from_bits(saturate_i32(mul_q30(above_zero, self.low_slope_q30)))
+            Kgf::from_bits(saturate_i32(mul_q30(raw, self.low_slope_q30)))
         }
     }
 
@@ -309,9 +291,81 @@ impl Calibration {
         self.gain_q30 >= GAIN_RANGE_Q30.0
             && self.gain_q30 <= GAIN_RANGE_Q30.1
             && self.offset.abs() <= OFFSET_LIMIT
-            && self.knee_raw > self.points.zero
+            && self.knee_raw > Kgf::ZERO
             && self.low_slope_q30 >= LOW_SLOPE_RANGE_Q30.0
     }
+}
+
+/// A fitted straight line `true = gain × raw + offset`.
+struct Line {
+    /// Q1.30.
+    gain_q30: i32,
+    offset: Kgf,
+}
+
+impl Line {
+    /// The line's value at `raw`.
+    fn at(&self, raw: Kgf) -> Kgf {
+        let bits = mul_q30(raw, self.gain_q30).saturating_add(i64::from(self.offset.to_bits()));
+        Kgf::from_bits(saturate_i32(bits))
+    }
+}
+
+/// The least-squares line through `N` loaded points, validated: strictly increasing raw and
+/// reference readings (from the tare's 0), references in `[KNEE, REFERENCE_MAX]`, gain and
+/// offset in range, every point within [`RESIDUAL_LIMIT`] of the line. Generic in the point
+/// count so that another count is one constant ([`CALIBRATION_POINTS`]).
+fn fit_line<const N: usize>(points: &[CalibrationPoint; N]) -> Result<Line, CalibrationError> {
+    let mut previous_raw = Kgf::ZERO;
+    let mut previous_reference = Kgf::ZERO;
+    for point in points {
+        if point.raw <= previous_raw || point.reference <= previous_reference {
+            return Err(CalibrationError::NotMonotonic);
+        }
+        if point.reference < KNEE || point.reference > REFERENCE_MAX {
+            return Err(CalibrationError::ReferenceOutOfRange);
+        }
+        previous_raw = point.raw;
+        previous_reference = point.reference;
+    }
+
+    // Least squares on the raw bits: gain = (nΣxy − ΣxΣy) / (nΣx² − (Σx)²).
+    // |x|, |y| < 2³¹ bits but are bounded in practice by the plausibility checks below;
+    // every sum saturates, and a saturated sum fails those checks.
+    let (mut sx, mut sy, mut sxx, mut sxy) = (0_i64, 0_i64, 0_i64, 0_i64);
+    for point in points {
+        let x = i64::from(point.raw.to_bits());
+        let y = i64::from(point.reference.to_bits());
+        sx = sx.saturating_add(x);
+        sy = sy.saturating_add(y);
+        sxx = sxx.saturating_add(x.saturating_mul(x));
+        sxy = sxy.saturating_add(x.saturating_mul(y));
+    }
+    let n = i64::try_from(N).map_err(|_| CalibrationError::GainOutOfRange)?;
+    let den = n.saturating_mul(sxx).saturating_sub(sx.saturating_mul(sx));
+    let num = n.saturating_mul(sxy).saturating_sub(sx.saturating_mul(sy));
+    let gain_q30 = ratio_q30(num, den).ok_or(CalibrationError::GainOutOfRange)?;
+    if gain_q30 < GAIN_RANGE_Q30.0 || gain_q30 > GAIN_RANGE_Q30.1 {
+        return Err(CalibrationError::GainOutOfRange);
+    }
+    // offset = (Σy − gain·Σx) / n in Q15.16 bits, rounded to nearest (ties up).
+    let gain_sx = i64::from(gain_q30).saturating_mul(sx).saturating_add(1 << 29) >> 30;
+    let offset_bits = sy
+        .saturating_sub(gain_sx)
+        .saturating_add(n >> 1)
+        .checked_div_euclid(n)
+        .ok_or(CalibrationError::OffsetOutOfRange)?;
+    let offset_bits = i32::try_from(offset_bits).map_err(|_| CalibrationError::OffsetOutOfRange)?;
+    let line = Line { gain_q30, offset: Kgf::from_bits(offset_bits) };
+    if line.offset.abs() > OFFSET_LIMIT {
+        return Err(CalibrationError::OffsetOutOfRange);
+    }
+    for point in points {
+        if line.at(point.raw).saturating_sub(point.reference).abs() > RESIDUAL_LIMIT {
+            return Err(CalibrationError::PointOffLine);
+        }
+    }
+    Ok(line)
 }
 
 /// An `i64` clamped into `i32`.
@@ -329,36 +383,37 @@ mod tests {
         Kgf::from_bits(((i64::from(value) << 16) / 1000) as i32)
     }
 
-    fn points(zero: i32, pairs: [(i32, i32); 4]) -> CalibrationPoints {
-        let mut out = CalibrationPoints { zero: milli(zero), ..CalibrationPoints::default() };
-        for (slot, (raw, reference)) in out.points.iter_mut().zip(pairs) {
-            *slot = CalibrationPoint { raw: milli(raw), reference: milli(reference) };
-        }
-        out
+    fn points<const N: usize>(pairs: [(i32, i32); N]) -> [CalibrationPoint; N] {
+        pairs.map(|(raw, reference)| CalibrationPoint {
+            raw: milli(raw),
+            reference: milli(reference),
+        })
     }
 
     #[test]
     fn identity_is_identity() {
-        assert_eq!(Calibration::new(&CalibrationPoints::IDENTITY), Ok(Calibration::IDENTITY));
+        assert_eq!(Calibration::new(&IDENTITY_POINTS), Ok(Calibration::IDENTITY));
         for m in (-2_000..=55_000).step_by(37) {
             let raw = milli(m);
             assert_eq!(Calibration::IDENTITY.correct(raw), raw);
         }
     }
 
+    /// `true = 1.05·raw + 0.4`, sampled at the targets of an `N`-point calibration.
+    fn exact_line<const N: usize>() -> [CalibrationPoint; N] {
+        calibration_targets::<N>().map(|target| CalibrationPoint {
+            raw: Kgf::from_bits(
+                ((i64::from(target.to_bits()) - i64::from(milli(400).to_bits())) * 100 / 105)
+                    as i32,
+            ),
+            reference: target,
+        })
+    }
+
     #[test]
     fn recovers_an_exact_line() {
-        // raw = (true − 0.4) / 1.05 → true = 1.05·raw + 0.4.
         let raw_of = |t: i32| (t - 400) * 100 / 105;
-        let cal = valid(Calibration::new(&points(
-            -200,
-            [
-                (raw_of(10_000), 10_000),
-                (raw_of(20_000), 20_000),
-                (raw_of(30_000), 30_000),
-                (raw_of(40_000), 40_000),
-            ],
-        )));
+        let cal = valid(Calibration::new(&exact_line::<CALIBRATION_POINTS>()));
         for t in (6_000..=50_000).step_by(100) {
             let got = ((i64::from(cal.correct(milli(raw_of(t))).to_bits()) * 1000) >> 16) as i32;
             assert!((got - t).abs() <= 2, "{t}: {got}");
@@ -366,31 +421,56 @@ mod tests {
         assert!(cal.is_valid());
     }
 
+    /// Another point count is one constant: the targets and the fit are generic in it, and a
+    /// five-point calibration (10–50 kgf) fits the same line as the four-point one (the
+    /// stored record's layout for five points is checked in `store`).
+    #[test]
+    fn a_five_point_calibration_is_one_constant_away() {
+        assert_eq!(calibration_targets::<CALIBRATION_POINTS>(), CALIBRATION_TARGETS);
+        let five = calibration_targets::<5>();
+        assert_eq!(five.map(Kgf::to_tenths_rounded), [100, 200, 300, 400, 500]);
+        let four = valid(fit_line(&exact_line::<4>()));
+        let five = valid(fit_line(&exact_line::<5>()));
+        for line in [&four, &five] {
+            assert!((line.gain_q30 - 1_127_428_915).abs() < 2_000, "{}", line.gain_q30);
+            assert!((line.offset.to_bits() - milli(400).to_bits()).abs() <= 2);
+        }
+        let mut wrong = exact_line::<5>();
+        wrong[2].reference = milli(31_000);
+        assert!(matches!(fit_line(&wrong), Err(CalibrationError::PointOffLine)));
+    }
+
     #[test]
     fn rejects_bad_points() {
         let good = [(10_000, 10_000), (20_000, 20_000), (30_000, 30_000), (40_000, 40_000)];
-        assert!(Calibration::new(&points(0, good)).is_ok());
+        assert!(Calibration::new(&points(good)).is_ok());
         let mut swapped = good;
         swapped.swap(1, 2);
-        assert_eq!(Calibration::new(&points(0, swapped)), Err(CalibrationError::NotMonotonic));
-        assert_eq!(Calibration::new(&points(10_500, good)), Err(CalibrationError::NotMonotonic));
+        assert_eq!(Calibration::new(&points(swapped)), Err(CalibrationError::NotMonotonic));
+        let below_tare = [(0, 10_000), (20_000, 20_000), (30_000, 30_000), (40_000, 40_000)];
+        assert_eq!(Calibration::new(&points(below_tare)), Err(CalibrationError::NotMonotonic));
         let mistyped = [(10_000, 10_000), (20_000, 21_000), (30_000, 30_000), (40_000, 40_000)];
-        assert_eq!(Calibration::new(&points(0, mistyped)), Err(CalibrationError::PointOffLine));
+        assert_eq!(Calibration::new(&points(mistyped)), Err(CalibrationError::PointOffLine));
         let steep = [(10_000, 14_000), (20_000, 28_000), (30_000, 42_000), (40_000, 54_000)];
-        assert_eq!(Calibration::new(&points(0, steep)), Err(CalibrationError::GainOutOfRange));
+        assert_eq!(Calibration::new(&points(steep)), Err(CalibrationError::GainOutOfRange));
         let shifted = [(10_000, 14_000), (20_000, 24_000), (30_000, 34_000), (40_000, 44_000)];
-        assert_eq!(Calibration::new(&points(0, shifted)), Err(CalibrationError::OffsetOutOfRange));
+        assert_eq!(Calibration::new(&points(shifted)), Err(CalibrationError::OffsetOutOfRange));
         let low = [(10_000, 4_000), (20_000, 20_000), (30_000, 30_000), (40_000, 40_000)];
-        assert_eq!(Calibration::new(&points(0, low)), Err(CalibrationError::ReferenceOutOfRange));
-        assert_eq!(Calibration::new(&points(4_000, good)), Err(CalibrationError::ZeroImplausible));
+        assert_eq!(Calibration::new(&points(low)), Err(CalibrationError::ReferenceOutOfRange));
+        // true = 1.2·raw + 2.9: the line reads 5 kgf at raw 1.75, so the tare-to-knee piece
+        // would be 2.86 times as sensitive as the line.
+        let lifted = [(5_917, 10_000), (14_250, 20_000), (22_583, 30_000), (30_917, 40_000)];
+        assert_eq!(Calibration::new(&points(lifted)), Err(CalibrationError::ZeroImplausible));
     }
 
     #[test]
     fn correction_is_continuous_and_increasing() {
-        let cal = valid(Calibration::new(&points(
-            300,
-            [(9_800, 10_010), (19_700, 19_990), (29_650, 30_020), (39_600, 40_000)],
-        )));
+        let cal = valid(Calibration::new(&points([
+            (9_800, 10_010),
+            (19_700, 19_990),
+            (29_650, 30_020),
+            (39_600, 40_000),
+        ])));
         let mut previous = cal.correct(milli(-5_000));
         for m in -4_999..=55_000 {
             let now = cal.correct(milli(m));
@@ -398,6 +478,6 @@ mod tests {
             assert!(now.saturating_sub(previous) < milli(3), "jump at {m}");
             previous = now;
         }
-        assert_eq!(cal.correct(milli(300)), Kgf::ZERO);
+        assert_eq!(cal.correct(Kgf::ZERO), Kgf::ZERO);
     }
 }

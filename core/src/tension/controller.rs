@@ -76,6 +76,7 @@
 
 use crate::drive::{DUTY_MAX, Direction, DriveCommand, Duty};
 use crate::io::LimitSwitches;
+use crate::settings::{MmPerSecond, PullKind, PullSettings, TENSION_MAX};
 use crate::tension::estimator::{
     Estimate, EstimatorConfig, EstimatorError, SlipDamper, TensionEstimator,
 };
@@ -84,7 +85,6 @@ use crate::tension::law::{
     RsmcGains, Saturation, mul_q16, mul_wide, narrow, reciprocal_q24, saturate_i32,
 };
 use crate::tension::motor::{DutyMap, ForceToDuty, MotorError, MotorModel, SpeedEstimator};
-use crate::tension::settings::{MmPerSecond, PullKind, PullSettings, TENSION_MAX};
 use crate::units::{Amps, Kgf, KgfPerSecond, Q16, Seconds, Volts};
 
 /// The most duty a release (homing) move uses: 60 %.
@@ -177,9 +177,6 @@ pub struct ProfileConfig {
     pub observer_gain: Option<Q16>,
     /// Scale the law's nominal plant to the identified string stiffness.
     pub adapt_plant: bool,
-    /// Keep fusing the Hall travel into the tension estimate once the braking is over (in
-    /// the hold, where the carriage moves by single steps, or not at all).
-    pub hall_in_hold: bool,
     /// The observer's gain in the braking (`None`: keep `observer_gain`).
     pub observer_gain_braking: Option<Q16>,
     /// The observer's gain once the braking is over (`None`: keep the gain it had).
@@ -208,7 +205,6 @@ impl ProfileConfig {
         spike_clip: true,
         observer_gain: Some(Q16::lit("0.05")),
         adapt_plant: true,
-        hall_in_hold: true,
         observer_gain_braking: Some(Q16::lit("0.02")),
         observer_gain_hold: Some(Q16::lit("0.05")),
         slip_damping: Some(Q16::ONE),
@@ -436,7 +432,6 @@ pub struct TensionController {
     slip: Option<SlipDamper>,
     shaped: bool,
     adapt_plant: bool,
-    hall_in_hold: bool,
     /// The observer's gain in the braking.
     braking_gain: Option<Q16>,
     /// The observer's gain after the braking.
@@ -581,7 +576,6 @@ impl TensionController {
             slip,
             shaped: p.shaped,
             adapt_plant: p.adapt_plant,
-            hall_in_hold: p.hall_in_hold,
             braking_gain: p.observer_gain_braking,
             hold_gain: p.observer_gain_hold,
             dt_q32,
@@ -625,7 +619,6 @@ impl TensionController {
             slip: None,
             shaped: false,
             adapt_plant: false,
-            hall_in_hold: false,
             braking_gain: None,
             hold_gain: None,
             dt_q32: 4_294_967,
@@ -855,13 +848,9 @@ impl TensionController {
         }
     }
 
-    /// The braking is over: from here the carriage moves by single Hall steps at most.
-    /// Unless [`ProfileConfig::hall_in_hold`], the estimate follows the load cell alone; the
-    /// observer takes its hold gain.
+    /// The braking is over: from here the carriage moves by single Hall steps at most, and
+    /// the observer (still fusing them) takes its hold gain.
     fn end_braking(&mut self) {
-        if !self.hall_in_hold {
-            self.estimator.set_stiffness(Q16::ZERO);
-        }
         if let Some(alpha) = self.hold_gain {
             self.estimator.set_observer_gain(alpha);
         }
@@ -1069,7 +1058,7 @@ impl TensionController {
 mod tests {
     use super::*;
     use crate::drive::DriveStatus;
-    use crate::tension::settings::{KnotBoost, PreStretch, Speed};
+    use crate::settings::{KnotBoost, PreStretch, Speed};
     use crate::test_support::valid;
 
     #[test]

@@ -39,15 +39,10 @@
 //! The module also holds [`SlipDamper`], which estimates the carriage's motion in the hold
 //! from the motor current rather than from the tension (see its docs).
 
+use crate::mechanism::{MAX_STEPS_PER_TICK, STEP_MM_BITS};
+use crate::settings::MmPerSecond;
 use crate::tension::law::{Coef, filter_gain, mul_wide, narrow, saturate_i32};
-use crate::tension::settings::MmPerSecond;
 use crate::units::{Kgf, KgfPerSecond, Q16, Seconds};
-
-/// Largest step count change one tick may contribute (as in the speed estimator).
-pub const MAX_STEPS_PER_TICK: i32 = 16;
-
-/// One Hall step of carriage travel in Q15.16 mm: 52.917 µm × 65 536 = 3 468 bits.
-pub const STEP_MM_BITS: i32 = 3_468;
 
 /// The stiffest string the spike clip allows for, 2 kgf/mm (the twin's stiffest is
 /// 1.5 kgf/mm), Q15.16.

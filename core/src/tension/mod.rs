@@ -1,4 +1,4 @@
-//! Tension control: the operator's pull settings, the control laws (the paper's RSMC, taut's
+//! Tension control: the control laws (the paper's RSMC, taut's
 //! RSMC, the PD baseline), the force → duty mapping and the pull profile.
 //!
 //! # Theory of operation
@@ -14,8 +14,8 @@
 //!
 //! The pieces, from the operator inward:
 //!
-//! - [`settings`]: validated [`PullSettings`] (tension 5–50 kgf, speed 1–9, pre-stretch
-//!   0–30 %, knot +0–20 %), shared with the panel and the stored record.
+//! - [`crate::settings`] (not here: the panel and the record share it): the validated
+//!   [`crate::settings::PullSettings`] each pull starts from.
 //! - [`controller`]: [`TensionController`] — `start`, `step` at 1 kHz, `release`, `stop` —
 //!   the pull profile (take-up at the set speed, braking approach timed and shaped from the
 //!   identified string stiffness, pre-stretch, hold) around a control law.
@@ -36,7 +36,6 @@ pub mod controller;
 pub mod estimator;
 pub mod law;
 pub mod motor;
-pub mod settings;
 
 pub use controller::{
     ConfigError, ControlOutput, ControllerConfig, LawConfig, Measurement, ProfileConfig, PullPhase,
@@ -45,7 +44,3 @@ pub use controller::{
 pub use estimator::{Estimate, EstimatorConfig, TensionEstimator};
 pub use law::{Improvements, NominalPlant, PdGains, Reference, RsmcGains};
 pub use motor::{DutyMap, MotorModel};
-pub use settings::{
-    KnotBoost, MmPerSecond, PreStretch, PullKind, PullSettings, SettingsError, Speed, TENSION_MAX,
-    TENSION_MIN,
-};

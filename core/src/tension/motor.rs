@@ -56,17 +56,15 @@
 //! (construction only; the per-tick path uses 32 × 32 → 64-bit products).
 
 use crate::drive::{DUTY_MAX, Direction, DriveCommand, Duty};
+use crate::mechanism::{MAX_STEPS_PER_TICK, NM_PER_STEP};
+use crate::settings::MmPerSecond;
 use crate::tension::law::{
     Coef, Saturation, filter_gain, mul_wide, narrow, reciprocal_q24, saturate_i32,
 };
-use crate::tension::settings::MmPerSecond;
 use crate::units::{Amps, Kgf, Q16, Seconds, Volts};
 
 /// Fraction bits of the duty coefficients.
 pub const DUTY_COEF_FRAC: u32 = 24;
-
-/// Carriage travel per Hall step, nm: 25.4 mm / 480 = 52 916.7 nm.
-pub const NM_PER_STEP: i64 = 52_917;
 
 /// The motor and transmission, in integer engineering units.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
@@ -405,9 +403,6 @@ pub struct SpeedEstimator {
     /// Whether `last_steps` has been initialised.
     primed: bool,
 }
-
-/// Largest step difference one tick may contribute (±16 steps = 0.85 mm per tick).
-pub const MAX_STEPS_PER_TICK: i32 = 16;
 
 impl SpeedEstimator {
     /// An estimator that always reads zero.

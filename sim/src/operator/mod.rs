@@ -33,7 +33,7 @@ pub mod display;
 
 use taut_core::io::{Display, Key, Keys, Outputs};
 use taut_core::machine::panel::text as panel_text;
-use taut_core::store::{SetPoint, Settings, Unit};
+use taut_core::settings::{KnotBoost, PreStretch, SetPoint, Settings, Unit};
 
 use crate::params::StringParams;
 use crate::twin::Twin;
@@ -449,18 +449,18 @@ impl Operator {
         }
         let set_point = settings.set_point();
         let done = match page {
-            Page::Speed => self.adjust(twin, value, i32::from(settings.speed()), 1),
+            Page::Speed => self.adjust(twin, value, i32::from(settings.speed().get()), 1),
             Page::PreStretch => self.adjust(
                 twin,
                 value,
-                i32::from(settings.pre_stretch_percent()),
-                i32::from(Settings::PRE_STRETCH_STEP),
+                i32::from(settings.pre_stretch().percent()),
+                i32::from(PreStretch::STEP),
             ),
             Page::Knot => self.adjust(
                 twin,
                 value,
-                i32::from(settings.knot_percent()),
-                i32::from(Settings::KNOT_STEP),
+                i32::from(settings.knot().percent()),
+                i32::from(KnotBoost::STEP),
             ),
             Page::Unit => {
                 let wanted = i32::from(set_point.unit() == Unit::Pounds);

@@ -298,7 +298,7 @@ pub enum Flash {
     /// Factory defaults (25.0 kg, no calibration): calibrate it yourself in the `CAL?`
     /// window with Function, reading the gauge.
     Factory,
-    /// Erased flash: the machine starts on defaults and shows the `E-20` notice.
+    /// Erased flash: the machine starts on defaults and shows the `n-01` notice.
     Blank,
 }
 

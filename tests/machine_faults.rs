@@ -1,6 +1,6 @@
 //! Scenario tests on the twin: every fault code, raised by the failure it names, latched
 //! with the bridge off and the code on the display, and cleared by the operator (Start)
-//! once the cause is gone — plus the notices (`E-20`…`E-22`).
+//! once the cause is gone — plus the notices (`n-01`…`n-03`).
 #![allow(
     clippy::float_arithmetic,
     clippy::cast_possible_truncation,
@@ -488,7 +488,7 @@ fn machine_fault_drive_latches_map_to_their_codes() {
 }
 
 #[test]
-fn machine_notice_e20_corrupt_record_uses_defaults() {
+fn machine_notice_n01_corrupt_record_uses_defaults() {
     let mut bytes = Record::default().encode();
     bytes[40] ^= 0x10;
     let stored = Record::decode(&bytes);
@@ -496,7 +496,7 @@ fn machine_notice_e20_corrupt_record_uses_defaults() {
     let config = TwinConfig::nominal(StringKind::TennisSynthetic);
     let mut rig = Rig::with_machine(&config, Machine::from_stored(stored));
     rig.expect_state(MachineState::Ready, 30_000);
-    assert_eq!(rig.outputs().display, panel::fault(20));
+    assert_eq!(rig.outputs().display, panel::notice(1));
     assert_eq!(rig.machine().fault(), None, "a notice, not a fault");
     let record = rig.machine().record();
     assert_eq!((record.settings, record.presets), (Settings::DEFAULT, Record::default().presets));
@@ -507,7 +507,7 @@ fn machine_notice_e20_corrupt_record_uses_defaults() {
 }
 
 #[test]
-fn machine_notice_e22_stored_calibration_invalid() {
+fn machine_notice_n03_stored_calibration_invalid() {
     let record = Record {
         calibration: Some(
             [CalibrationPoint { raw: Kgf::from_int(10), reference: Kgf::from_int(10) }; 4],
@@ -516,11 +516,11 @@ fn machine_notice_e22_stored_calibration_invalid() {
     };
     let mut rig = Rig::new(&TwinConfig::nominal(StringKind::TennisSynthetic), record);
     rig.expect_state(MachineState::Ready, 30_000);
-    assert_eq!(rig.outputs().display, panel::fault(22));
+    assert_eq!(rig.outputs().display, panel::notice(3));
 }
 
 #[test]
-fn machine_notice_e21_calibration_rejected() {
+fn machine_notice_n02_calibration_rejected() {
     let mut rig = Rig::nominal(StringKind::TennisSynthetic);
     rig.expect_state(MachineState::CalibrationWindow, 5_000);
     rig.press(Key::Function);
@@ -531,7 +531,7 @@ fn machine_notice_e21_calibration_rejected() {
         rig.press(Key::Start);
     }
     rig.expect_state(MachineState::Ready, 30_000);
-    assert_eq!(rig.outputs().display, panel::fault(21));
+    assert_eq!(rig.outputs().display, panel::notice(2));
     assert_eq!(rig.machine().record().calibration, None, "the old calibration is kept");
 }
 

@@ -214,7 +214,7 @@ fn the_binary_runs_a_script_from_stdin_and_refuses_interactive_mode_without_a_te
 #[test]
 fn a_blank_flash_boots_on_defaults_with_the_store_notice() {
     let mut s = session(Flash::Blank);
-    run(&mut s, &format!("{TO_READY}expect display E-20\npress down\nexpect display 25.0\n"))
+    run(&mut s, &format!("{TO_READY}expect display n-01\npress down\nexpect display 25.0\n"))
         .unwrap();
 }
 

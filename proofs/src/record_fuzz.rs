@@ -22,18 +22,18 @@
 //!
 //! For any bytes, [`Record::decode`] returns; then
 //! - an input shorter than [`RECORD_LEN`] is [`StoreError::TooShort`], one without the magic
-//!   is [`StoreError::NoRecord`], and every error is shown as the notice `E-20`;
+//!   is [`StoreError::NoRecord`], and every error is shown as the notice `n-01`;
 //! - an accepted record carries a CRC that matches its body, satisfies [`Record::is_valid`]
 //!   and re-encodes to exactly the bytes it came from (one encoding per record);
 //! - a stored calibration is used only if it passes [`Calibration::new`]'s validation *and*
 //!   lies inside the validated range stated independently here (reference readings strictly
 //!   increasing within `[KNEE, REFERENCE_MAX]`, raw readings strictly increasing above the zero
 //!   reading, fitted gain within [`GAIN_RANGE_Q30`], offset within ±[`OFFSET_LIMIT`]); a
-//!   machine powered up with a record whose calibration fails shows the notice `E-22`
+//!   machine powered up with a record whose calibration fails shows the notice `n-03`
 //!   instead of using it, and one whose calibration passes shows no notice.
 
 use crate::machine_store::{as_version_1, decoded_is_canonical};
-use taut_core::machine::{FaultCode, Machine};
+use taut_core::machine::{Machine, Notice};
 use taut_core::sense::calibration::{
     Calibration, CalibrationPoint, GAIN_RANGE_Q30, KNEE, OFFSET_LIMIT, REFERENCE_MAX,
 };
@@ -127,9 +127,9 @@ pub fn decoder_is_sound(bytes: &[u8]) {
                 assert_eq!(error, StoreError::NoRecord, "REQ-STORE-01: no magic");
             }
             assert_eq!(
-                FaultCode::from_store(error),
-                FaultCode::StoreInvalid,
-                "REQ-UI-08: a record that fails to load is notice E-20"
+                Notice::from_store(error),
+                Notice::StoreInvalid,
+                "REQ-UI-08: a record that fails to load is notice n-01"
             );
         }
         Ok((record, version)) => {
@@ -150,7 +150,7 @@ pub fn decoder_is_sound(bytes: &[u8]) {
 }
 
 /// REQ-UI-08: the machine uses a stored calibration only if it validates, and then it lies in
-/// the validated range; otherwise it shows `E-22`.
+/// the validated range; otherwise it shows `n-03`.
 pub fn stored_calibration_is_validated(record: &Record) {
     let notice = Machine::<1>::with_record(*record).notice();
     let Some(stored) = record.calibration else {
@@ -160,8 +160,8 @@ pub fn stored_calibration_is_validated(record: &Record) {
     match Calibration::new(&stored) {
         Err(_) => assert_eq!(
             notice,
-            Some(FaultCode::StoredCalibrationInvalid),
-            "REQ-UI-08: an invalid stored calibration was not reported as E-22: {stored:?}"
+            Some(Notice::StoredCalibrationInvalid),
+            "REQ-UI-08: an invalid stored calibration was not reported as n-03: {stored:?}"
         ),
         Ok(accepted) => {
             assert_eq!(notice, None, "REQ-UI-08: a valid stored calibration was refused");

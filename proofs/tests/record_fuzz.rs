@@ -46,7 +46,7 @@ fn record_fuzz_crc_matches_the_core() {
 #[test]
 fn record_fuzz_seeds_reach_the_field_checks() {
     // Both sides of the stored-calibration rule are seeded: calibrations the machine uses
-    // and one it must refuse (E-22).
+    // and one it must refuse (n-03).
     let (mut used, mut refused) = (0, 0);
     for (name, input) in seed_inputs() {
         check_input(&input);

@@ -39,7 +39,9 @@ use std::fmt;
 
 use taut_core::drive::Direction;
 use taut_core::io::{Display, Inputs, Outputs};
-use taut_core::machine::{FaultCode, Machine, MachineState, SELF_TEST_SETTLE, SELF_TEST_TICKS};
+use taut_core::machine::{
+    FaultCode, Machine, MachineState, Notice, SELF_TEST_SETTLE, SELF_TEST_TICKS,
+};
 use taut_core::sense::calibration::Calibration;
 use taut_core::sense::load_cell::LoadCellScale;
 use taut_core::settings::{PullKind, PullSettings};
@@ -86,7 +88,7 @@ pub fn to_kgf(value: f64) -> Kgf {
 // ───────────────────────────── core types, in one place ─────────────────────────────
 
 /// The machine for a twin of `config`, powered up with what the store yielded (a record
-/// that failed to load gives defaults and the `E-20` notice). The one place the host builds
+/// that failed to load gives defaults and the `n-01` notice). The one place the host builds
 /// a [`Machine`]: board facts the machine is given (current sensing, bus divider, timing)
 /// belong here.
 #[must_use]
@@ -117,7 +119,7 @@ pub fn fault_name(code: FaultCode) -> String {
 }
 
 /// The load-cell correction the machine builds from `record`'s stored calibration (identity
-/// when there is none, or when it does not validate — the machine then shows `E-22`).
+/// when there is none, or when it does not validate — the machine then shows `n-03`).
 #[must_use]
 pub fn calibration_of(record: &Record) -> Calibration {
     let Some(points) = record.calibration else { return Calibration::IDENTITY };
@@ -199,7 +201,7 @@ pub struct Bench {
 
 impl Bench {
     /// Powers the twin and the machine up; the machine loads its record from `flash` as the
-    /// firmware does (a corrupt or blank flash gives defaults and the `E-20` notice).
+    /// firmware does (a corrupt or blank flash gives defaults and the `n-01` notice).
     #[must_use]
     pub fn power_up(config: &TwinConfig, flash: &[u8; RECORD_LEN]) -> Self {
         let mut bench = Self::with_machine(config, machine_for(config, Record::decode(flash)));
@@ -368,7 +370,7 @@ pub const SESSION_LIMIT_MS: u64 = 240_000;
 pub enum SessionError {
     /// The machine latched a fault during commissioning.
     CommissioningFault(FaultCode),
-    /// The machine rejected the calibration (`E-21`).
+    /// The machine rejected the calibration (`n-02`).
     CalibrationRejected,
     /// Commissioning ended without the machine storing the settings and calibration.
     NothingStored,
@@ -382,7 +384,7 @@ impl fmt::Display for SessionError {
             Self::CommissioningFault(code) => {
                 write!(f, "the machine faulted during commissioning: {}", fault_name(*code))
             }
-            Self::CalibrationRejected => f.write_str("the machine rejected the calibration (E-21)"),
+            Self::CalibrationRejected => f.write_str("the machine rejected the calibration (n-02)"),
             Self::NothingStored => f.write_str("commissioning ended without a stored record"),
             Self::Timeout => f.write_str("a session did not finish in the simulated time limit"),
         }
@@ -501,7 +503,7 @@ pub fn commission(
     let mut operator = Operator::new(plan);
     let mut rejected = false;
     run_session(&mut bench, &mut operator, Session::Commissioning, progress, |bench, operator| {
-        rejected |= bench.machine().notice() == Some(FaultCode::CalibrationRejected);
+        rejected |= bench.machine().notice() == Some(Notice::CalibrationRejected);
         if !operator.finished() {
             return false;
         }

@@ -35,7 +35,7 @@ use statig::prelude::*;
 
 use crate::drive::{Direction, DriveCommand, Duty};
 use crate::io::{Inputs, Key, Leds, LimitSwitches, Outputs};
-use crate::machine::fault::FaultCode;
+use crate::machine::fault::{FaultCode, Notice};
 use crate::machine::log::{PullRecord, string_mm};
 use crate::machine::panel::{self, Beep, KeyEvent};
 use crate::machine::safety::{self, TensionSample, TensionWatch};
@@ -232,7 +232,7 @@ pub struct Chart {
     /// The tension controller.
     pub controller: TensionController,
     /// A notice to show in Ready until a key is pressed.
-    pub notice: Option<FaultCode>,
+    pub notice: Option<Notice>,
     /// Whether the boot sequence is still running (faults then recover by a new self-test).
     pub booting: bool,
     /// The record changed and is not yet stored.
@@ -273,7 +273,7 @@ impl Chart {
             None => (Calibration::IDENTITY, None),
             Some(points) => match Calibration::new(&points) {
                 Ok(calibration) => (calibration, None),
-                Err(_) => (Calibration::IDENTITY, Some(FaultCode::StoredCalibrationInvalid)),
+                Err(_) => (Calibration::IDENTITY, Some(Notice::StoredCalibrationInvalid)),
             },
         };
         Self {
@@ -710,7 +710,7 @@ impl Chart {
             *view = View::Tension;
         }
         if let Some(notice) = self.notice {
-            context.out.display = panel::fault(notice.number());
+            context.out.display = panel::notice(notice.number());
             if pressed(sample.key) {
                 // The key acknowledges the notice and does nothing else.
                 self.notice = None;
@@ -941,7 +941,7 @@ impl Chart {
                 context.beep = Some(Beep::AtTension);
             }
             Err(_) => {
-                self.notice = Some(FaultCode::CalibrationRejected);
+                self.notice = Some(Notice::CalibrationRejected);
                 context.beep = Some(Beep::Refused);
             }
         }

@@ -1,14 +1,21 @@
-//! Fault and notice codes: what the display shows as `E-nn` when something is wrong.
+//! Fault and notice codes: what the display shows as `E-nn` or `n-nn` when something is wrong.
 //!
 //! # Theory of operation
 //!
-//! A [`FaultCode`] names one detected failure. Codes `E-01`…`E-19` and `E-23`…`E-24` are
-//! **faults**: they latch
-//! (the machine enters its fault state, the bridge coasts in the same tick, the display shows
-//! the code, the fault lamp lights and the beeper sounds three times) and are cleared only by
-//! the operator pressing Start while the drive command is zero and the condition is gone.
-//! Codes `E-20`…`E-22` are **notices**: the machine goes on working (on defaults, or on the
-//! previous calibration) and shows the code until the next key press.
+//! A [`FaultCode`] names one detected failure and shows as `E-nn`. A fault **latches**: the
+//! machine enters its fault state, the bridge coasts in the same tick, the display shows the
+//! code, the fault lamp lights and the beeper sounds three times; it is cleared only by the
+//! operator pressing Start while the drive command is zero and the condition is gone.
+//!
+//! A [`Notice`] is not a failure of the machine but something the operator should know — the
+//! stored record was unusable, a calibration was refused — and shows as `n-nn` until the next
+//! key press while the machine goes on working (on defaults, or on the previous calibration).
+//!
+//! The two are different types with their own numbers, so whether a code latches is a
+//! matter of its type, not of a numbering rule, and each list grows at its end: a new fault
+//! takes the next `E-` number and a new notice the next `n-` number, and no code an operator
+//! has learned is ever renumbered. (`E-20`…`E-22` were the notices before they had their
+//! own type; those fault numbers stay unused so that an old manual is never wrong.)
 //!
 //! The table with causes and how to clear each code is in `docs/SPEC.md` ("Fault codes");
 //! the doc line of each variant is its one-line meaning.
@@ -16,7 +23,7 @@
 use crate::drive::DriveFault;
 use crate::store::StoreError;
 
-/// A fault or notice, shown as `E-nn`.
+/// A latched fault, shown as `E-nn`.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
 pub enum FaultCode {
     /// E-01: both limit switches active at once (mechanically impossible: wiring fault).
@@ -57,12 +64,6 @@ pub enum FaultCode {
     PullTimeout,
     /// E-19: the home limit was not reached within the release timeout.
     ReleaseTimeout,
-    /// E-20 (notice): the stored record was missing or corrupt; defaults are in use.
-    StoreInvalid,
-    /// E-21 (notice): a new calibration was rejected; the previous one is kept.
-    CalibrationRejected,
-    /// E-22 (notice): the stored calibration failed validation; the sensor runs uncorrected.
-    StoredCalibrationInvalid,
     /// E-23: the DC bus reached its configured maximum (regeneration or supply overvoltage).
     BusOvervoltage,
     /// E-24: the motor-current sense's zero, tared with the bridge off, is out of tolerance.
@@ -71,7 +72,7 @@ pub enum FaultCode {
 
 impl FaultCode {
     /// Every code, in number order.
-    pub const ALL: [Self; 24] = [
+    pub const ALL: [Self; 21] = [
         Self::LimitsBoth,
         Self::LimitStuck,
         Self::LoadCellOpen,
@@ -91,9 +92,6 @@ impl FaultCode {
         Self::Overload,
         Self::PullTimeout,
         Self::ReleaseTimeout,
-        Self::StoreInvalid,
-        Self::CalibrationRejected,
-        Self::StoredCalibrationInvalid,
         Self::BusOvervoltage,
         Self::CurrentSenseZero,
     ];
@@ -121,21 +119,9 @@ impl FaultCode {
             Self::Overload => 17,
             Self::PullTimeout => 18,
             Self::ReleaseTimeout => 19,
-            Self::StoreInvalid => 20,
-            Self::CalibrationRejected => 21,
-            Self::StoredCalibrationInvalid => 22,
             Self::BusOvervoltage => 23,
             Self::CurrentSenseZero => 24,
         }
-    }
-
-    /// Whether this code is a notice (shown, not latched) rather than a fault.
-    #[must_use]
-    pub const fn is_notice(self) -> bool {
-        matches!(
-            self,
-            Self::StoreInvalid | Self::CalibrationRejected | Self::StoredCalibrationInvalid
-        )
     }
 
     /// The code for a fault the drive latched.
@@ -150,9 +136,36 @@ impl FaultCode {
             DriveFault::SectorSkipped => Self::HallSequence,
         }
     }
+}
+
+/// A notice, shown as `n-nn` until the next key press; the machine keeps working.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub enum Notice {
+    /// n-01: the stored record was missing or corrupt; defaults are in use.
+    StoreInvalid,
+    /// n-02: a new calibration was rejected; the previous one is kept.
+    CalibrationRejected,
+    /// n-03: the stored calibration failed validation; the sensor runs uncorrected.
+    StoredCalibrationInvalid,
+}
+
+impl Notice {
+    /// Every notice, in number order.
+    pub const ALL: [Self; 3] =
+        [Self::StoreInvalid, Self::CalibrationRejected, Self::StoredCalibrationInvalid];
+
+    /// The number shown after `n-`.
+    #[must_use]
+    pub const fn number(self) -> u8 {
+        match self {
+            Self::StoreInvalid => 1,
+            Self::CalibrationRejected => 2,
+            Self::StoredCalibrationInvalid => 3,
+        }
+    }
 
     /// The notice for a record that could not be loaded. Every store error maps to
-    /// [`FaultCode::StoreInvalid`]; the precise cause is in the error itself for the log.
+    /// [`Notice::StoreInvalid`]; the precise cause is in the error itself for the log.
     #[must_use]
     pub const fn from_store(_error: StoreError) -> Self {
         Self::StoreInvalid
@@ -163,17 +176,19 @@ impl FaultCode {
 mod tests {
     use super::*;
 
+    /// Each list is numbered on its own, without duplicates, in order; the retired notice
+    /// numbers 20–22 are never a fault's.
     #[test]
-    fn numbers_are_unique_and_in_order() {
-        for (index, code) in FaultCode::ALL.iter().enumerate() {
-            assert_eq!(usize::from(code.number()), index + 1, "{code:?}");
-        }
-    }
-
-    #[test]
-    fn only_twenty_to_twenty_two_are_notices() {
+    fn faults_and_notices_are_numbered_on_their_own() {
+        let mut previous = 0;
         for code in FaultCode::ALL {
-            assert_eq!(code.is_notice(), (20..=22).contains(&code.number()), "{code:?}");
+            assert!(code.number() > previous, "{code:?}");
+            assert!(!(20..=22).contains(&code.number()), "{code:?} took a retired number");
+            previous = code.number();
+        }
+        assert_eq!(FaultCode::ALL.last().map(|code| code.number()), Some(24));
+        for (index, notice) in Notice::ALL.iter().enumerate() {
+            assert_eq!(usize::from(notice.number()), index + 1, "{notice:?}");
         }
     }
 }

@@ -53,7 +53,7 @@ pub use chart::{
     SELF_TEST_TICKS, STORE_DELAY, VIEW_TIMEOUT, View, calibration_settings, fault_persists,
     pull_timeout, tension_display,
 };
-pub use fault::FaultCode;
+pub use fault::{FaultCode, Notice};
 pub use log::{PULL_LOG_CAPACITY, PullLog, PullRecord};
 pub use panel::{Beep, KeyEvent, KeyPad};
 
@@ -226,9 +226,8 @@ impl Checkpoint {
     pub fn chart_is_valid(&self) -> bool {
         let point_ok = match self.state {
             MachineState::CalibrationPull { point } | MachineState::CalibrationEntry { point } => {
-                point < 4
+                usize::from(point) < crate::sense::calibration::CALIBRATION_POINTS
             }
-            MachineState::Fault(code) => !code.is_notice(),
             _ => true,
         };
         let view_ok = match self.view {
@@ -266,7 +265,7 @@ impl Machine {
     }
 
     /// A machine at power-up with whatever the store yielded: a record that failed to load
-    /// is replaced by defaults and its notice (`E-20`) is shown once Ready.
+    /// is replaced by defaults and its notice (`n-01`) is shown once Ready.
     #[must_use]
     pub fn from_stored(stored: Result<Record, StoreError>) -> Self {
         Self::with_stored(stored)
@@ -291,7 +290,7 @@ impl<const LOG: usize> Machine<LOG> {
             Err(error) => {
                 let mut chart = Chart::new(Record::default());
                 chart.count_boot();
-                chart.notice = Some(FaultCode::from_store(error));
+                chart.notice = Some(Notice::from_store(error));
                 Self::build(chart, chart::power_up(), Sample::default(), KeyPad::new())
             }
         }
@@ -419,7 +418,7 @@ impl<const LOG: usize> Machine<LOG> {
 
     /// The notice shown in Ready until a key is pressed, if any.
     #[must_use]
-    pub fn notice(&self) -> Option<FaultCode> {
+    pub fn notice(&self) -> Option<Notice> {
         self.chart.inner().notice
     }
 

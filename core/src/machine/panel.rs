@@ -344,11 +344,22 @@ pub const fn labelled(label: &[u8; 2], value: u8) -> Display {
     [glyph(label[0]), glyph(label[1]), tens_glyph, glyph(ones_digit)]
 }
 
-/// `E-nn` for a fault or notice number.
+/// `E-nn` for a fault number.
 #[must_use]
 pub const fn fault(number: u8) -> Display {
+    code(b'E', number)
+}
+
+/// `n-nn` for a notice number.
+#[must_use]
+pub const fn notice(number: u8) -> Display {
+    code(b'n', number)
+}
+
+/// `L-nn`: a letter, a dash and two digits.
+const fn code(letter: u8, number: u8) -> Display {
     let tens = (number / 10) % 10;
-    [glyph(b'E'), glyph(b'-'), glyph(digit(tens as u32)), glyph(digit(number as u32))]
+    [glyph(letter), glyph(b'-'), glyph(digit(tens as u32)), glyph(digit(number as u32))]
 }
 
 /// A beeper sound.

@@ -426,8 +426,8 @@ impl Operator {
     /// One look at the menu while heading for `page`.
     fn menu(&mut self, twin: &mut Twin, shown: &Display, page: Page) -> Step {
         let leds = twin.outputs().leds;
-        // A notice (`E-nn` without the fault lamp) goes away with any key.
-        if display::text(shown).starts_with("E-") && !leds.fault {
+        // A notice (`n-nn`, never with the fault lamp) goes away with any key.
+        if display::text(shown).starts_with("n-") && !leds.fault {
             self.tap(twin, Key::Down);
             return Step::Menu { page };
         }

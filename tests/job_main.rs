@@ -21,9 +21,10 @@ use taut::job::summary::{Summary, entered, panel_kgf};
 use taut::job::{CycleOptions, CycleRun, run};
 use taut::plot::Content;
 use taut_core::machine::{FaultCode, MachineState};
+use taut_core::sense::calibration::{CALIBRATION_POINTS, CALIBRATION_TARGETS};
 use taut_core::settings::Unit;
 use taut_sim::StringKind;
-use taut_sim::bench::{Commissioning, Row, commission, factory_config};
+use taut_sim::bench::{Commissioning, Row, commission, factory_config, kgf};
 
 /// Margin on the true tension while holding (the paper's accuracy is 0.1 kgw; the
 /// calibration's own error counts).
@@ -95,11 +96,9 @@ fn commissioning_stores_a_calibration_and_the_previous_job() {
     let c = commissioning();
     let record = c.record;
     let points = record.calibration.expect("a calibration is stored");
-    assert_eq!(c.gauge_readings.len(), 4, "one gauge reading per point");
-    for ((point, gauge), target) in
-        points.iter().zip(&c.gauge_readings).zip([10.0, 20.0, 30.0, 40.0])
-    {
-        let reference = taut_sim::bench::kgf(point.reference);
+    assert_eq!(c.gauge_readings.len(), CALIBRATION_POINTS, "one gauge reading per point");
+    for ((point, gauge), target) in points.iter().zip(&c.gauge_readings).zip(CALIBRATION_TARGETS) {
+        let (reference, target) = (kgf(point.reference), kgf(target));
         // The operator keyed the gauge in to 0.1 kgf; the machine pulled the raw reading to
         // about the point's target, and the uncalibrated sensor reads ≈ 0.7 kgf low there.
         assert!((reference - gauge).abs() <= 0.051, "{reference} vs gauge {gauge}");
@@ -203,7 +202,7 @@ fn a_knot_pull_lights_the_knot_lamp_and_holds_the_boosted_tension() {
         assert!((row.truth.tension_kgf - 28.75).abs() <= HOLD_MARGIN_KGF, "{row:?}");
     }
     let pull = run.pull.expect("logged");
-    assert!((taut_sim::bench::kgf(pull.target) - 28.75).abs() < 0.01);
+    assert!((kgf(pull.target) - 28.75).abs() < 0.01);
     // The operator switched knot mode on (Function held); the lamp stays lit through the pull.
     let pulling = entered(&run, MachineState::Pulling, 0).expect("pulled");
     let released = entered(&run, MachineState::Releasing, pulling).expect("released");

@@ -19,7 +19,7 @@ use machine_support::{Rig, RigExt as _};
 use taut_core::drive::{DriveCommand, HallCode, Phase};
 use taut_core::io::{Inputs, Key, Keys, LimitSwitches};
 use taut_core::machine::{FaultCode, Machine, MachineState, panel};
-use taut_core::sense::calibration::CalibrationPoint;
+use taut_core::sense::calibration::{CALIBRATION_POINTS, CalibrationPoint};
 use taut_core::sense::load_cell::LoadCellScale;
 use taut_core::settings::{SetPoint, Settings};
 use taut_core::store::{Record, StoreError};
@@ -510,7 +510,8 @@ fn machine_notice_n01_corrupt_record_uses_defaults() {
 fn machine_notice_n03_stored_calibration_invalid() {
     let record = Record {
         calibration: Some(
-            [CalibrationPoint { raw: Kgf::from_int(10), reference: Kgf::from_int(10) }; 4],
+            [CalibrationPoint { raw: Kgf::from_int(10), reference: Kgf::from_int(10) };
+                CALIBRATION_POINTS],
         ),
         ..Record::default()
     };

@@ -29,6 +29,11 @@ pub const LEAD_NM: i64 = 25_400_000;
 /// The motor's no-load speed on the nameplate, rpm.
 pub const NO_LOAD_RPM: i64 = 3_700;
 
+const _: () = assert!(
+    POLE_PAIRS > 0 && GEAR_RATIO > 0 && LEAD_NM >= 1_000,
+    "a drive train needs poles, a gearbox and a lead of at least 1 µm"
+);
+
 /// Hall steps (sector changes) per motor turn: six per electrical turn.
 pub const STEPS_PER_MOTOR_TURN: i64 = 6 * POLE_PAIRS;
 

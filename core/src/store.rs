@@ -275,23 +275,22 @@ impl Record {
             return Err(StoreError::NoRecord);
         }
         let version = r.u8();
-        let layout = match version {
-            FORMAT_V1 => Layout::V1,
-            FORMAT_VERSION => Layout::CURRENT,
-            _ => return Err(StoreError::UnknownVersion),
-        };
+        if version != FORMAT_V1 && version != FORMAT_VERSION {
+            return Err(StoreError::UnknownVersion);
+        }
         let body = bytes.first_chunk::<OFFSET_CRC>().ok_or(StoreError::TooShort)?;
         let stored = Reader { bytes, at: OFFSET_CRC }.u32();
         if checksum(body) != stored {
             return Err(StoreError::CrcMismatch);
         }
-        let mut reserved = r.u8() == 0;
-        let mut tail = Reader { bytes, at: layout.reserved() };
-        // Bound: fewer than OFFSET_CRC − OFFSET_CALIBRATION = 60 bytes.
-        for _ in layout.reserved()..OFFSET_CRC {
-            reserved &= tail.u8() == 0;
-        }
-        if !reserved {
+        // Each version's reserved bytes from a constant offset (a model checker then reads
+        // them at known places rather than at an offset that depends on the version byte).
+        let tail_is_zero = if version == FORMAT_V1 {
+            zero_from::<{ Layout::V1.reserved() }>(bytes)
+        } else {
+            zero_from::<{ Layout::CURRENT.reserved() }>(bytes)
+        };
+        if r.u8() != 0 || !tail_is_zero {
             return Err(StoreError::ReservedNotZero);
         }
         let settings = decode_settings(&mut r)?;
@@ -306,7 +305,7 @@ impl Record {
         };
         let pulls = r.u32();
         let string_used_mm = r.u32();
-        let boots = if layout.boots { r.u32() } else { 0 };
+        let boots = if version == FORMAT_V1 { 0 } else { r.u32() };
         let counters = Counters { pulls, string_used_mm, boots };
         Ok((Self { settings, presets, calibration, counters }, version))
     }
@@ -317,6 +316,11 @@ impl Record {
     pub fn is_valid(&self) -> bool {
         self.settings.is_valid() && self.presets.iter().all(|preset| preset.is_valid())
     }
+}
+
+/// Whether the record's bytes from `START` up to the CRC are all zero.
+fn zero_from<const START: usize>(bytes: &[u8; RECORD_LEN]) -> bool {
+    bytes.get(START..OFFSET_CRC).is_some_and(|tail| tail.iter().all(|byte| *byte == 0))
 }
 
 /// `N` stored points, and whether every one of them is all zero bytes.
@@ -425,6 +429,7 @@ impl Reader<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sense::calibration::CALIBRATION_TARGETS;
 
     fn settings(unit: Unit, tenths: u16, speed: u8, pre: u8, knot: u8) -> Settings {
         let made =
@@ -437,12 +442,12 @@ mod tests {
         let mut record =
             Record { settings: settings(Unit::Pounds, 550, 7, 10, 15), ..Record::default() };
         record.presets[3] = settings(Unit::Kilograms, 235, 3, 0, 0);
-        record.calibration = Some([
-            CalibrationPoint { raw: Kgf::from_tenths(98), reference: Kgf::from_tenths(100) },
-            CalibrationPoint { raw: Kgf::from_tenths(199), reference: Kgf::from_tenths(200) },
-            CalibrationPoint { raw: Kgf::from_tenths(300), reference: Kgf::from_tenths(300) },
-            CalibrationPoint { raw: Kgf::from_tenths(401), reference: Kgf::from_tenths(400) },
-        ]);
+        let mut index = 0;
+        record.calibration = Some(CALIBRATION_TARGETS.map(|target| {
+            index += 1;
+            let raw = target.saturating_add(Kgf::from_tenths(index - 3));
+            CalibrationPoint { raw, reference: target }
+        }));
         record.counters = Counters { pulls: 1234, string_used_mm: 987_654, boots: 42 };
         record
     }

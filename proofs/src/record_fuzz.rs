@@ -35,7 +35,8 @@
 use crate::machine_store::{as_version_1, decoded_is_canonical};
 use taut_core::machine::{Machine, Notice};
 use taut_core::sense::calibration::{
-    Calibration, CalibrationPoint, GAIN_RANGE_Q30, KNEE, OFFSET_LIMIT, REFERENCE_MAX,
+    CALIBRATION_TARGETS, Calibration, CalibrationPoint, GAIN_RANGE_Q30, KNEE, OFFSET_LIMIT,
+    REFERENCE_MAX,
 };
 use taut_core::settings::{SetPoint, Settings, Unit};
 use taut_core::store::{Counters, MAGIC, PRESET_COUNT, RECORD_LEN, Record, StoreError};
@@ -210,14 +211,18 @@ pub fn seed_records() -> Vec<(&'static str, Record)> {
             .and_then(|point| Settings::new(point, speed, pre, knot))
             .unwrap_or(Settings::DEFAULT)
     };
-    let points = |pairs: [(i16, i16); 4]| {
-        pairs.map(|(raw_tenths, reference_tenths)| CalibrationPoint {
-            raw: Kgf::from_tenths(i32::from(raw_tenths)),
-            reference: Kgf::from_tenths(i32::from(reference_tenths)),
+    // Points at every calibration target (whatever their number): the raw reading and the
+    // reference, in tenths, as functions of the point's index and target.
+    let points = |of: fn(i32, i32) -> (i32, i32)| {
+        let mut index = 0;
+        CALIBRATION_TARGETS.map(|target| {
+            let (raw, reference) = of(index, target.to_tenths_rounded());
+            index = index.saturating_add(1);
+            CalibrationPoint { raw: Kgf::from_tenths(raw), reference: Kgf::from_tenths(reference) }
         })
     };
     let calibrated = Record {
-        calibration: Some(points([(98, 100), (199, 200), (300, 300), (401, 400)])),
+        calibration: Some(points(|index, target| (target.saturating_add(index).saturating_sub(2), target))),
         counters: Counters { pulls: 1_234, string_used_mm: 987_654, boots: 17 },
         ..Record::default()
     };
@@ -241,13 +246,13 @@ pub fn seed_records() -> Vec<(&'static str, Record)> {
         *preset = settings(unit, tenths, speed, pre, knot);
     }
     let refused_calibration = Record {
-        calibration: Some(points([(100, 140), (200, 280), (300, 420), (400, 540)])),
+        calibration: Some(points(|_, target| (target, target.saturating_mul(27) / 20))),
         ..Record::default()
     };
     let extreme = Record {
         settings: settings(Unit::Kilograms, 500, 9, 30, 20),
         presets: [settings(Unit::Pounds, 1100, 1, 0, 0); PRESET_COUNT],
-        calibration: Some(points([(95, 100), (195, 200), (295, 300), (395, 400)])),
+        calibration: Some(points(|_, target| (target.saturating_sub(5), target))),
         counters: Counters { pulls: u32::MAX, string_used_mm: u32::MAX, boots: u32::MAX },
     };
     vec![

@@ -383,13 +383,6 @@ mod tests {
         Kgf::from_bits(((i64::from(value) << 16) / 1000) as i32)
     }
 
-    fn points<const N: usize>(pairs: [(i32, i32); N]) -> [CalibrationPoint; N] {
-        pairs.map(|(raw, reference)| CalibrationPoint {
-            raw: milli(raw),
-            reference: milli(reference),
-        })
-    }
-
     #[test]
     fn identity_is_identity() {
         assert_eq!(Calibration::new(&IDENTITY_POINTS), Ok(Calibration::IDENTITY));
@@ -440,37 +433,60 @@ mod tests {
         assert!(matches!(fit_line(&wrong), Err(CalibrationError::PointOffLine)));
     }
 
+    /// Points at every calibration target, whatever their number: `of(index, target)` gives
+    /// the raw reading and the reference in thousandths of a kgf.
+    fn points_at(of: impl Fn(i32, i32) -> (i32, i32)) -> CalibrationPoints {
+        let mut index = 0;
+        CALIBRATION_TARGETS.map(|target| {
+            let (raw, reference) = of(index, ((i64::from(target.to_bits()) * 1000) >> 16) as i32);
+            index += 1;
+            CalibrationPoint { raw: milli(raw), reference: milli(reference) }
+        })
+    }
+
     #[test]
     fn rejects_bad_points() {
-        let good = [(10_000, 10_000), (20_000, 20_000), (30_000, 30_000), (40_000, 40_000)];
-        assert!(Calibration::new(&points(good)).is_ok());
-        let mut swapped = good;
-        swapped.swap(1, 2);
-        assert_eq!(Calibration::new(&points(swapped)), Err(CalibrationError::NotMonotonic));
-        let below_tare = [(0, 10_000), (20_000, 20_000), (30_000, 30_000), (40_000, 40_000)];
-        assert_eq!(Calibration::new(&points(below_tare)), Err(CalibrationError::NotMonotonic));
-        let mistyped = [(10_000, 10_000), (20_000, 21_000), (30_000, 30_000), (40_000, 40_000)];
-        assert_eq!(Calibration::new(&points(mistyped)), Err(CalibrationError::PointOffLine));
-        let steep = [(10_000, 14_000), (20_000, 28_000), (30_000, 42_000), (40_000, 54_000)];
-        assert_eq!(Calibration::new(&points(steep)), Err(CalibrationError::GainOutOfRange));
-        let shifted = [(10_000, 14_000), (20_000, 24_000), (30_000, 34_000), (40_000, 44_000)];
-        assert_eq!(Calibration::new(&points(shifted)), Err(CalibrationError::OffsetOutOfRange));
-        let low = [(10_000, 4_000), (20_000, 20_000), (30_000, 30_000), (40_000, 40_000)];
-        assert_eq!(Calibration::new(&points(low)), Err(CalibrationError::ReferenceOutOfRange));
+        let fit = |of: fn(i32, i32) -> (i32, i32)| Calibration::new(&points_at(of));
+        assert!(fit(|_, t| (t, t)).is_ok());
+        // Two points swapped.
+        let swapped = fit(|i, t| match i {
+            1 => (t + 10_000, t + 10_000),
+            2 => (t - 10_000, t - 10_000),
+            _ => (t, t),
+        });
+        assert_eq!(swapped, Err(CalibrationError::NotMonotonic));
+        // The first point at or below the tare's 0.
+        assert_eq!(
+            fit(|i, t| (if i == 0 { 0 } else { t }, t)),
+            Err(CalibrationError::NotMonotonic)
+        );
+        // A mistyped reference.
+        let mistyped = fit(|i, t| (t, if i == 1 { t + 1_000 } else { t }));
+        assert_eq!(mistyped, Err(CalibrationError::PointOffLine));
+        let steep = fit(|_, t| (t / 2 + 10_000, (t / 2 + 10_000) * 13 / 10));
+        assert_eq!(steep, Err(CalibrationError::GainOutOfRange));
+        assert_eq!(fit(|_, t| (t, t + 4_000)), Err(CalibrationError::OffsetOutOfRange));
+        let low = fit(|i, t| (t, if i == 0 { 4_000 } else { t }));
+        assert_eq!(low, Err(CalibrationError::ReferenceOutOfRange));
         // true = 1.2·raw + 2.9: the line reads 5 kgf at raw 1.75, so the tare-to-knee piece
         // would be 2.86 times as sensitive as the line.
-        let lifted = [(5_917, 10_000), (14_250, 20_000), (22_583, 30_000), (30_917, 40_000)];
-        assert_eq!(Calibration::new(&points(lifted)), Err(CalibrationError::ZeroImplausible));
+        let lifted = fit(|_, t| ((t - 2_900) * 10 / 12, t));
+        assert_eq!(lifted, Err(CalibrationError::ZeroImplausible));
     }
 
     #[test]
     fn correction_is_continuous_and_increasing() {
-        let cal = valid(Calibration::new(&points([
-            (9_800, 10_010),
-            (19_700, 19_990),
-            (29_650, 30_020),
-            (39_600, 40_000),
-        ])));
+        // A chain reading 1.5 % low with small scatter.
+        let cal = valid(Calibration::new(&points_at(|i, t| {
+            let scatter = match i % 5 {
+                0 => 10,
+                1 => -10,
+                2 => 20,
+                3 => 0,
+                _ => -20,
+            };
+            (t * 985 / 1_000, t + scatter)
+        })));
         let mut previous = cal.correct(milli(-5_000));
         for m in -4_999..=55_000 {
             let now = cal.correct(milli(m));

@@ -56,7 +56,7 @@
 //! (construction only; the per-tick path uses 32 × 32 → 64-bit products).
 
 use crate::drive::{DUTY_MAX, Direction, DriveCommand, Duty};
-use crate::mechanism::{MAX_STEPS_PER_TICK, NM_PER_STEP};
+use crate::mechanism::{GEAR_RATIO, LEAD_NM, MAX_STEPS_PER_TICK, NM_PER_STEP};
 use crate::settings::MmPerSecond;
 use crate::tension::law::{
     Coef, Saturation, filter_gain, mul_wide, narrow, reciprocal_q24, saturate_i32,
@@ -77,16 +77,13 @@ pub struct MotorModel {
     pub ke_micro: u32,
     /// Torque constant, µN·m/A.
     pub kt_micro: u32,
-    /// Gearbox reduction (paper: 20).
-    pub gear_ratio: u32,
-    /// Lead-screw lead, µm (paper: 25 400).
-    pub lead_um: u32,
     /// Forward (pulling) efficiency of gearbox and screw, percent.
     pub efficiency_pct: u32,
 }
 
 impl MotorModel {
-    /// The paper's machine: 24 V bus, 1:20 gearbox, 25.4 mm lead (paper); the motor's
+    /// The paper's machine: 24 V bus (the 1:20 gearbox and 25.4 mm lead are
+    /// [`crate::mechanism`]'s, which every conversion shares); the motor's
     /// constants as `sim/README.md` derives them from the paper's 3 700 rpm no-load and
     /// 2.85 kgf·cm at 5.5 A: `Ke = Kt = 60.1 mV·s/rad` (SI, line-to-line, once the no-load
     /// current is accounted for), 0.846 Ω across the driven pair (windings plus MOSFETs), and
@@ -97,8 +94,6 @@ impl MotorModel {
         resistance_mohm: 846,
         ke_micro: 60_100,
         kt_micro: 60_100,
-        gear_ratio: 20,
-        lead_um: 25_400,
         efficiency_pct: 64,
     };
 }
@@ -184,8 +179,6 @@ impl ForceToDuty {
             || motor.resistance_mohm == 0
             || motor.ke_micro == 0
             || motor.kt_micro == 0
-            || motor.gear_ratio == 0
-            || motor.lead_um == 0
             || motor.efficiency_pct == 0
             || motor.efficiency_pct > 100
         {
@@ -195,8 +188,9 @@ impl ForceToDuty {
         let r = i128::from(motor.resistance_mohm);
         let ke = i128::from(motor.ke_micro);
         let kt = i128::from(motor.kt_micro);
-        let gear = i128::from(motor.gear_ratio);
-        let lead = i128::from(motor.lead_um);
+        // The gearbox and the screw are the mechanism's nameplate (`crate::mechanism`).
+        let gear = i128::from(GEAR_RATIO);
+        let lead = i128::from(LEAD_NM / 1_000);
         let eta = i128::from(motor.efficiency_pct);
         // rad of motor per mm of carriage = 2π·N / (lead_um/1000).
         // duty per mm/s = Ke·(2π·N·1000/lead_um)/V

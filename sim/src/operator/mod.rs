@@ -33,6 +33,7 @@ pub mod display;
 
 use taut_core::io::{Display, Key, Keys, Outputs};
 use taut_core::machine::panel::text as panel_text;
+use taut_core::sense::calibration::CALIBRATION_POINTS;
 use taut_core::settings::{KnotBoost, PreStretch, SetPoint, Settings, Unit};
 
 use crate::params::StringParams;
@@ -349,7 +350,7 @@ impl Operator {
                 Some(value) => {
                     if self.adjust(twin, value, hundredths, 1) {
                         self.tap(twin, Key::Start);
-                        if point >= 3 {
+                        if usize::from(point) + 1 >= CALIBRATION_POINTS {
                             Step::AwaitHomeAfterCalibration { since: None }
                         } else {
                             Step::AwaitReferenceRequest { point: point + 1 }

@@ -222,7 +222,9 @@ pub fn seed_records() -> Vec<(&'static str, Record)> {
         })
     };
     let calibrated = Record {
-        calibration: Some(points(|index, target| (target.saturating_add(index).saturating_sub(2), target))),
+        calibration: Some(points(|index, target| {
+            (target.saturating_add(index).saturating_sub(2), target)
+        })),
         counters: Counters { pulls: 1_234, string_used_mm: 987_654, boots: 17 },
         ..Record::default()
     };

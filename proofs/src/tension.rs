@@ -45,13 +45,13 @@ use taut_core::tension::controller::{
     TensionController,
 };
 use taut_core::tension::estimator::{
-    CLIP_ALLOWANCE, CLIP_STIFFNESS, EstimatorConfig, EstimatorState, LEARN_TICKS, SlipDamper,
-    SlipState, TensionEstimator,
+    CLIP_ALLOWANCE, CLIP_STIFFNESS, EstimatorConfig, EstimatorState, TensionEstimator,
 };
 use taut_core::tension::law::{
     Reference, Rsmc, RsmcGains, RsmcState, Saturation, mul_wide, narrow, reciprocal_q24,
 };
 use taut_core::tension::motor::{DutyMap, ForceToDuty, MotorModel};
+use taut_core::tension::slip::{LEARN_TICKS, SlipDamper, SlipState};
 use taut_core::tension::{ControllerConfig, Measurement, PullPhase};
 use taut_core::units::{Amps, Kgf, KgfPerSecond, Q16, Seconds, Volts};
 
@@ -639,7 +639,7 @@ mod verification {
     #[kani::stub(taut_core::tension::law::Rsmc::step, any_law_output)]
     #[kani::stub(taut_core::tension::law::Pd::step, any_pd_force)]
     #[kani::stub(taut_core::tension::motor::ForceToDuty::command, any_pull_command)]
-    #[kani::stub(taut_core::tension::estimator::SlipDamper::update, any_brake)]
+    #[kani::stub(taut_core::tension::slip::SlipDamper::update, any_brake)]
     fn verify_controller_step_bounded() {
         let case: StepCase = kani::any();
         kani::assume(controller_in(&case).is_valid());

@@ -77,14 +77,13 @@
 use crate::drive::{DUTY_MAX, Direction, DriveCommand, Duty};
 use crate::io::LimitSwitches;
 use crate::settings::{MmPerSecond, PullKind, PullSettings, TENSION_MAX};
-use crate::tension::estimator::{
-    Estimate, EstimatorConfig, EstimatorError, SlipDamper, TensionEstimator,
-};
+use crate::tension::estimator::{Estimate, EstimatorConfig, EstimatorError, TensionEstimator};
 use crate::tension::law::{
     BoundedAdaptation, GainError, Improvements, NominalPlant, Pd, PdGains, Reference, Rsmc,
     RsmcGains, Saturation, mul_q16, mul_wide, narrow, reciprocal_q24, saturate_i32,
 };
 use crate::tension::motor::{DutyMap, ForceToDuty, MotorError, MotorModel, SpeedEstimator};
+use crate::tension::slip::SlipDamper;
 use crate::units::{Amps, Kgf, KgfPerSecond, Q16, Seconds, Volts};
 
 /// The most duty a release (homing) move uses: 60 %.
@@ -189,6 +188,33 @@ pub struct ProfileConfig {
 }
 
 impl ProfileConfig {
+    /// Checks every parameter's range, one [`ProfileError`] per check (the controller's
+    /// constructor runs it before deriving anything from the profile).
+    ///
+    /// # Errors
+    /// The first parameter out of range.
+    pub fn validate(&self) -> Result<(), ProfileError> {
+        let check = |ok: bool, error| if ok { Ok(()) } else { Err(error) };
+        let slip_ok =
+            self.slip_damping.is_none_or(|k| k >= Q16::ZERO && k <= Q16::const_from_int(10));
+        check(slip_ok, ProfileError::SlipDamping)?;
+        check(self.closing_time_constant.0 > Q16::ZERO, ProfileError::ClosingTimeConstant)?;
+        let decel = self.braking_deceleration;
+        let decel_ok = decel >= Q16::const_from_int(50) && decel <= Q16::const_from_int(20_000);
+        check(decel_ok, ProfileError::BrakingDeceleration)?;
+        check(self.braking_margin_percent <= 50, ProfileError::BrakingMargin)?;
+        let margin_ok =
+            self.approach_margin.0 >= Q16::ZERO && self.approach_margin <= Kgf::from_int(5);
+        check(margin_ok, ProfileError::ApproachMargin)?;
+        check(self.at_tension_band.0 > Q16::ZERO, ProfileError::AtTensionBand)?;
+        check(self.release_speed.0 > Q16::ZERO, ProfileError::ReleaseSpeed)?;
+        let lag_ok = self.sensing_lag.0 >= Q16::ZERO && self.sensing_lag.0 <= SENSING_LAG_MAX;
+        check(lag_ok, ProfileError::SensingLag)?;
+        let stiffness = self.nominal_stiffness;
+        let stiffness_ok = stiffness >= STIFFNESS_RANGE.0 && stiffness <= STIFFNESS_RANGE.1;
+        check(stiffness_ok, ProfileError::NominalStiffness)
+    }
+
     /// taut's profile.
     pub const TAUT: Self = Self {
         shaped: true,
@@ -312,10 +338,34 @@ pub enum ConfigError {
     Gain(GainError),
     /// The motor model is implausible.
     Motor(MotorError),
-    /// A profile parameter is out of range.
-    Profile,
+    /// A profile parameter is out of range: which one.
+    Profile(ProfileError),
     /// An estimator parameter is out of range.
     Estimator(EstimatorError),
+}
+
+/// Which profile parameter was refused ([`ProfileConfig::validate`]): one variant per
+/// check, so a refused configuration says what to change.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub enum ProfileError {
+    /// `slip_damping` outside 0–10 (or too large for the duty map's stall force).
+    SlipDamping,
+    /// `closing_time_constant` not positive, or too short or long for the period.
+    ClosingTimeConstant,
+    /// `braking_deceleration` outside 50–20 000 mm/s².
+    BrakingDeceleration,
+    /// `braking_margin_percent` above 50.
+    BrakingMargin,
+    /// `approach_margin` outside 0–5 kgf.
+    ApproachMargin,
+    /// `at_tension_band` not positive.
+    AtTensionBand,
+    /// `release_speed` not positive.
+    ReleaseSpeed,
+    /// `sensing_lag` negative or above [`SENSING_LAG_MAX`].
+    SensingLag,
+    /// `nominal_stiffness` outside [`STIFFNESS_RANGE`].
+    NominalStiffness,
 }
 
 /// What the controller is told each tick.
@@ -503,6 +553,8 @@ impl TensionController {
         };
         let map = ForceToDuty::new(&config.motor, config.duty_map).map_err(ConfigError::Motor)?;
         let p = config.profile;
+        p.validate().map_err(ConfigError::Profile)?;
+        const TAU_REFUSED: ConfigError = ConfigError::Profile(ProfileError::ClosingTimeConstant);
         let speed = SpeedEstimator::new(period, p.speed_filter).map_err(ConfigError::Motor)?;
         let estimator = TensionEstimator::new(
             &EstimatorConfig {
@@ -517,15 +569,13 @@ impl TensionController {
         let slip = match p.slip_damping {
             None => None,
             Some(k) => {
-                if k < Q16::ZERO || k > Q16::const_from_int(10) {
-                    return Err(ConfigError::Profile);
-                }
+                // Range checked by `validate` above.
                 // k·F_stall with F_stall = 1/c_f (kgf per unit duty); the stall relation
                 // starts from the model's R/V (duty per ampere).
                 let stall = (1_i64 << 40)
                     .checked_div(i64::from(map.duty_per_kgf_q24()))
                     .and_then(|v| i32::try_from(v).ok())
-                    .ok_or(ConfigError::Profile)?;
+                    .ok_or(ConfigError::Profile(ProfileError::SlipDamping))?;
                 let gain = Q16::from_bits(stall).saturating_mul(k);
                 // R / V as Q15.16, in 64 bits: mΩ and mV are each validated up to 60 000, beyond
                 // Q15.16's integer range, so they must not be converted on their own.
@@ -533,39 +583,23 @@ impl TensionController {
                     .checked_div(i64::from(config.motor.bus_mv))
                     .and_then(|bits| i32::try_from(bits).ok())
                     .map(Q16::from_bits)
-                    .ok_or(ConfigError::Profile)?;
+                    .ok_or(ConfigError::Motor(MotorError::Parameter))?;
                 Some(SlipDamper::new(gain, SLIP_DEAD_ZONE, SLIP_LEARNING_RATE, per_amp))
             }
         };
         let tau = p.closing_time_constant.0;
         let decel = p.braking_deceleration;
-        if tau <= Q16::ZERO
-            || decel < Q16::const_from_int(50)
-            || decel > Q16::const_from_int(20_000)
-            || p.braking_margin_percent > 50
-            || p.approach_margin.0 < Q16::ZERO
-            || p.approach_margin > Kgf::from_int(5)
-            || p.at_tension_band.0 <= Q16::ZERO
-            || p.release_speed.0 <= Q16::ZERO
-            || p.sensing_lag.0 < Q16::ZERO
-            || p.sensing_lag.0 > SENSING_LAG_MAX
-            || p.nominal_stiffness < STIFFNESS_RANGE.0
-            || p.nominal_stiffness > STIFFNESS_RANGE.1
-        {
-            return Err(ConfigError::Profile);
-        }
         // Construction-time constants (divisions allowed here, never in the step).
         let dt_q32 = (i64::from(period) << 32).checked_div(1_000_000).ok_or(ConfigError::Period)?;
         let tau_us = i64::from(tau.to_bits()).saturating_mul(1_000_000) >> 16;
-        let closing_step =
-            (i64::from(period) << 32).checked_div(tau_us).ok_or(ConfigError::Profile)?;
+        let closing_step = (i64::from(period) << 32).checked_div(tau_us).ok_or(TAU_REFUSED)?;
         if closing_step <= 0 || closing_step >= (1_i64 << 32) {
-            return Err(ConfigError::Profile);
+            return Err(TAU_REFUSED);
         }
-        let inv_tau = Q16::ONE.checked_div(tau).ok_or(ConfigError::Profile)?.to_bits();
+        let inv_tau = Q16::ONE.checked_div(tau).ok_or(TAU_REFUSED)?.to_bits();
         let two_decel = i64::from(decel.to_bits()).saturating_mul(2);
         let inv_two_decel = i32::try_from((1_i64 << 40).checked_div(two_decel).unwrap_or(0))
-            .map_err(|_| ConfigError::Profile)?;
+            .map_err(|_| ConfigError::Profile(ProfileError::BrakingDeceleration))?;
         let margin_fraction =
             Q16::const_from_int(i32::from(p.braking_margin_percent)).saturating_div_int(100);
         Ok(Self {
@@ -1095,7 +1129,73 @@ mod tests {
         assert_eq!(TensionController::new(&config), Err(ConfigError::Period));
         let bad = ProfileConfig { braking_deceleration: Q16::ZERO, ..ProfileConfig::TAUT };
         let config = ControllerConfig { profile: bad, ..ControllerConfig::TAUT };
-        assert_eq!(TensionController::new(&config), Err(ConfigError::Profile));
+        assert_eq!(
+            TensionController::new(&config),
+            Err(ConfigError::Profile(ProfileError::BrakingDeceleration))
+        );
+    }
+
+    /// Each profile check names its own parameter, at both ends of its range.
+    #[test]
+    fn each_profile_check_names_its_parameter() {
+        let t = ProfileConfig::TAUT;
+        assert_eq!(t.validate(), Ok(()));
+        let cases = [
+            (
+                ProfileConfig { slip_damping: Some(Q16::const_from_int(11)), ..t },
+                ProfileError::SlipDamping,
+            ),
+            (
+                ProfileConfig { slip_damping: Some(Q16::from_bits(-1)), ..t },
+                ProfileError::SlipDamping,
+            ),
+            (
+                ProfileConfig { closing_time_constant: Seconds(Q16::ZERO), ..t },
+                ProfileError::ClosingTimeConstant,
+            ),
+            (
+                ProfileConfig { braking_deceleration: Q16::const_from_int(49), ..t },
+                ProfileError::BrakingDeceleration,
+            ),
+            (
+                ProfileConfig { braking_deceleration: Q16::const_from_int(20_001), ..t },
+                ProfileError::BrakingDeceleration,
+            ),
+            (ProfileConfig { braking_margin_percent: 51, ..t }, ProfileError::BrakingMargin),
+            (
+                ProfileConfig { approach_margin: Kgf::from_bits(-1), ..t },
+                ProfileError::ApproachMargin,
+            ),
+            (
+                ProfileConfig { approach_margin: Kgf::from_bits((5 << 16) + 1), ..t },
+                ProfileError::ApproachMargin,
+            ),
+            (ProfileConfig { at_tension_band: Kgf::ZERO, ..t }, ProfileError::AtTensionBand),
+            (
+                ProfileConfig { release_speed: MmPerSecond(Q16::ZERO), ..t },
+                ProfileError::ReleaseSpeed,
+            ),
+            (
+                ProfileConfig { sensing_lag: Seconds(Q16::from_bits(-1)), ..t },
+                ProfileError::SensingLag,
+            ),
+            (ProfileConfig { nominal_stiffness: Q16::ZERO, ..t }, ProfileError::NominalStiffness),
+        ];
+        for (profile, error) in cases {
+            assert_eq!(profile.validate(), Err(error), "{profile:?}");
+            let config = ControllerConfig { profile, ..ControllerConfig::TAUT };
+            assert_eq!(TensionController::new(&config), Err(ConfigError::Profile(error)));
+        }
+        // The ends of each range pass.
+        let edges = ProfileConfig {
+            slip_damping: Some(Q16::const_from_int(10)),
+            braking_deceleration: Q16::const_from_int(20_000),
+            braking_margin_percent: 50,
+            approach_margin: Kgf::from_int(5),
+            sensing_lag: Seconds(SENSING_LAG_MAX),
+            ..t
+        };
+        assert_eq!(edges.validate(), Ok(()));
     }
 
     #[test]

@@ -20,8 +20,9 @@
 //!   the pull profile (take-up at the set speed, braking approach timed and shaped from the
 //!   identified string stiffness, pre-stretch, hold) around a control law.
 //! - [`estimator`]: [`TensionEstimator`] — median of five, spike clip, Hall-fused tension
-//!   observer, tension rate and carriage speed — and the hold's slip damper, which sees the
-//!   carriage's stick-slip in the motor current.
+//!   observer, tension rate and carriage speed.
+//! - [`slip`]: the hold's slip damper, which sees the carriage's stick-slip in the motor
+//!   current.
 //! - [`law`]: the paper's RSMC (eqs. 9–17, "as published"), taut's RSMC with each
 //!   improvement switchable, and the PD baseline; each maps a tension error to a force.
 //! - [`motor`]: force → duty (a voltage command, or a current command with back-EMF
@@ -36,10 +37,11 @@ pub mod controller;
 pub mod estimator;
 pub mod law;
 pub mod motor;
+pub mod slip;
 
 pub use controller::{
-    ConfigError, ControlOutput, ControllerConfig, LawConfig, Measurement, ProfileConfig, PullPhase,
-    TensionController,
+    ConfigError, ControlOutput, ControllerConfig, LawConfig, Measurement, ProfileConfig,
+    ProfileError, PullPhase, TensionController,
 };
 pub use estimator::{Estimate, EstimatorConfig, TensionEstimator};
 pub use law::{Improvements, NominalPlant, PdGains, Reference, RsmcGains};

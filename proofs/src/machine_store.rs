@@ -29,9 +29,10 @@ pub fn decode_is_total(bytes: &[u8; RECORD_LEN]) {
 
 /// REQ-STORE-01 and REQ-STORE-05, the canonical-form half of decoding: a record decoded from
 /// today's format re-encodes to exactly its bytes; one migrated from version 1 re-encodes in
-/// today's format, decodes back to itself, and differs from the version-1 bytes only where
-/// the formats differ ([`as_version_1`] undoes the migration exactly) — so the migration
-/// loses and changes no setting, calibration point or counter.
+/// today's format and differs from the version-1 bytes only where the formats differ
+/// ([`as_version_1`] undoes the migration exactly) — so the migration loses and changes no
+/// setting, calibration point or counter. (That today's encoding decodes back to the same
+/// record is [`round_trips`], for every record.)
 pub fn decoded_is_canonical(stored: &[u8], record: &Record, version: u8) {
     let encoded = record.encode();
     if version == FORMAT_VERSION {
@@ -39,7 +40,6 @@ pub fn decoded_is_canonical(stored: &[u8], record: &Record, version: u8) {
     } else {
         assert_eq!(version, FORMAT_V1, "REQ-STORE-05: decoded a version it does not know");
         assert_eq!(record.counters.boots, 0, "REQ-STORE-05: version 1 has no boot counter");
-        assert_eq!(Record::decode(&encoded), Ok(*record), "REQ-STORE-05: migrated record");
         assert_eq!(&as_version_1(encoded)[..], stored, "REQ-STORE-05: migration changed a field");
     }
 }

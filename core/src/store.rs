@@ -556,6 +556,22 @@ mod tests {
         }
     }
 
+    /// Points stored under "no calibration" are a malformed block in either format, whichever
+    /// byte of a point (raw or reference) is set.
+    #[test]
+    fn stray_calibration_bytes_are_refused_in_both_formats() {
+        let empty = Record::default();
+        let points = OFFSET_CALIBRATION + 1..Layout::CURRENT.counters();
+        for index in points {
+            let mut today = empty.encode();
+            today[index] = 1;
+            assert_eq!(Record::decode(&resealed(today)), Err(StoreError::InvalidCalibration));
+            let mut old = version_1(&empty);
+            old[index] = 1;
+            assert_eq!(Record::decode(&resealed(old)), Err(StoreError::InvalidCalibration));
+        }
+    }
+
     #[test]
     fn five_calibration_points_fit_the_record() {
         assert!(layout_fits(CALIBRATION_POINTS));

@@ -13,6 +13,7 @@
 //!
 //! Map:
 //! - [`units`]: kgf, volts, amps, … as Q15.16 fixed-point newtypes; ADC codes.
+//! - [`fixed`]: exact wide products, rounding, saturation, the division-free reciprocal.
 //! - [`io`]: the per-tick [`io::Inputs`] / [`io::Outputs`] boundary to hardware.
 //! - [`drive`]: Hall decoding, six-step table, dead time, duty bound, reversal, overcurrent.
 //! - [`sense`]: ADC codes → amperes and kilograms-force; the 4-point calibration.
@@ -36,6 +37,7 @@
 )]
 
 pub mod drive;
+pub mod fixed;
 pub mod io;
 pub mod machine;
 pub mod mechanism;

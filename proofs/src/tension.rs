@@ -37,21 +37,22 @@
 //! valid domain, printing the cases checked) and under the `rsmc_step` fuzz target.
 
 use taut_core::drive::{DUTY_MAX, Direction, DriveStatus};
+use taut_core::fixed::{Q32, mul_wide, narrow, reciprocal_q24};
 use taut_core::io::LimitSwitches;
 use taut_core::mechanism::STEP_MM_BITS;
 use taut_core::settings::MmPerSecond;
 use taut_core::tension::controller::{
-    BACK_OUT_DUTY_MAX, ProfileState, SLIP_DEAD_ZONE, SLIP_LEARNING_RATE, TAUT_GAINS, TAUT_PLANT,
-    TensionController,
+    BACK_OUT_DUTY_MAX, TAUT_GAINS, TAUT_PLANT, TensionController,
 };
 use taut_core::tension::estimator::{
     CLIP_ALLOWANCE, CLIP_STIFFNESS, EstimatorConfig, EstimatorState, TensionEstimator,
 };
-use taut_core::tension::law::{
-    Reference, Rsmc, RsmcGains, RsmcState, Saturation, mul_wide, narrow, reciprocal_q24,
-};
+use taut_core::tension::law::{Reference, Rsmc, RsmcGains, RsmcState, Saturation};
 use taut_core::tension::motor::{DutyMap, ForceToDuty, MotorModel};
-use taut_core::tension::slip::{LEARN_TICKS, SlipDamper, SlipState};
+use taut_core::tension::profile::ProfileState;
+use taut_core::tension::slip::{
+    LEARN_TICKS, SLIP_DEAD_ZONE, SLIP_LEARNING_RATE, SlipDamper, SlipState,
+};
 use taut_core::tension::{ControllerConfig, Measurement, PullPhase};
 use taut_core::units::{Amps, Kgf, KgfPerSecond, Q16, Seconds, Volts};
 
@@ -458,9 +459,9 @@ pub fn controller_in(case: &StepCase) -> TensionController {
         peak: Kgf::from_bits(case.peak),
         final_target: Kgf::from_bits(case.final_target),
         speed_limit: MmPerSecond(Q16::from_bits(case.speed_limit)),
-        reference: case.reference,
-        reference_rate: case.reference_rate,
-        reference_accel: case.reference_accel,
+        reference: Q32(case.reference),
+        reference_rate: KgfPerSecond::from_bits(case.reference_rate),
+        reference_accel: Q16::from_bits(case.reference_accel),
         goal: Kgf::from_bits(case.goal),
         ticks: case.ticks,
         at_tension: case.at_tension,

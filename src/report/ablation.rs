@@ -15,8 +15,9 @@ use crate::output::{Status, check_writable, threads, write_json};
 /// machine's 4-point calibration.
 #[must_use]
 pub fn lineup() -> Vec<Entry> {
-    use taut_core::tension::controller::{LawConfig, ProfileConfig, TAUT_GAINS};
+    use taut_core::tension::controller::{LawConfig, TAUT_GAINS};
     use taut_core::tension::law::{NominalPlant, RsmcGains};
+    use taut_core::tension::profile::ProfileConfig;
     use taut_core::units::Q16;
     let taut = ControllerConfig::TAUT;
     let law = |f: &dyn Fn(&mut RsmcGains)| {

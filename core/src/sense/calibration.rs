@@ -54,6 +54,7 @@
 //! (at construction) is exact integer arithmetic on the raw bits up to the final rounding of
 //! the gain and offset.
 
+use crate::fixed::saturate_i32;
 use crate::units::Kgf;
 
 /// The number of loaded calibration points: 10, 20, 30 and 40 kgf (the paper's four).
@@ -366,11 +367,6 @@ fn fit_line<const N: usize>(points: &[CalibrationPoint; N]) -> Result<Line, Cali
         }
     }
     Ok(line)
-}
-
-/// An `i64` clamped into `i32`.
-fn saturate_i32(value: i64) -> i32 {
-    i32::try_from(value).unwrap_or(if value < 0 { i32::MIN } else { i32::MAX })
 }
 
 #[cfg(test)]

@@ -39,9 +39,10 @@
 //! The hold's other estimate, the carriage's motion seen in the motor current, is
 //! [`crate::tension::slip`]'s.
 
+use crate::fixed::{filter_gain, mul_wide, narrow, saturate_i32};
 use crate::mechanism::{MAX_STEPS_PER_TICK, STEP_MM_BITS};
 use crate::settings::MmPerSecond;
-use crate::tension::law::{Coef, filter_gain, mul_wide, narrow, saturate_i32};
+use crate::tension::law::Coef;
 use crate::units::{Kgf, KgfPerSecond, Q16, Seconds};
 
 /// The stiffest string the spike clip allows for, 2 kgf/mm (the twin's stiffest is

@@ -17,8 +17,10 @@
 //! - [`crate::settings`] (not here: the panel and the record share it): the validated
 //!   [`crate::settings::PullSettings`] each pull starts from.
 //! - [`controller`]: [`TensionController`] — `start`, `step` at 1 kHz, `release`, `stop` —
-//!   the pull profile (take-up at the set speed, braking approach timed and shaped from the
-//!   identified string stiffness, pre-stretch, hold) around a control law.
+//!   the profile, the law, the estimator, the slip damper and the duty map put together.
+//! - [`profile`]: the pull's phases and the reference they generate (take-up at the set
+//!   speed, braking approach timed and shaped from the identified string stiffness,
+//!   pre-stretch, settle, hold), from coefficients derived once.
 //! - [`estimator`]: [`TensionEstimator`] — median of five, spike clip, Hall-fused tension
 //!   observer, tension rate and carriage speed.
 //! - [`slip`]: the hold's slip damper, which sees the carriage's stick-slip in the motor
@@ -29,20 +31,21 @@
 //!   compensation; both always pulling — a negative force brakes — within a current limit)
 //!   and the carriage speed from Hall steps.
 //!
-//! Everything is fixed point (Q15.16 signals, 64-bit products and sums, no division in the
-//! step), allocation-free and panic-free; gains are validated once at construction. The
+//! Everything is fixed point ([`crate::fixed`]: Q15.16 signals, 64-bit products and sums, no
+//! division in the step), allocation-free and panic-free; gains are validated once at construction. The
 //! requirements are `REQ-TEN-*` in `docs/SPEC.md`.
 
 pub mod controller;
 pub mod estimator;
 pub mod law;
 pub mod motor;
+pub mod profile;
 pub mod slip;
 
 pub use controller::{
-    ConfigError, ControlOutput, ControllerConfig, LawConfig, Measurement, ProfileConfig,
-    ProfileError, PullPhase, TensionController,
+    ConfigError, ControlOutput, ControllerConfig, LawConfig, Measurement, TensionController,
 };
 pub use estimator::{Estimate, EstimatorConfig, TensionEstimator};
 pub use law::{Improvements, NominalPlant, PdGains, Reference, RsmcGains};
 pub use motor::{DutyMap, MotorModel};
+pub use profile::{ProfileConfig, ProfileError, PullPhase};

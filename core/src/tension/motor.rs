@@ -56,11 +56,10 @@
 //! (construction only; the per-tick path uses 32 × 32 → 64-bit products).
 
 use crate::drive::{DUTY_MAX, Direction, DriveCommand, Duty};
+use crate::fixed::{filter_gain, mul_wide, narrow, reciprocal_q24, saturate_i32};
 use crate::mechanism::{GEAR_RATIO, LEAD_NM, MAX_STEPS_PER_TICK, NM_PER_STEP};
 use crate::settings::MmPerSecond;
-use crate::tension::law::{
-    Coef, Saturation, filter_gain, mul_wide, narrow, reciprocal_q24, saturate_i32,
-};
+use crate::tension::law::{Coef, Saturation};
 use crate::units::{Amps, Kgf, Q16, Seconds, Volts};
 
 /// Fraction bits of the duty coefficients.

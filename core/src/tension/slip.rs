@@ -25,8 +25,15 @@
 //! asks it for a braking force every hold tick; `REQ-TEN-15` in `docs/SPEC.md` bounds it.
 
 use crate::drive::{DEAD_TIME, PWM_PERIOD_TICKS};
-use crate::tension::law::{mul_wide, saturate_i32};
+use crate::fixed::{mul_wide, saturate_i32};
 use crate::units::{Amps, Kgf, Q16};
+
+/// The slip damper's dead zone: residuals below 0.002 duty (≈ 0.16 mm/s of carriage) are
+/// not braked.
+pub const SLIP_DEAD_ZONE: Q16 = Q16::lit("0.002");
+
+/// The slip damper's learning rate `μ` per tick, 0.005 (per ampere of winding current).
+pub const SLIP_LEARNING_RATE: Q16 = Q16::lit("0.005");
 
 /// Ticks without a Hall step after which the carriage counts as stuck and the current model
 /// learns.

@@ -1,0 +1,803 @@
+//! The pull profile: the phases of a pull and the reference tension the law follows in each.
+//!
+//! # Theory of operation
+//!
+//! A [`Profile`] is the pull's own state machine, inside the controller: [`PullPhase`] says
+//! where the pull is (take-up, braking approach, pre-stretch, settle, hold, release), and the
+//! reference generator says where the tension should be this tick, `y_d`, with its rate
+//! `ẏ_d` and acceleration `ÿ_d` ([`Reference`]), for the law's equivalent control. The
+//! controller ([`crate::tension::controller`]) owns the profile, asks it each tick, and
+//! applies what the profile identifies (the string's stiffness at the braking onset, the
+//! end of the braking) to the estimator and the law; the profile itself touches neither.
+//!
+//! - **Braking onset** ([`Profile::braking_due`]): a carriage at speed `v` into a string of
+//!   stiffness `K = ẏ/v`, braked at a constant deceleration `a`, adds `ẏ·v/(2a)` of tension
+//!   before it stops; the braking starts in the tick where that rise reaches the gap to the
+//!   goal (the peak less [`ProfileConfig::approach_margin`] and
+//!   [`ProfileConfig::braking_margin_percent`] of the rise; the tension lag-compensated by
+//!   [`ProfileConfig::sensing_lag`]) — two products compared, no division.
+//! - **Braking parabola** ([`Profile::begin_braking`], then each tick): `ÿ_d = −K̂·a` from the
+//!   present tension and rate to the goal with zero rate, `K̂ = ẏ/v` identified at the onset
+//!   with the one division-free reciprocal.
+//! - **Exponential closure** on the pre-stretch peak and then the final target, time constant
+//!   [`ProfileConfig::closing_time_constant`]: `y_d += (goal − y_d)·dt/τ_c`, with
+//!   `ẏ_d = (goal − y_d)/τ_c` and `ÿ_d = −ẏ_d/τ_c`.
+//! - **Step** (the paper's simulation, the baselines): `y_d` is the target from the first tick.
+//! - **Transitions** that depend on the tension ([`Profile::transitions`]): the pre-stretch
+//!   dwell, the settle's arrival, "at tension" in the hold.
+//!
+//! # Coefficients
+//!
+//! Everything the step needs from the configuration is derived once, with its divisions, by
+//! [`ProfileCoefficients::new`] (as the law's `RsmcCoefficients` are): the step itself has
+//! no division. Each coefficient carries its fixed-point format in its type ([`Q16`] units,
+//! [`Q24`], [`Q32`]).
+//!
+//! # Fixed point
+//!
+//! The reference `y_d` is kept in Q31.32 ([`Q32`]) so the exponential closure keeps moving
+//! when its per-tick increment is below Q15.16's 15 µkgf; the rest is Q15.16 with exact
+//! 64-bit products ([`crate::fixed`]).
+
+use crate::fixed::{
+    Frac32, Q24, Q32, mul_q16, mul_q24, mul_wide, narrow, reciprocal_q24, saturate_i32,
+};
+use crate::settings::{MmPerSecond, PullKind, PullSettings, TENSION_MAX};
+use crate::tension::estimator::Estimate;
+use crate::tension::law::{Reference, Saturation};
+use crate::units::{Kgf, KgfPerSecond, Q16, Seconds};
+
+/// Below this tension the string is still slack (or in its toe) and the braking is not
+/// timed: 2 kgf.
+pub const TAUT_TENSION: Kgf = Kgf::from_int(2);
+
+/// The softest and stiffest string the identification accepts, kgf/mm: 0.05 and 4.
+pub const STIFFNESS_RANGE: (Q16, Q16) = (Q16::lit("0.05"), Q16::const_from_int(4));
+
+/// The longest sensing lag a profile may declare, 0.1 s.
+pub const SENSING_LAG_MAX: Q16 = Q16::lit("0.1");
+
+/// The fastest reference rate, kgf/s (a 4 kgf/mm string at 250 mm/s).
+pub const REFERENCE_RATE_MAX: KgfPerSecond = KgfPerSecond::from_int(1_000);
+
+/// The pull profile's and the estimator's parameters; the switches are taut's improvements
+/// outside the law, each measurable on its own (`taut report ablation`).
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct ProfileConfig {
+    /// Shaped profile (take-up, braking approach, …) or a step set point (the paper's
+    /// simulation).
+    pub shaped: bool,
+    /// The carriage deceleration the braking is planned with, mm/s² (Q15.16).
+    pub braking_deceleration: Q16,
+    /// The goal of the braking sits this many per cent of the braking rise below the
+    /// target, for the stiffness estimate's error.
+    pub braking_margin_percent: u8,
+    /// … and this much more, kgf.
+    pub approach_margin: Kgf,
+    /// The time constant `τ_c` of the reference's exponential closure on a target.
+    pub closing_time_constant: Seconds,
+    /// How long the pre-stretch peak is held, ms.
+    pub pre_stretch_dwell_ms: u16,
+    /// The band around the final target that counts as "at tension".
+    pub at_tension_band: Kgf,
+    /// The carriage speed of a release move.
+    pub release_speed: MmPerSecond,
+    /// Low-pass time constant of the Hall speed the current limit is computed from.
+    pub speed_filter: Seconds,
+    /// Low-pass time constant of the tension rate and carriage speed that time the braking.
+    pub rate_filter: Seconds,
+    /// The delay of the tension measurement (conversion, one tick, the median), which the
+    /// braking onset compensates.
+    pub sensing_lag: Seconds,
+    /// Limit the filtered tension's change per tick by the carriage travel.
+    pub spike_clip: bool,
+    /// The Hall-fused observer's gain per tick (`None`: the law sees the filtered sample).
+    pub observer_gain: Option<Q16>,
+    /// Scale the law's nominal plant to the identified string stiffness.
+    pub adapt_plant: bool,
+    /// The observer's gain in the braking (`None`: keep `observer_gain`).
+    pub observer_gain_braking: Option<Q16>,
+    /// The observer's gain once the braking is over (`None`: keep the gain it had).
+    pub observer_gain_hold: Option<Q16>,
+    /// Friction-aware hold: damp the carriage's slips, seen in the motor current, with
+    /// this many times the stall pull per unit of back-EMF duty (`None`: off).
+    pub slip_damping: Option<Q16>,
+    /// The stiffness the law's nominal plant was written for, kgf/mm (`K̄ = D̄·M̄`).
+    pub nominal_stiffness: Q16,
+}
+
+impl ProfileConfig {
+    /// Checks every parameter's range, one [`ProfileError`] per check (the controller's
+    /// constructor runs it before deriving anything from the profile).
+    ///
+    /// # Errors
+    /// The first parameter out of range.
+    pub fn validate(&self) -> Result<(), ProfileError> {
+        let check = |ok: bool, error| if ok { Ok(()) } else { Err(error) };
+        let slip_ok =
+            self.slip_damping.is_none_or(|k| k >= Q16::ZERO && k <= Q16::const_from_int(10));
+        check(slip_ok, ProfileError::SlipDamping)?;
+        check(self.closing_time_constant.0 > Q16::ZERO, ProfileError::ClosingTimeConstant)?;
+        let decel = self.braking_deceleration;
+        let decel_ok = decel >= Q16::const_from_int(50) && decel <= Q16::const_from_int(20_000);
+        check(decel_ok, ProfileError::BrakingDeceleration)?;
+        check(self.braking_margin_percent <= 50, ProfileError::BrakingMargin)?;
+        let margin_ok =
+            self.approach_margin.0 >= Q16::ZERO && self.approach_margin <= Kgf::from_int(5);
+        check(margin_ok, ProfileError::ApproachMargin)?;
+        check(self.at_tension_band.0 > Q16::ZERO, ProfileError::AtTensionBand)?;
+        check(self.release_speed.0 > Q16::ZERO, ProfileError::ReleaseSpeed)?;
+        let lag_ok = self.sensing_lag.0 >= Q16::ZERO && self.sensing_lag.0 <= SENSING_LAG_MAX;
+        check(lag_ok, ProfileError::SensingLag)?;
+        let stiffness = self.nominal_stiffness;
+        let stiffness_ok = stiffness >= STIFFNESS_RANGE.0 && stiffness <= STIFFNESS_RANGE.1;
+        check(stiffness_ok, ProfileError::NominalStiffness)
+    }
+
+    /// taut's profile.
+    pub const TAUT: Self = Self {
+        shaped: true,
+        braking_deceleration: Q16::const_from_int(1_200),
+        braking_margin_percent: 20,
+        approach_margin: Kgf(Q16::lit("0.02")),
+        closing_time_constant: Seconds(Q16::lit("0.03")),
+        pre_stretch_dwell_ms: 300,
+        at_tension_band: Kgf(Q16::lit("0.1")),
+        release_speed: MmPerSecond::from_int(40),
+        speed_filter: Seconds(Q16::lit("0.004")),
+        rate_filter: Seconds(Q16::lit("0.016")),
+        sensing_lag: Seconds(Q16::lit("0.003")),
+        spike_clip: true,
+        observer_gain: Some(Q16::lit("0.05")),
+        adapt_plant: true,
+        observer_gain_braking: Some(Q16::lit("0.02")),
+        observer_gain_hold: Some(Q16::lit("0.05")),
+        slip_damping: Some(Q16::ONE),
+        nominal_stiffness: Q16::lit("0.5"),
+    };
+
+    /// A step set point, as in the paper's simulation: no shaping, no observer, no spike
+    /// clip, no plant adaptation (the machine's median of five stays).
+    pub const STEP: Self = Self {
+        shaped: false,
+        spike_clip: false,
+        observer_gain: None,
+        adapt_plant: false,
+        slip_damping: None,
+        ..Self::TAUT
+    };
+}
+
+/// Which profile parameter was refused ([`ProfileConfig::validate`]): one variant per
+/// check, so a refused configuration says what to change.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub enum ProfileError {
+    /// `slip_damping` outside 0–10 (or too large for the duty map's stall force).
+    SlipDamping,
+    /// `closing_time_constant` not positive, or too short or long for the period.
+    ClosingTimeConstant,
+    /// `braking_deceleration` outside 50–20 000 mm/s².
+    BrakingDeceleration,
+    /// `braking_margin_percent` above 50.
+    BrakingMargin,
+    /// `approach_margin` outside 0–5 kgf.
+    ApproachMargin,
+    /// `at_tension_band` not positive.
+    AtTensionBand,
+    /// `release_speed` not positive.
+    ReleaseSpeed,
+    /// `sensing_lag` negative or above [`SENSING_LAG_MAX`].
+    SensingLag,
+    /// `nominal_stiffness` outside [`STIFFNESS_RANGE`].
+    NominalStiffness,
+}
+
+/// Where in a pull the controller is.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
+pub enum PullPhase {
+    /// Not driving; the output is coast.
+    #[default]
+    Idle,
+    /// Taking up slack at the speed setting's carriage speed.
+    TakeUp,
+    /// Braking into the (peak) target.
+    Approach,
+    /// Holding the pre-stretch peak.
+    PreStretch,
+    /// Coming down from the peak to the final target.
+    Settle,
+    /// Constant pull at the final target.
+    Hold,
+    /// Moving home to loosen the string.
+    Release,
+}
+
+impl PullPhase {
+    /// Every phase, for exhaustive checks.
+    pub const ALL: [Self; 7] = [
+        Self::Idle,
+        Self::TakeUp,
+        Self::Approach,
+        Self::PreStretch,
+        Self::Settle,
+        Self::Hold,
+        Self::Release,
+    ];
+}
+
+/// The profile's state: where the pull is and where the reference stands (exposed for logs,
+/// proofs and fuzzing; [`Profile::is_valid`] states which values are reachable).
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
+pub struct ProfileState {
+    /// The phase.
+    pub phase: PullPhase,
+    /// The tension of the pre-stretch peak (= final target without pre-stretch).
+    pub peak: Kgf,
+    /// The tension held in `Hold`.
+    pub final_target: Kgf,
+    /// The carriage speed limit of the speed setting.
+    pub speed_limit: MmPerSecond,
+    /// The reference tension `y_d`, kgf in Q31.32 (see the module's fixed point).
+    pub reference: Q32,
+    /// The reference rate `ẏ_d`.
+    pub reference_rate: KgfPerSecond,
+    /// The reference's second derivative `ÿ_d`, kgf/s².
+    pub reference_accel: Q16,
+    /// Where the braking parabola ends (shaped) or the set point (step).
+    pub goal: Kgf,
+    /// Ticks spent in the present phase (saturating).
+    pub ticks: u32,
+    /// "At tension" latched.
+    pub at_tension: bool,
+    /// Which way the previous output saturated.
+    pub saturated: Saturation,
+    /// The law has not run since Start (its memory is reset on the first closed-loop tick).
+    pub fresh: bool,
+}
+
+impl ProfileState {
+    /// Idle, no pull armed.
+    pub const DEFAULT: Self = Self {
+        phase: PullPhase::Idle,
+        peak: Kgf::ZERO,
+        final_target: Kgf::ZERO,
+        speed_limit: MmPerSecond(Q16::ZERO),
+        reference: Q32(0),
+        reference_rate: KgfPerSecond::ZERO,
+        reference_accel: Q16::ZERO,
+        goal: Kgf::ZERO,
+        ticks: 0,
+        at_tension: false,
+        saturated: Saturation::None,
+        fresh: false,
+    };
+}
+
+/// The profile's coefficients, derived and validated once from a [`ProfileConfig`] and the
+/// control period (the step only multiplies and adds).
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct ProfileCoefficients {
+    /// Shaped profile, or a step set point.
+    pub shaped: bool,
+    /// `dt`, seconds (at most 10 ms).
+    pub dt: Frac32,
+    /// `dt/τ_c` (strictly between 0 and 1).
+    pub closing_step: Frac32,
+    /// `1/τ_c`, 1/s.
+    pub inv_tau: Q16,
+    /// The braking deceleration `a`, mm/s².
+    pub decel: Q16,
+    /// `1/(2a)`, s²/mm.
+    pub inv_two_decel: Q24,
+    /// The braking margin, a fraction of the braking rise.
+    pub margin_fraction: Q16,
+    /// The approach margin.
+    pub margin: Kgf,
+    /// The sensing lag, seconds.
+    pub lag: Q24,
+    /// `K̄`, the stiffness the law's nominal plant was written for, kgf/mm.
+    pub nominal_stiffness: Q16,
+    /// The pre-stretch dwell in ticks.
+    pub dwell_ticks: u32,
+    /// The "at tension" band.
+    pub band: Kgf,
+    /// The carriage speed of a release move.
+    pub release_speed: MmPerSecond,
+}
+
+impl ProfileCoefficients {
+    /// The coefficients of `config` at a control period of `period_us` µs (the controller
+    /// validates the period first; a period the closing time constant cannot be sampled at
+    /// is refused here).
+    ///
+    /// # Errors
+    /// The [`ProfileError`] of the first parameter out of range.
+    pub fn new(config: &ProfileConfig, period_us: u32) -> Result<Self, ProfileError> {
+        config.validate()?;
+        const TAU_REFUSED: ProfileError = ProfileError::ClosingTimeConstant;
+        let tau = config.closing_time_constant.0;
+        let decel = config.braking_deceleration;
+        let period = i64::from(period_us);
+        // dt < 1 s for every period the controller accepts; a longer one has no dt/τ_c.
+        let dt = (period << 32).checked_div(1_000_000).and_then(|dt| u32::try_from(dt).ok());
+        let dt = dt.ok_or(TAU_REFUSED)?;
+        let tau_us = i64::from(tau.to_bits()).saturating_mul(1_000_000) >> 16;
+        let closing_step = (period << 32).checked_div(tau_us).ok_or(TAU_REFUSED)?;
+        let closing_step =
+            u32::try_from(closing_step).ok().filter(|&step| step > 0).ok_or(TAU_REFUSED)?;
+        let inv_tau = Q16::ONE.checked_div(tau).ok_or(TAU_REFUSED)?;
+        let two_decel = i64::from(decel.to_bits()).saturating_mul(2);
+        let inv_two_decel = i32::try_from((1_i64 << 40).checked_div(two_decel).unwrap_or(0))
+            .map_err(|_| ProfileError::BrakingDeceleration)?;
+        Ok(Self {
+            shaped: config.shaped,
+            dt: Frac32(dt),
+            closing_step: Frac32(closing_step),
+            inv_tau,
+            decel,
+            inv_two_decel: Q24(inv_two_decel),
+            margin_fraction: Q16::const_from_int(i32::from(config.braking_margin_percent))
+                .saturating_div_int(100),
+            margin: config.approach_margin,
+            lag: Q24::from_q16(config.sensing_lag.0),
+            nominal_stiffness: config.nominal_stiffness,
+            dwell_ticks: u32::from(config.pre_stretch_dwell_ms)
+                .saturating_mul(1_000)
+                .checked_div(period_us)
+                .unwrap_or(0),
+            band: config.at_tension_band,
+            release_speed: config.release_speed,
+        })
+    }
+
+    /// Coefficients that are valid at 1 kHz whatever the configuration (the controller's
+    /// fallback, reachable only if the built-in configurations were broken).
+    pub const FALLBACK: Self = Self {
+        shaped: false,
+        dt: Frac32(4_294_967),
+        closing_step: Frac32(1 << 27),
+        inv_tau: Q16::const_from_int(32),
+        decel: Q16::const_from_int(1_000),
+        inv_two_decel: Q24(1 << 12),
+        margin_fraction: Q16::ZERO,
+        margin: Kgf::ZERO,
+        lag: Q24(0),
+        nominal_stiffness: Q16::lit("0.5"),
+        dwell_ticks: 0,
+        band: Kgf(Q16::lit("0.1")),
+        release_speed: MmPerSecond::from_int(20),
+    };
+}
+
+/// What the braking onset identified, for the controller to apply to the law and the
+/// estimator.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct BrakingOnset {
+    /// The string's stiffness `K̂ = ẏ/v`, kgf/mm, within [`STIFFNESS_RANGE`].
+    pub stiffness: Q16,
+    /// The tension the parabola starts from (the lag-compensated tension, within the peak).
+    pub start: Kgf,
+}
+
+/// One tick of the reference.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct Advance {
+    /// `y_d`, `ẏ_d`, `ÿ_d` for the law.
+    pub reference: Reference,
+    /// The braking parabola ended in this tick (the observer takes its hold gain).
+    pub braking_ended: bool,
+}
+
+/// The pull profile: its coefficients and its state. See the module docs.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct Profile {
+    coefficients: ProfileCoefficients,
+    state: ProfileState,
+}
+
+impl Profile {
+    /// An idle profile built from `config` at `period_us`.
+    ///
+    /// # Errors
+    /// As [`ProfileCoefficients::new`].
+    pub fn new(config: &ProfileConfig, period_us: u32) -> Result<Self, ProfileError> {
+        let coefficients = ProfileCoefficients::new(config, period_us)?;
+        Ok(Self { coefficients, state: ProfileState::default() })
+    }
+
+    /// An idle profile with [`ProfileCoefficients::FALLBACK`].
+    pub const FALLBACK: Self =
+        Self { coefficients: ProfileCoefficients::FALLBACK, state: ProfileState::DEFAULT };
+
+    /// The coefficients.
+    #[must_use]
+    pub const fn coefficients(&self) -> &ProfileCoefficients {
+        &self.coefficients
+    }
+
+    /// The state (for logs, proofs and fuzzing).
+    #[must_use]
+    pub const fn state(&self) -> ProfileState {
+        self.state
+    }
+
+    /// Replaces the state (proofs and fuzzing); the guarantees hold for states that satisfy
+    /// [`Profile::is_valid`].
+    pub fn set_state(&mut self, state: ProfileState) {
+        self.state = state;
+    }
+
+    /// The present phase.
+    #[must_use]
+    pub const fn phase(&self) -> PullPhase {
+        self.state.phase
+    }
+
+    /// Arms a pull of `kind` with `settings`: take-up (shaped) or the approach (step), the
+    /// reference at the peak, the law to be reset on its first tick.
+    pub fn start(&mut self, settings: &PullSettings, kind: PullKind) {
+        let peak = settings.peak_target(kind);
+        self.state = ProfileState {
+            phase: if self.coefficients.shaped { PullPhase::TakeUp } else { PullPhase::Approach },
+            peak,
+            final_target: settings.final_target(kind),
+            speed_limit: settings.speed().carriage_limit(),
+            reference: Q32::from_q16(peak.0),
+            reference_rate: KgfPerSecond::ZERO,
+            reference_accel: Q16::ZERO,
+            goal: peak,
+            ticks: 0,
+            at_tension: false,
+            saturated: Saturation::None,
+            fresh: true,
+        };
+    }
+
+    /// Starts the release (homing) move.
+    pub fn release(&mut self) {
+        self.state.phase = PullPhase::Release;
+        self.state.ticks = 0;
+        self.state.at_tension = false;
+    }
+
+    /// Idle at once.
+    pub fn stop(&mut self) {
+        self.state.phase = PullPhase::Idle;
+        self.state.ticks = 0;
+        self.state.at_tension = false;
+    }
+
+    /// Counts a tick in the present phase (saturating).
+    pub fn tick(&mut self) {
+        self.state.ticks = self.state.ticks.saturating_add(1);
+    }
+
+    /// Whether "at tension" has latched in this hold.
+    #[must_use]
+    pub const fn at_tension(&self) -> bool {
+        self.state.at_tension
+    }
+
+    /// The reference tension `y_d`, rounded to Q15.16.
+    #[must_use]
+    pub fn reference(&self) -> Kgf {
+        Kgf(self.state.reference.to_q16())
+    }
+
+    /// Takes the "law not run since Start" flag: true once per pull, on the first closed-loop
+    /// tick (the law then resets its memory to the present error — no derivative kick).
+    pub fn take_fresh(&mut self) -> bool {
+        let fresh = self.state.fresh;
+        self.state.fresh = false;
+        fresh
+    }
+
+    /// Which way the previous output saturated (the law's anti-windup).
+    #[must_use]
+    pub const fn saturated(&self) -> Saturation {
+        self.state.saturated
+    }
+
+    /// Records which way this tick's output saturated.
+    pub fn set_saturated(&mut self, saturated: Saturation) {
+        self.state.saturated = saturated;
+    }
+
+    /// The invariant every reachable state satisfies: targets, goal and reference within
+    /// `[0, TENSION_MAX]`, the peak at or above the final target.
+    #[must_use]
+    pub fn is_valid(&self) -> bool {
+        let p = &self.state;
+        let in_range = |value: Kgf| value >= Kgf::ZERO && value <= TENSION_MAX;
+        let reference_ok = p.reference.0 >= 0 && p.reference <= Q32::from_q16(TENSION_MAX.0);
+        in_range(p.peak)
+            && in_range(p.final_target)
+            && in_range(p.goal)
+            && p.final_target <= p.peak
+            && reference_ok
+    }
+
+    /// Enters `phase`.
+    fn enter(&mut self, phase: PullPhase) {
+        self.state.phase = phase;
+        self.state.ticks = 0;
+    }
+
+    /// Sets the reference, clamped to `[0, TENSION_MAX]`.
+    fn set_reference(&mut self, reference: Q32) {
+        let max = Q32::from_q16(TENSION_MAX.0);
+        self.state.reference = Q32(reference.0.clamp(0, max.0));
+    }
+
+    /// The tension a braking carriage still adds, `ẏ·v/(2a)`, kgf bits (see the module
+    /// docs), and the lag-compensated tension `y + ẏ·t_lag`.
+    fn braking_rise(&self, est: &Estimate) -> (i32, i32) {
+        let c = &self.coefficients;
+        let rate = est.rate.to_bits().max(0);
+        let speed = est.speed.0.to_bits().max(0);
+        let rise = mul_q24(narrow(mul_wide(rate, speed)), c.inv_two_decel);
+        let predicted = est.sample.to_bits().saturating_add(mul_q24(rate, c.lag));
+        (rise, predicted)
+    }
+
+    /// The braking's goal for a rise of `rise`: the peak less the margins, kgf bits.
+    fn braking_goal(&self, rise: i32) -> i32 {
+        let c = &self.coefficients;
+        self.state
+            .peak
+            .to_bits()
+            .saturating_sub(c.margin.to_bits())
+            .saturating_sub(mul_q16(rise, c.margin_fraction.to_bits()))
+    }
+
+    /// Whether the take-up must start braking this tick (division-free: see the module docs).
+    #[must_use]
+    pub fn braking_due(&self, est: &Estimate) -> bool {
+        let (rise, predicted) = self.braking_rise(est);
+        let goal = self.braking_goal(rise);
+        let taut = est.sample >= TAUT_TENSION;
+        let peak_less_margin =
+            self.state.peak.to_bits().saturating_sub(self.coefficients.margin.to_bits());
+        (taut && predicted.saturating_add(rise) >= goal) || predicted >= peak_less_margin
+    }
+
+    /// Starts the braking: identifies the stiffness `K̂ = ẏ/v` (a still carriage gives the
+    /// nominal string), plans the parabola from the lag-compensated tension to the goal, and
+    /// enters [`PullPhase::Approach`]; returns what the controller applies to the law and the
+    /// estimator.
+    pub fn begin_braking(&mut self, est: &Estimate) -> BrakingOnset {
+        let c = self.coefficients;
+        let (rise, predicted) = self.braking_rise(est);
+        let rate = est.rate.to_bits().clamp(0, REFERENCE_RATE_MAX.to_bits());
+        let speed = est.speed.0.to_bits();
+        let stiffness = if speed >= Q16::ONE.to_bits() {
+            mul_q24(rate, Q24(reciprocal_q24(speed)))
+        } else {
+            c.nominal_stiffness.to_bits()
+        }
+        .clamp(STIFFNESS_RANGE.0.to_bits(), STIFFNESS_RANGE.1.to_bits());
+        let start = predicted.clamp(0, self.state.peak.to_bits());
+        let goal = self.braking_goal(rise).clamp(start, self.state.peak.to_bits());
+        self.state.goal = Kgf::from_bits(goal);
+        self.set_reference(Q32(i64::from(start) << 16));
+        self.state.reference_rate = KgfPerSecond::from_bits(rate);
+        // ÿ_d = −K̂·a.
+        self.state.reference_accel =
+            Q16::from_bits(narrow(mul_wide(stiffness, c.decel.to_bits())).saturating_neg());
+        self.state.fresh = true;
+        self.enter(PullPhase::Approach);
+        BrakingOnset { stiffness: Q16::from_bits(stiffness), start: Kgf::from_bits(start) }
+    }
+
+    /// One tick of the braking parabola; ends at the goal with zero rate and enters the
+    /// pre-stretch or the hold. Returns `(ẏ_d, ÿ_d)` bits and whether it ended.
+    fn advance_braking(&mut self) -> (i32, i32, bool) {
+        let p = self.state;
+        let dt = self.coefficients.dt.wide();
+        let accel = p.reference_accel.to_bits();
+        let dv = saturate_i32(i64::from(accel).saturating_mul(dt) >> 32);
+        let next_rate = p.reference_rate.to_bits().saturating_add(dv);
+        let mean_rate =
+            i64::from(p.reference_rate.to_bits()).saturating_add(i64::from(next_rate)) >> 1;
+        let advanced = p.reference.0.saturating_add(mean_rate.saturating_mul(dt) >> 16);
+        let goal = Q32::from_q16(p.goal.0);
+        if next_rate <= 0 || advanced >= goal.0 {
+            self.set_reference(goal);
+            self.state.reference_rate = KgfPerSecond::ZERO;
+            self.state.reference_accel = Q16::ZERO;
+            let next =
+                if p.peak > p.final_target { PullPhase::PreStretch } else { PullPhase::Hold };
+            self.enter(next);
+            (0, 0, true)
+        } else {
+            self.set_reference(Q32(advanced));
+            self.state.reference_rate = KgfPerSecond::from_bits(next_rate);
+            (next_rate, accel, false)
+        }
+    }
+
+    /// One tick of the exponential closure on `target`; returns `(ẏ_d, ÿ_d)` bits.
+    fn advance_closing(&mut self, target: Kgf) -> (i32, i32) {
+        let c = &self.coefficients;
+        let goal = Q32::from_q16(target.0).0;
+        let gap = goal.saturating_sub(self.state.reference.0);
+        // y_d += gap·dt/τ (Q31.32 × Q0.32 → split the product to stay in 64 bits).
+        let step = (gap >> 16).saturating_mul(c.closing_step.wide()) >> 16;
+        let step = if step == 0 && gap != 0 { gap.signum() } else { step };
+        let inv_tau = c.inv_tau.to_bits();
+        self.set_reference(Q32(self.state.reference.0.saturating_add(step)));
+        let gap_bits = saturate_i32(goal.saturating_sub(self.state.reference.0) >> 16);
+        let rate = narrow(mul_wide(gap_bits, inv_tau));
+        let accel = narrow(mul_wide(rate, inv_tau)).saturating_neg();
+        self.state.reference_rate = KgfPerSecond::from_bits(rate);
+        self.state.reference_accel = Q16::from_bits(accel);
+        (rate, accel)
+    }
+
+    /// One tick of the reference in a closed-loop phase (approach, pre-stretch, settle,
+    /// hold): the braking parabola or the closure (shaped), or the set point (step).
+    pub fn advance(&mut self) -> Advance {
+        let phase = self.state.phase;
+        let (rate, accel, braking_ended) = if self.coefficients.shaped {
+            match phase {
+                PullPhase::Approach => self.advance_braking(),
+                PullPhase::PreStretch => {
+                    let (rate, accel) = self.advance_closing(self.state.peak);
+                    (rate, accel, false)
+                }
+                _ => {
+                    let (rate, accel) = self.advance_closing(self.state.final_target);
+                    (rate, accel, false)
+                }
+            }
+        } else {
+            let set_point = match phase {
+                PullPhase::Approach | PullPhase::PreStretch => self.state.peak,
+                _ => self.state.final_target,
+            };
+            self.state.goal = set_point;
+            self.set_reference(Q32::from_q16(set_point.0));
+            (0, 0, false)
+        };
+        let reference = Reference {
+            tension: self.reference(),
+            rate: KgfPerSecond::from_bits(rate),
+            accel: Q16::from_bits(accel),
+        };
+        Advance { reference, braking_ended }
+    }
+
+    /// The phase changes that depend on the tension `y`, for a tick that began in `phase`
+    /// (the braking's end is in [`Profile::advance`]).
+    pub fn transitions(&mut self, phase: PullPhase, y: Kgf) {
+        let p = self.state;
+        let c = &self.coefficients;
+        let band = c.band.to_bits();
+        let error_to = |target: Kgf| y.to_bits().saturating_sub(target.to_bits()).saturating_abs();
+        let closed_on = |target: Kgf| {
+            let goal = Q32::from_q16(target.0).0;
+            goal.saturating_sub(p.reference.0).abs() < (1 << 22)
+        };
+        let peak_above = p.peak > p.final_target;
+        match phase {
+            PullPhase::Approach if !c.shaped => {
+                if error_to(p.peak) <= band {
+                    self.enter(if peak_above { PullPhase::PreStretch } else { PullPhase::Hold });
+                }
+            }
+            PullPhase::PreStretch => {
+                if p.ticks >= c.dwell_ticks {
+                    self.enter(PullPhase::Settle);
+                }
+            }
+            PullPhase::Settle => {
+                let arrived = if c.shaped {
+                    closed_on(p.final_target)
+                } else {
+                    error_to(p.final_target) <= band
+                };
+                if arrived {
+                    self.enter(PullPhase::Hold);
+                }
+            }
+            PullPhase::Hold => {
+                if error_to(p.final_target) <= band {
+                    self.state.at_tension = true;
+                }
+            }
+            PullPhase::Approach | PullPhase::Idle | PullPhase::TakeUp | PullPhase::Release => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each profile check names its own parameter, at both ends of its range.
+    #[test]
+    fn each_profile_check_names_its_parameter() {
+        let t = ProfileConfig::TAUT;
+        assert_eq!(t.validate(), Ok(()));
+        let cases = [
+            (
+                ProfileConfig { slip_damping: Some(Q16::const_from_int(11)), ..t },
+                ProfileError::SlipDamping,
+            ),
+            (
+                ProfileConfig { slip_damping: Some(Q16::from_bits(-1)), ..t },
+                ProfileError::SlipDamping,
+            ),
+            (
+                ProfileConfig { closing_time_constant: Seconds(Q16::ZERO), ..t },
+                ProfileError::ClosingTimeConstant,
+            ),
+            (
+                ProfileConfig { braking_deceleration: Q16::const_from_int(49), ..t },
+                ProfileError::BrakingDeceleration,
+            ),
+            (
+                ProfileConfig { braking_deceleration: Q16::const_from_int(20_001), ..t },
+                ProfileError::BrakingDeceleration,
+            ),
+            (ProfileConfig { braking_margin_percent: 51, ..t }, ProfileError::BrakingMargin),
+            (
+                ProfileConfig { approach_margin: Kgf::from_bits(-1), ..t },
+                ProfileError::ApproachMargin,
+            ),
+            (
+                ProfileConfig { approach_margin: Kgf::from_bits((5 << 16) + 1), ..t },
+                ProfileError::ApproachMargin,
+            ),
+            (ProfileConfig { at_tension_band: Kgf::ZERO, ..t }, ProfileError::AtTensionBand),
+            (
+                ProfileConfig { release_speed: MmPerSecond(Q16::ZERO), ..t },
+                ProfileError::ReleaseSpeed,
+            ),
+            (
+                ProfileConfig { sensing_lag: Seconds(Q16::from_bits(-1)), ..t },
+                ProfileError::SensingLag,
+            ),
+            (ProfileConfig { nominal_stiffness: Q16::ZERO, ..t }, ProfileError::NominalStiffness),
+        ];
+        for (profile, error) in cases {
+            assert_eq!(profile.validate(), Err(error), "{profile:?}");
+            assert_eq!(Profile::new(&profile, 1_000), Err(error));
+        }
+        // The ends of each range pass.
+        let edges = ProfileConfig {
+            slip_damping: Some(Q16::const_from_int(10)),
+            braking_deceleration: Q16::const_from_int(20_000),
+            braking_margin_percent: 50,
+            approach_margin: Kgf::from_int(5),
+            sensing_lag: Seconds(SENSING_LAG_MAX),
+            ..t
+        };
+        assert_eq!(edges.validate(), Ok(()));
+    }
+
+    #[test]
+    fn coefficients_are_derived_once_in_their_formats() {
+        let c = valid_coefficients(&ProfileConfig::TAUT, 1_000);
+        // dt = 1 ms in Q0.32; dt/τ_c ≈ 1/30 (τ_c = 0.03 s is 1 966/2¹⁶ = 29 998 µs in
+        // Q15.16); 1/τ_c = 33.3 s⁻¹; 1/(2·1 200 mm/s²).
+        assert_eq!(c.dt, Frac32(4_294_967));
+        assert_eq!(c.closing_step.wide(), (1_000_i64 << 32) / 29_998);
+        assert_eq!(c.inv_tau, Q16::ONE.checked_div(Q16::lit("0.03")).unwrap_or(Q16::ZERO));
+        assert_eq!(c.inv_two_decel, Q24((1 << 24) / 2_400));
+        assert_eq!(c.margin_fraction, Q16::const_from_int(20).saturating_div_int(100));
+        assert_eq!(c.lag, Q24::from_q16(Q16::lit("0.003")));
+        assert_eq!(c.dwell_ticks, 300);
+        // A closing time constant shorter than the period cannot be sampled (30/2¹⁶ s =
+        // 0.46 ms).
+        let tau = Seconds(Q16::from_bits(30));
+        let fast = ProfileConfig { closing_time_constant: tau, ..ProfileConfig::TAUT };
+        assert_eq!(Profile::new(&fast, 1_000), Err(ProfileError::ClosingTimeConstant));
+        assert!(Profile::new(&fast, 100).is_ok());
+        assert!(Profile::FALLBACK.is_valid());
+    }
+
+    fn valid_coefficients(config: &ProfileConfig, period_us: u32) -> ProfileCoefficients {
+        ProfileCoefficients::new(config, period_us).unwrap_or(ProfileCoefficients::FALLBACK)
+    }
+}

@@ -48,6 +48,7 @@ use taut_core::machine::{
     AfterRelease, Checkpoint, FaultCode, KeyPad, Machine, MachineState, Recovery, View, panel,
     safety::TensionWatch,
 };
+use taut_core::sense::calibration::CALIBRATION_POINTS;
 use taut_core::store::Record;
 use taut_core::units::{AdcCode, Kgf, Volts};
 
@@ -167,29 +168,36 @@ pub struct CheckpointInput {
     pub rail_ticks: u8,
 }
 
-/// Number of state kinds [`CheckpointInput::state`] selects from.
-pub const STATE_KINDS: u8 = 11;
+/// Number of state kinds [`CheckpointInput::state`] selects from: every kind the machine has
+/// ([`MachineState::KINDS`]).
+#[expect(
+    clippy::cast_possible_truncation,
+    reason = "eleven kinds; a const item cannot use try_from, and a test checks the count"
+)]
+pub const STATE_KINDS: u8 = MachineState::KINDS.len() as u8;
+
+/// The calibration's point count as the checkpoint's index type.
+#[expect(
+    clippy::cast_possible_truncation,
+    reason = "a handful of points (the record's layout allows five); a const item cannot use try_from"
+)]
+const CALIBRATION_POINTS_U8: u8 = CALIBRATION_POINTS as u8;
 
 impl CheckpointInput {
     /// The checkpoint, built through the machine's constructors. Not every input gives a
     /// valid checkpoint: check [`Checkpoint::is_valid`].
     #[must_use]
     pub fn checkpoint(&self) -> Checkpoint {
-        let point = self.index % 4;
-        let code_index = usize::from(self.index) % 19;
+        let point = self.index % CALIBRATION_POINTS_U8;
+        const CODES: usize = FaultCode::ALL.len();
+        let code_index = usize::from(self.index) % CODES;
         let code = FaultCode::ALL.get(code_index).copied().unwrap_or(FaultCode::LimitsBoth);
-        let state = match self.state % STATE_KINDS {
-            0 => MachineState::SelfTest,
-            1 => MachineState::MotorTest,
-            2 => MachineState::Homing,
-            3 => MachineState::CalibrationWindow,
-            4 => MachineState::CalibrationPull { point },
-            5 => MachineState::CalibrationEntry { point },
-            6 => MachineState::Ready,
-            7 => MachineState::Pulling,
-            8 => MachineState::Holding,
-            9 => MachineState::Releasing,
-            _ => MachineState::Fault(code),
+        let kind = MachineState::KINDS.get(usize::from(self.state % STATE_KINDS));
+        let state = match kind.copied().unwrap_or(MachineState::Ready) {
+            MachineState::CalibrationPull { .. } => MachineState::CalibrationPull { point },
+            MachineState::CalibrationEntry { .. } => MachineState::CalibrationEntry { point },
+            MachineState::Fault(_) => MachineState::Fault(code),
+            other => other,
         };
         let view = match self.view % 6 {
             0 => View::Tension,

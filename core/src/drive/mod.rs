@@ -328,18 +328,24 @@ pub struct Drive {
     last_bus: AdcCode,
 }
 
+/// One PWM period in ticks, for the per-period rates below.
+const PERIOD: u32 = PWM_PERIOD_TICKS as u32;
+
+/// The longest gap between calls the per-period rates are scaled over: twenty periods (the
+/// slew's whole range; the cap keeps the products in a `u32`).
+const RATE_SPAN: u32 = 20 * PERIOD;
+
 /// The held duty's fall for a call `elapsed` ticks after the previous one, duty raw units.
 fn hold_decay_for(elapsed: PwmTicks) -> u16 {
-    let ticks = elapsed.0.min(170_000);
-    let decay = ticks.saturating_mul(u32::from(DUTY_HOLD_DECAY_PER_PERIOD)) / 8_500;
+    let ticks = elapsed.0.min(RATE_SPAN);
+    let decay = ticks.saturating_mul(u32::from(DUTY_HOLD_DECAY_PER_PERIOD)) / PERIOD;
     u16::try_from(decay).unwrap_or(u16::MAX)
 }
 
 /// The slew allowance for a call `elapsed` ticks after the previous one, duty raw units.
 fn slew_for(elapsed: PwmTicks) -> u16 {
-    // Twenty periods slew the whole range; capping there keeps the product in a u32.
-    let ticks = elapsed.0.min(170_000);
-    let allowance = ticks.saturating_mul(u32::from(DUTY_SLEW_PER_PERIOD)) / 8_500;
+    let ticks = elapsed.0.min(RATE_SPAN);
+    let allowance = ticks.saturating_mul(u32::from(DUTY_SLEW_PER_PERIOD)) / PERIOD;
     u16::try_from(allowance).unwrap_or(u16::MAX)
 }
 

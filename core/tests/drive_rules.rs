@@ -340,3 +340,40 @@ fn sectors_advance_modulo_six_for_every_step_count() {
         }
     }
 }
+
+/// REQ-DRV-08: a change of direction straight from driving (no coast between) also goes
+/// through all-off and re-engages only with the whole entry of the new direction: the rotor
+/// stepping on to another sector meanwhile must not let a leg of the new entry that happens to
+/// be ready (off since long) reach the gates alone.
+#[test]
+fn a_direct_reversal_goes_through_all_off_and_re_engages_whole() {
+    let sample = |sector: Sector, elapsed: u32| DriveSample {
+        hall: sector.hall_code(),
+        elapsed: PwmTicks(elapsed),
+        ..DriveSample::default()
+    };
+    let duty = Duty::from_raw_clamped(9_000);
+    let mut drive = Drive::new();
+    drive.step(DriveSample { elapsed: REVERSAL_QUIET, ..sample(Sector::S0, 0) });
+    drive.step(DriveSample { elapsed: REVERSAL_QUIET, ..sample(Sector::S0, 0) });
+    drive.set_command(DriveCommand::Drive { direction: Direction::Pull, duty });
+    // S0 = A+ B−: on.
+    assert_eq!(
+        drive.step(sample(Sector::S0, 8_500)).pattern,
+        six_step(Sector::S0, Direction::Pull)
+    );
+    // Release at once: all off in the same call, and no longer energised.
+    drive.set_command(DriveCommand::Drive { direction: Direction::Release, duty });
+    assert_eq!(drive.step(sample(Sector::S0, 8_500)), DriveOutput::OFF);
+    assert_eq!(drive.status().energized, None);
+    // The rotor steps back to S5, whose release entry is C− B+: C has been off since
+    // power-up, B for a few ticks only. Nothing may come on until B has cleared the dead time.
+    for _ in 0..2 {
+        let early = drive.step(sample(Sector::S5, 10));
+        assert_eq!(early, DriveOutput::OFF, "a partial release entry reached the gates");
+        assert_eq!(drive.status().energized, None);
+    }
+    let on = drive.step(sample(Sector::S5, DEAD_TIME.0));
+    assert_eq!(on.pattern, six_step(Sector::S5, Direction::Release));
+    assert_eq!(drive.status().energized, Some(Direction::Release));
+}

@@ -257,6 +257,25 @@ mod tests {
         }
     }
 
+    /// A pattern is all off exactly when each of its three legs is off: every one of the 27
+    /// combinations of leg states.
+    #[test]
+    fn all_off_means_every_leg_off() {
+        let states = [LegState::Off, LegState::High, LegState::Low];
+        for a in states {
+            for b in states {
+                for c in states {
+                    let p = SwitchPattern::ALL_OFF
+                        .with_leg(Phase::A, a)
+                        .with_leg(Phase::B, b)
+                        .with_leg(Phase::C, c);
+                    let off = [a, b, c].iter().all(|&leg| leg == LegState::Off);
+                    assert_eq!(p.is_all_off(), off, "{a:?} {b:?} {c:?}");
+                }
+            }
+        }
+    }
+
     #[test]
     fn reverse_swaps_high_and_low() {
         for sector in Sector::ALL {

@@ -262,6 +262,18 @@ impl HallFilter {
 mod tests {
     use super::*;
 
+    /// A raw value keeps its three low bits, the Hall lines A, B, C from bit 2 down, and
+    /// nothing else: every byte.
+    #[test]
+    fn a_raw_code_is_its_three_low_bits() {
+        for raw in 0..=u8::MAX {
+            let code = HallCode::from_raw(raw);
+            assert_eq!(code.raw(), raw & 0b111, "{raw:#010b}");
+            let line = |bit: u8| raw & (1 << bit) != 0;
+            assert_eq!(code, HallCode::from_lines(line(2), line(1), line(0)), "{raw:#010b}");
+        }
+    }
+
     #[test]
     fn paper_forward_sequence_steps_forward() {
         let codes = [0b101, 0b100, 0b110, 0b010, 0b011, 0b001];

@@ -810,6 +810,24 @@ mod tests {
         assert!(drive.applied().raw() < 15_400);
     }
 
+    /// The per-period rates scale with the time since the previous call, up to twenty periods
+    /// (a call that late may slew the whole range); no longer gap counts for more.
+    #[test]
+    fn per_period_rates_scale_with_the_gap_up_to_twenty_periods() {
+        let period = u32::from(PWM_PERIOD_TICKS);
+        assert_eq!(slew_for(PwmTicks(period)), DUTY_SLEW_PER_PERIOD);
+        assert_eq!(slew_for(PwmTicks(period / 2)), DUTY_SLEW_PER_PERIOD / 2);
+        assert_eq!(slew_for(PwmTicks(10 * period)), 10 * DUTY_SLEW_PER_PERIOD);
+        // Twenty periods' allowance is the whole range (it saturates the u16).
+        assert_eq!(slew_for(PwmTicks(20 * period)), u16::MAX);
+        assert_eq!(slew_for(PwmTicks(u32::MAX)), u16::MAX);
+        assert_eq!(hold_decay_for(PwmTicks(period)), DUTY_HOLD_DECAY_PER_PERIOD);
+        assert_eq!(hold_decay_for(PwmTicks(10 * period)), 10 * DUTY_HOLD_DECAY_PER_PERIOD);
+        assert_eq!(hold_decay_for(PwmTicks(20 * period)), 20 * DUTY_HOLD_DECAY_PER_PERIOD);
+        assert_eq!(hold_decay_for(PwmTicks(21 * period)), 20 * DUTY_HOLD_DECAY_PER_PERIOD);
+        assert_eq!(hold_decay_for(PwmTicks(u32::MAX)), 20 * DUTY_HOLD_DECAY_PER_PERIOD);
+    }
+
     #[test]
     fn a_small_command_passes_unchanged_once_slewed() {
         let mut drive = settled(Sector::S0);
@@ -895,6 +913,23 @@ mod tests {
         }
         assert_eq!(drive.step(hot), DriveOutput::OFF);
         assert_eq!(drive.fault(), Some(DriveFault::Overcurrent));
+    }
+
+    /// REQ-DRV-10's fold-back: each period whose sampled current is over the fold-back level
+    /// moves the duty halfway from the last applied duty to the zero-current duty (here 0:
+    /// the rotor is at rest, no back-EMF), inside the window.
+    #[test]
+    fn a_folded_period_halves_the_distance_to_the_zero_current_duty() {
+        let mut drive = settled(Sector::S0);
+        drive.set_command(pull(3_000));
+        assert_eq!(drive.step(sample(Sector::S0)).duty.raw(), 3_000);
+        let hot = DriveSample { current: AdcCode::new(1_639), ..sample(Sector::S0) };
+        assert_eq!(drive.step(hot).duty.raw(), 1_500);
+        assert_eq!(drive.step(hot).duty.raw(), 750);
+        assert_eq!(drive.step(hot).duty.raw(), 375);
+        // A cool period slews back up from there, not from the command.
+        let cool = drive.step(sample(Sector::S0)).duty.raw();
+        assert_eq!(cool, 3_000.min(375 + DUTY_SLEW_PER_PERIOD));
     }
 
     #[test]

@@ -155,22 +155,28 @@ fn sequencer_invariant_on_reachable_and_invalid_states() {
     }
 }
 
+/// A sample reading `sector`'s Hall code, `elapsed` timer ticks after the previous call.
+fn sample(sector: Sector, elapsed: u32) -> DriveSample {
+    DriveSample { hall: sector.hall_code(), elapsed: PwmTicks(elapsed), ..DriveSample::default() }
+}
+
+/// A drive whose Hall filter has confirmed S0 with the rotor quiet (ready to engage).
+fn settled_in_s0() -> Drive {
+    let mut drive = Drive::new();
+    drive.step(DriveSample { elapsed: REVERSAL_QUIET, ..sample(Sector::S0, 0) });
+    drive.step(DriveSample { elapsed: REVERSAL_QUIET, ..sample(Sector::S0, 0) });
+    drive
+}
+
 /// The engage rule: the bridge is energised only in a call where the whole table entry clears
 /// the dead time, so a half-entry (one leg on, its partner still waiting) never reaches the
 /// gates; the decision and the output come from the same call.
 #[test]
 fn engaging_puts_the_whole_table_entry_on_the_gates_in_the_same_call() {
-    let sample = |sector: Sector, elapsed: u32| DriveSample {
-        hall: sector.hall_code(),
-        elapsed: PwmTicks(elapsed),
-        ..DriveSample::default()
-    };
     let pull =
         DriveCommand::Drive { direction: Direction::Pull, duty: Duty::from_raw_clamped(20_000) };
     // Settled in S0 (rotor quiet), drive S0 (A+ B−), then the rotor steps forward to S1.
-    let mut drive = Drive::new();
-    drive.step(DriveSample { elapsed: REVERSAL_QUIET, ..sample(Sector::S0, 0) });
-    drive.step(DriveSample { elapsed: REVERSAL_QUIET, ..sample(Sector::S0, 0) });
+    let mut drive = settled_in_s0();
     drive.set_command(pull);
     assert_eq!(
         drive.step(sample(Sector::S0, 8_500)).pattern,
@@ -204,16 +210,9 @@ fn engaging_puts_the_whole_table_entry_on_the_gates_in_the_same_call() {
 /// rotor, the drive emits all-off until the partner is ready, then the whole entry.
 #[test]
 fn an_entry_with_one_leg_still_in_dead_time_waits_whole() {
-    let sample = |sector: Sector, elapsed: u32| DriveSample {
-        hall: sector.hall_code(),
-        elapsed: PwmTicks(elapsed),
-        ..DriveSample::default()
-    };
     let pull =
         DriveCommand::Drive { direction: Direction::Pull, duty: Duty::from_raw_clamped(9_000) };
-    let mut drive = Drive::new();
-    drive.step(DriveSample { elapsed: REVERSAL_QUIET, ..sample(Sector::S0, 0) });
-    drive.step(DriveSample { elapsed: REVERSAL_QUIET, ..sample(Sector::S0, 0) });
+    let mut drive = settled_in_s0();
     drive.set_command(pull);
     // S0 = A+ B−: on.
     assert_eq!(
@@ -347,15 +346,8 @@ fn sectors_advance_modulo_six_for_every_step_count() {
 /// be ready (off since long) reach the gates alone.
 #[test]
 fn a_direct_reversal_goes_through_all_off_and_re_engages_whole() {
-    let sample = |sector: Sector, elapsed: u32| DriveSample {
-        hall: sector.hall_code(),
-        elapsed: PwmTicks(elapsed),
-        ..DriveSample::default()
-    };
     let duty = Duty::from_raw_clamped(9_000);
-    let mut drive = Drive::new();
-    drive.step(DriveSample { elapsed: REVERSAL_QUIET, ..sample(Sector::S0, 0) });
-    drive.step(DriveSample { elapsed: REVERSAL_QUIET, ..sample(Sector::S0, 0) });
+    let mut drive = settled_in_s0();
     drive.set_command(DriveCommand::Drive { direction: Direction::Pull, duty });
     // S0 = A+ B−: on.
     assert_eq!(

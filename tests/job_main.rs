@@ -144,7 +144,7 @@ fn the_default_job_reaches_holds_and_releases_home_without_a_fault() {
     assert!(last.truth.tension_kgf < 0.05 && last.truth.carriage_mm <= 0.0, "{last:?}");
     // The machine logged the pull; its encoder count matches the string really drawn.
     let pull = run.pull.expect("the pull is logged");
-    assert_eq!(pull.target, taut_core::units::Kgf::from_int(25));
+    assert_eq!(pull.target.to_kgf(), taut_core::units::Kgf::from_int(25));
     let counted = f64::from(summary.string_used_mm.expect("counted"));
     let drawn = summary.true_string_mm.expect("drawn");
     assert!(drawn > 30.0 && (counted - drawn).abs() <= 1.0 + 0.02 * drawn, "{counted} vs {drawn}");
@@ -202,7 +202,7 @@ fn a_knot_pull_lights_the_knot_lamp_and_holds_the_boosted_tension() {
         assert!((row.truth.tension_kgf - 28.75).abs() <= HOLD_MARGIN_KGF, "{row:?}");
     }
     let pull = run.pull.expect("logged");
-    assert!((kgf(pull.target) - 28.75).abs() < 0.01);
+    assert!((kgf(pull.target.to_kgf()) - 28.75).abs() < 0.01);
     // The operator switched knot mode on (Function held); the lamp stays lit through the pull.
     let pulling = entered(&run, MachineState::Pulling, 0).expect("pulled");
     let released = entered(&run, MachineState::Releasing, pulling).expect("released");

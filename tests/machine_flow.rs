@@ -99,8 +99,8 @@ fn machine_flow_calibrate_set_pull_hold_release() {
     assert_eq!(log.len(), 1);
     let entry = log.last().unwrap();
     println!("log: {entry:?}");
-    assert_eq!(entry.target.to_tenths_rounded(), 240);
-    assert!((entry.reached.to_tenths_rounded() - 240).abs() <= 3);
+    assert_eq!(entry.target.to_kgf().to_tenths_rounded(), 240);
+    assert!((entry.reached.to_kgf().to_tenths_rounded() - 240).abs() <= 3);
     assert!(entry.peak >= entry.reached);
     assert!(entry.time_to_tension_ms > 0);
     assert!(entry.string_mm > 10, "string drawn: {} mm", entry.string_mm);
@@ -250,5 +250,135 @@ fn machine_flow_boots_are_counted_and_an_old_record_is_rewritten() {
         assert_eq!(stored.settings, settings, "boot {boot}: the keyed settings are kept");
         assert_eq!(stored.presets, old_record.presets);
         assert_eq!(stored.counters.pulls, old_record.counters.pulls);
+    }
+}
+
+/// The true tension averaged over `ms` of holding, kgf.
+fn mean_tension(rig: &mut Rig, ms: u64) -> f64 {
+    let mut sum = 0.0;
+    for _ in 0..ms {
+        rig.tick();
+        sum += rig.twin().truth().tension_kgf;
+    }
+    sum / ms as f64
+}
+
+/// REQ-SM-08: Up/Down while holding move the held target by 0.1 kg without releasing, the
+/// string follows, the new target shows for a second, and the pull's log entry carries the
+/// adjustment; Function, Preset and long presses never release.
+#[test]
+fn machine_flow_hold_adjusts_the_target_without_releasing() {
+    let mut rig = Rig::nominal(StringKind::TennisSynthetic);
+    rig.expect_state(MachineState::Ready, 30_000);
+    rig.press(Key::Start);
+    rig.expect_state(MachineState::Holding, 20_000);
+    rig.run(1_500);
+    let before = mean_tension(&mut rig, 500);
+
+    for _ in 0..5 {
+        rig.press(Key::Up);
+    }
+    assert_eq!(display_tenths(&rig.outputs().display), Some(255), "the new target shows");
+    assert_eq!(rig.machine().state(), MachineState::Holding);
+    rig.run(2_000);
+    let up = mean_tension(&mut rig, 500);
+    println!("held {before:.3} kgf, +0.5 kg → {up:.3} kgf");
+    assert!((up - before - 0.5).abs() < 0.05, "+0.5 kg moved the string by {:.3}", up - before);
+
+    for _ in 0..3 {
+        rig.press(Key::Down);
+    }
+    assert_eq!(display_tenths(&rig.outputs().display), Some(252));
+    rig.run(2_000);
+    let down = mean_tension(&mut rig, 500);
+    println!("−0.3 kg → {down:.3} kgf");
+    assert!((down - before - 0.2).abs() < 0.05, "net +0.2 kg moved it by {:.3}", down - before);
+
+    // Keys the hold does not use do nothing — no surprise release.
+    rig.press(Key::Function);
+    rig.hold(Key::Function, 1_600);
+    rig.hold(Key::Preset, 1_600);
+    rig.press(Key::Preset);
+    assert_eq!(rig.machine().state(), MachineState::Holding);
+    assert!(!rig.visited(MachineState::Releasing));
+
+    rig.press(Key::Start);
+    rig.expect_state(MachineState::Ready, 20_000);
+    let entry = *rig.machine().log().last().expect("the pull is logged");
+    println!("log: {entry:?}");
+    assert_eq!(entry.target.to_kgf().to_tenths_rounded(), 252);
+    assert_eq!(entry.adjust.to_kgf().to_tenths_rounded(), 2);
+    assert!(entry.held_s >= 9, "held {} s", entry.held_s);
+    assert_eq!(rig.machine().record().settings.set_point().tenths(), 250, "the setting stays");
+}
+
+/// The tension timer: Preset shows it while holding; it reads `t0.00` until the hold's
+/// 1 000th tick and `t0.01` from that tick on — counted in ticks, to the tick.
+#[test]
+fn machine_flow_tension_timer_counts_to_the_tick() {
+    let mut rig = Rig::nominal(StringKind::TennisSynthetic);
+    rig.expect_state(MachineState::Ready, 30_000);
+    rig.press(Key::Start);
+    rig.expect_state(MachineState::Holding, 20_000);
+    let entered = rig.states().last().expect("holding").0;
+    rig.press(Key::Preset);
+    assert_eq!(rig.outputs().display, panel::clock(b't', 0));
+    assert!(rig.run_until(2_000, |rig| rig.outputs().display == panel::clock(b't', 1)));
+    let now = rig.twin().now_ms();
+    println!("holding entered at {entered} ms, t0.01 at {now} ms");
+    // The tick that enters Holding is the pull's last; the timer counts the hold's ticks.
+    assert_eq!(now - entered, 1_000);
+    assert!(rig.run_until(60_000, |rig| rig.outputs().display == panel::clock(b't', 61)));
+    assert_eq!(rig.twin().now_ms() - entered, 61_000);
+    let mut expected = panel::text(b"t101");
+    expected[1].0 |= panel::DECIMAL_POINT;
+    assert_eq!(rig.outputs().display, expected, "t1.01: the point stands for the colon");
+    // Preset again: the tension.
+    rig.press(Key::Preset);
+    assert_eq!(display_tenths(&rig.outputs().display).map(|t| (t - 250).abs() <= 2), Some(true));
+}
+
+/// REQ-TEN-18: Function while holding switches constant pull off (`LOCK`): the carriage
+/// stays where it is while the string creeps, the tension falling; Function again (`PULL`)
+/// pulls back to the target. Never a release.
+#[test]
+fn machine_flow_function_locks_and_resumes_constant_pull() {
+    let machines = [
+        ("tennis-synthetic", TwinConfig::nominal(StringKind::TennisSynthetic)),
+        ("tennis-polyester", TwinConfig::nominal(StringKind::TennisPolyester)),
+        ("badminton-soft", TwinConfig::nominal(StringKind::BadmintonSoft)),
+        ("family 3", TwinConfig::family(3)),
+        ("family 17", TwinConfig::family(17)),
+        ("family 40", TwinConfig::family(40)),
+    ];
+    for (kind, config) in machines {
+        let mut rig = Rig::new(&config, Record::default());
+        rig.expect_state(MachineState::Ready, 30_000);
+        rig.press(Key::Start);
+        rig.expect_state(MachineState::Holding, 20_000);
+        rig.run(1_000);
+        let held = mean_tension(&mut rig, 500);
+        rig.press(Key::Function);
+        assert_eq!(rig.outputs().display, panel::text(b"LOCK"));
+        let locked_at = rig.twin().truth().carriage_mm;
+        let mut travel: f64 = 0.0;
+        for _ in 0..20_000 {
+            rig.tick();
+            travel = travel.max((rig.twin().truth().carriage_mm - locked_at).abs());
+        }
+        let crept = mean_tension(&mut rig, 500);
+        println!(
+            "{kind}: held {held:.3} kgf; locked 20 s: carriage within {travel:.3} mm, \
+             tension {crept:.3} kgf"
+        );
+        assert!(travel < 0.2, "the lock let the carriage move {travel:.3} mm");
+        assert!(crept < held - 0.05, "the string creeps at constant length");
+        rig.press(Key::Function);
+        assert_eq!(rig.outputs().display, panel::text(b"PULL"));
+        rig.run(3_000);
+        let resumed = mean_tension(&mut rig, 500);
+        println!("{kind}: constant pull again: {resumed:.3} kgf");
+        assert!((resumed - held).abs() < 0.05, "back to {held:.3}: {resumed:.3}");
+        assert_eq!(rig.machine().state(), MachineState::Holding);
     }
 }

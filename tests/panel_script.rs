@@ -136,7 +136,7 @@ fn a_scripted_pull_holds_beeps_and_releases() {
     assert!(transcript.contains("releasing -> ready"));
     assert!(transcript.contains("+-- taut front panel"), "the frame is printed");
     let log = s.bench().machine().log().last().copied().expect("the pull is logged");
-    assert_eq!(log.target, taut_core::units::Kgf::from_int(25));
+    assert_eq!(log.target.to_kgf(), taut_core::units::Kgf::from_int(25));
 }
 
 #[test]
@@ -339,4 +339,57 @@ fn the_frame_says_which_page_the_display_shows() {
     assert!(s.frame().join("\n").contains("SP n: pull speed 1 (gentlest) – 9 (fastest)"));
     run(&mut s, "press function\n").unwrap();
     assert!(s.frame().join("\n").contains("PSnn: pre-stretch"));
+}
+
+/// REQ-SM-08/09/10 from a script: in a hold, +0.5 kg then −0.3 kg with the true tension
+/// following within the hold accuracy and no release; Preset shows the tension timer, which
+/// reads each second on its tick; Start releases, and the log entry carries the adjustment.
+#[test]
+fn panel_script_hold_adjusts_and_times() {
+    let mut s = session(Flash::Calibrated);
+    let transcript = run(
+        &mut s,
+        &format!(
+            "{TO_READY}\
+             press start\n\
+             until holding 20000\n\
+             wait 1500\n\
+             expect tension 21.9 22.1\n\
+             press up 5\n\
+             expect display 22.5\n\
+             expect state holding\n\
+             wait 2500\n\
+             expect tension 22.4 22.6\n\
+             press down 3\n\
+             expect display 22.2\n\
+             wait 2500\n\
+             expect tension 22.1 22.3\n\
+             press function\n\
+             expect display LOCK\n\
+             wait 1000\n\
+             press function\n\
+             expect display PULL\n\
+             wait 2000\n\
+             expect tension 22.1 22.3\n\
+             press preset\n\
+             until display t0.20 20000\n\
+             wait 999\n\
+             expect display t0.20\n\
+             wait 1\n\
+             expect display t0.21\n\
+             press preset\n\
+             expect state holding\n\
+             press start\n\
+             until ready 20000\n"
+        ),
+    )
+    .unwrap();
+    let machine = s.bench().machine();
+    let entry = machine.log().last().expect("the pull is logged");
+    println!("log: {entry:?}");
+    assert_eq!(entry.adjust.to_kgf().to_tenths_rounded(), 2);
+    assert_eq!(entry.target.to_kgf().to_tenths_rounded(), 222);
+    assert!(entry.held_s >= 21, "{entry:?}");
+    // One release only: the one Start asked for.
+    assert_eq!(transcript.matches("-> releasing").count(), 1, "a key released the hold early");
 }

@@ -105,6 +105,25 @@ impl Unit {
         }
     }
 
+    /// The step of an adjustment while holding, in tenths of the unit: 0.1 kg, 0.2 lb
+    /// (0.09 kg) — the finest the digits show, finer than the set point's 0.5 lb.
+    #[must_use]
+    pub const fn fine_step_tenths(self) -> i16 {
+        match self {
+            Self::Kilograms => 1,
+            Self::Pounds => 2,
+        }
+    }
+
+    /// `tenths` tenths of the unit in kgf.
+    #[must_use]
+    pub fn tenths_to_kgf(self, tenths: i32) -> Kgf {
+        match self {
+            Self::Kilograms => Kgf::from_tenths(tenths),
+            Self::Pounds => Kgf::from_lbf_tenths(tenths),
+        }
+    }
+
     /// The lowest and highest set point in tenths of the unit: 5.0–50.0 kg; 11.5–110.0 lb
     /// (5.2–49.9 kg, the 0.5 lb steps inside 5–50 kg).
     #[must_use]
@@ -165,10 +184,7 @@ impl SetPoint {
     /// every set point of both units).
     #[must_use]
     pub fn to_kgf(self) -> Kgf {
-        match self.unit {
-            Unit::Kilograms => Kgf::from_tenths(i32::from(self.tenths)),
-            Unit::Pounds => Kgf::from_lbf_tenths(i32::from(self.tenths)),
-        }
+        self.unit.tenths_to_kgf(i32::from(self.tenths))
     }
 
     /// `steps` steps up (positive) or down (negative), clamped to the unit's range.

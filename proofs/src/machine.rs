@@ -45,10 +45,11 @@ use taut_core::drive::limit::CurrentSense;
 use taut_core::drive::{DUTY_MAX, Direction, DriveCommand, DriveFault, DriveStatus, PwmTicks};
 use taut_core::io::{Inputs, Keys, LimitSwitches, Outputs};
 use taut_core::machine::{
-    AfterRelease, Checkpoint, FaultCode, KeyPad, Machine, MachineState, Recovery, View, panel,
-    safety::TensionWatch,
+    AfterRelease, Checkpoint, FaultCode, KeyPad, Machine, MachineState, Recovery, View,
+    hold_adjustment, hold_target, panel, safety::TensionWatch,
 };
 use taut_core::sense::calibration::CALIBRATION_POINTS;
+use taut_core::settings::{TENSION_MAX, TENSION_MIN, Unit};
 use taut_core::store::Record;
 use taut_core::units::{AdcCode, Kgf, Volts};
 
@@ -166,6 +167,8 @@ pub struct CheckpointInput {
     pub long_sent: bool,
     /// Consecutive ticks at a load-cell rail.
     pub rail_ticks: u8,
+    /// Holding: the operator's adjustment, tenths of the unit.
+    pub hold_adjust: i16,
 }
 
 /// Number of state kinds [`CheckpointInput::state`] selects from: every kind the machine has
@@ -227,6 +230,7 @@ impl CheckpointInput {
             recovery: if self.self_test { Recovery::SelfTest } else { Recovery::Home },
             clearing: self.clearing,
             view,
+            hold_adjust: self.hold_adjust,
             tare: AdcCode::new(self.tare),
             watch: TensionWatch::from_parts(
                 self.start_steps,
@@ -432,6 +436,28 @@ pub fn limit_guard_is_sound(command: DriveCommand, limits: LimitSwitches) {
     assert_eq!(guarded, expected, "REQ-SAFE-01: guard changed an allowed command");
 }
 
+/// REQ-SM-08: one Up/Down while holding, from any adjustment on a pull whose final target
+/// `base` is in the tension range, never leaves [`TENSION_MIN`]–[`TENSION_MAX`]: the step is
+/// refused, or the new target is in range, is the base plus the new adjustment, and the
+/// adjustment moved by exactly one fine step of the unit in the key's direction.
+pub fn hold_adjustment_in_range(base: Kgf, unit: Unit, adjust: i16, step: i8) {
+    if base < TENSION_MIN || base > TENSION_MAX || !matches!(step, -1 | 1) {
+        return;
+    }
+    if let Some((next, target)) = hold_adjustment(base, unit, adjust, step) {
+        assert!(
+            (TENSION_MIN..=TENSION_MAX).contains(&target),
+            "REQ-SM-08: a hold adjustment left the range: {target:?}"
+        );
+        assert_eq!(target, hold_target(base, unit, next), "REQ-SM-08: target and adjustment");
+        assert_eq!(
+            i32::from(next).wrapping_sub(i32::from(adjust)),
+            i32::from(step).wrapping_mul(i32::from(unit.fine_step_tenths())),
+            "REQ-SM-08: one fine step"
+        );
+    }
+}
+
 /// REQ-SAFE-02/03 at the rule every state applies: both limits and a latched drive fault
 /// each raise a global fault; nothing else does.
 pub fn global_fault_is_sound(inputs: &Inputs) {
@@ -592,6 +618,18 @@ mod verification {
     }
 
     /// The calibration fit, over-approximated by its two outcomes.
+    /// The timer's digits: not a safety rule (the clock has its own exhaustive test).
+    fn any_clock_digits(_label: u8, _seconds: u32) -> Display {
+        let bits: [u8; 4] = kani::any();
+        bits.map(Segments)
+    }
+
+    /// A tension in the operator's unit, any value: the hold adjustment's range rule is
+    /// proven on its own (`verify_hold_adjustment_in_range`); here any target it yields.
+    fn any_unit_tension(_unit: Unit, _tenths: i32) -> Kgf {
+        Kgf::from_bits(kani::any())
+    }
+
     fn any_calibration_fit(_points: &CalibrationPoints) -> Result<Calibration, CalibrationError> {
         if kani::any() { Ok(Calibration::IDENTITY) } else { Err(CalibrationError::PointOffLine) }
     }
@@ -622,6 +660,7 @@ mod verification {
             recovery: if kani::any() { Recovery::Home } else { Recovery::SelfTest },
             clearing: kani::any(),
             view,
+            hold_adjust: kani::any(),
             tare: AdcCode::new(kani::any()),
             watch,
             knot_mode: kani::any(),
@@ -657,6 +696,8 @@ mod verification {
             #[kani::stub(taut_core::machine::tension_display, any_tension_digits)]
             #[kani::stub(taut_core::machine::panel::tenths, any_tenths_digits)]
             #[kani::stub(taut_core::machine::panel::hundredths, any_tenths_digits)]
+            #[kani::stub(taut_core::machine::panel::clock, any_clock_digits)]
+            #[kani::stub(taut_core::settings::Unit::tenths_to_kgf, any_unit_tension)]
             #[kani::stub(taut_core::sense::calibration::Calibration::new, any_calibration_fit)]
             fn $name() {
                 check_tick(&one_tick_in($state));
@@ -741,6 +782,17 @@ mod verification {
             _ => DriveCommand::Drive { direction: Direction::Release, duty },
         };
         limit_guard_is_sound(command, LimitSwitches { home: kani::any(), end: kani::any() });
+    }
+
+    /// REQ-SM-08: a hold adjustment never moves the target outside the validated range,
+    /// for any final target in the range, either unit, any adjustment so far and Up or Down.
+    #[kani::proof]
+    fn verify_hold_adjustment_in_range() {
+        let base = Kgf::from_bits(kani::any());
+        kani::assume(base >= TENSION_MIN && base <= TENSION_MAX);
+        let unit = if kani::any() { Unit::Kilograms } else { Unit::Pounds };
+        let step: i8 = if kani::any() { 1 } else { -1 };
+        hold_adjustment_in_range(base, unit, kani::any(), step);
     }
 
     /// The global-fault rule alone, for any inputs.

@@ -34,7 +34,8 @@
 //! # What is explored, and why that is exhaustive enough
 //!
 //! An abstract state ([`Key`]) is the machine's public state ([`MachineState`], with its
-//! calibration point or fault code), the panel page, knot mode, a pending notice, whether
+//! calibration point or fault code), the panel page (Ready's page; the hold's tension or
+//! timer), knot mode, constant pull on or off, a pending notice, whether
 //! the pull has seen tension (≥ 5 kgf, which arms the string-break rule), and the whole
 //! environment. The machine's remaining data — timers, the controller's integrators, the
 //! settings' values — is not part of the key: the first concrete machine that reaches a key
@@ -440,6 +441,8 @@ impl World {
             knot: self.machine.knot_mode(),
             notice: self.machine.notice().is_some(),
             tensioned: state.is_moving() && self.machine.watch().peak >= safety::BREAK_MIN_PEAK,
+            hold_timer: self.machine.hold().is_some_and(|hold| hold.timer),
+            locked: !self.machine.constant_pull(),
             env: self.env,
             drive_fault: self.drive_fault,
         }
@@ -459,6 +462,10 @@ pub struct Key {
     pub notice: bool,
     /// The pull has seen ≥ 5 kgf.
     pub tensioned: bool,
+    /// Holding: the digits show the tension timer.
+    pub hold_timer: bool,
+    /// Constant pull switched off (holding).
+    pub locked: bool,
     /// The environment.
     pub env: Env,
     /// The drive's latched fault.
@@ -486,6 +493,8 @@ pub struct Report {
     pub traps: Vec<Key>,
     /// The machine states seen.
     pub machine_states: HashSet<MachineState>,
+    /// The holds seen: (the timer shown, constant pull off).
+    pub holds: HashSet<(bool, bool)>,
 }
 
 /// Explores every abstract state reachable from power-up in each of `starts`, checking every
@@ -590,7 +599,12 @@ pub fn explore(starts: &[Env], limit: usize) -> Report {
         .map(|(key, _)| *key)
         .collect();
     let machine_states = keys.iter().map(|key| key.state).collect();
-    Report { states: keys.len(), transitions, ticks, traps, machine_states }
+    let holds = keys
+        .iter()
+        .filter(|key| key.state == MachineState::Holding)
+        .map(|key| (key.hold_timer, key.locked))
+        .collect();
+    Report { states: keys.len(), transitions, ticks, traps, machine_states, holds }
 }
 
 /// The actions that first reached state `index`, from power-up.

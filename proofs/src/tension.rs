@@ -41,6 +41,7 @@ use taut_core::fixed::{Q32, mul_wide, narrow, reciprocal_q24};
 use taut_core::io::LimitSwitches;
 use taut_core::mechanism::STEP_MM_BITS;
 use taut_core::settings::MmPerSecond;
+use taut_core::settings::{TENSION_MAX, TENSION_MIN};
 use taut_core::tension::controller::{
     BACK_OUT_DUTY_MAX, TAUT_GAINS, TAUT_PLANT, TensionController,
 };
@@ -49,7 +50,7 @@ use taut_core::tension::estimator::{
 };
 use taut_core::tension::law::{Reference, Rsmc, RsmcGains, RsmcState, Saturation};
 use taut_core::tension::motor::{DutyMap, ForceToDuty, MotorModel};
-use taut_core::tension::profile::ProfileState;
+use taut_core::tension::profile::{Profile, ProfileConfig, ProfileState};
 use taut_core::tension::slip::{
     LEARN_TICKS, SLIP_DEAD_ZONE, SLIP_LEARNING_RATE, SlipDamper, SlipState,
 };
@@ -410,6 +411,8 @@ pub struct StepCase {
     pub end: bool,
     /// Measurement: bus voltage (bits).
     pub bus: i32,
+    /// Constant pull switched off, the carriage held at this Hall count (only in the hold).
+    pub lock: Option<i32>,
 }
 
 /// The controller in the case's state (its invariant not yet checked).
@@ -468,7 +471,56 @@ pub fn controller_in(case: &StepCase) -> TensionController {
         saturated: saturation(case.saturated),
         fresh: case.fresh,
     });
+    if let Some(held_at) = case.lock {
+        let _in_hold = controller.set_constant_pull(false, held_at);
+    }
     controller
+}
+
+/// A profile state in the hold (or the phase `phase % 7` selects) from primitive values.
+#[must_use]
+pub fn hold_state(phase: u8, peak: i32, final_target: i32, reference: i64) -> ProfileState {
+    ProfileState {
+        phase: PullPhase::ALL.into_iter().nth(usize::from(phase % 7)).unwrap_or_default(),
+        peak: Kgf::from_bits(peak),
+        final_target: Kgf::from_bits(final_target),
+        reference: Q32(reference),
+        goal: Kgf::from_bits(final_target),
+        at_tension: true,
+        ..ProfileState::DEFAULT
+    }
+}
+
+/// REQ-SM-08 at the controller: from any valid profile state, a retarget to any tension
+/// keeps the profile valid and its final target in the tension range; it is accepted exactly
+/// in the hold with the target in range, and then the final target is the new one.
+pub fn retarget_keeps_the_target_in_range(state: ProfileState, target: Kgf) -> bool {
+    let Ok(mut profile) = Profile::new(&ProfileConfig::TAUT, 1_000) else {
+        panic!("REQ-TEN-06: the built-in profile was rejected");
+    };
+    profile.set_state(state);
+    if !profile.is_valid() {
+        return false;
+    }
+    let before = profile.state();
+    let accepted = profile.retarget(target);
+    let after = profile.state();
+    let in_range = target >= TENSION_MIN && target <= TENSION_MAX;
+    assert_eq!(accepted, before.phase == PullPhase::Hold && in_range, "REQ-SM-08: {target:?}");
+    if accepted {
+        assert_eq!(after.final_target, target, "REQ-SM-08: the target moved");
+    } else {
+        assert_eq!(after, before, "REQ-SM-08: a refused retarget changed the profile");
+    }
+    if before.phase == PullPhase::Hold {
+        assert!(
+            after.final_target >= TENSION_MIN && after.final_target <= TENSION_MAX
+                || after.final_target == before.final_target,
+            "REQ-SM-08: the hold target left the range"
+        );
+    }
+    assert!(profile.is_valid(), "REQ-TEN-03: a retarget broke the profile's invariant");
+    true
 }
 
 /// REQ-TEN-01/02/03 for the composed step: for a valid state, one step is panic-free, its
@@ -487,8 +539,16 @@ pub fn controller_step_bounded(case: &StepCase) -> bool {
         limits: LimitSwitches { home: case.home, end: case.end },
         bus: Volts::from_bits(case.bus),
     };
+    let locked = !controller.constant_pull();
     let out = controller.step(&measurement);
     let duty = out.command.duty();
+    if locked && phase == PullPhase::Hold {
+        assert!(
+            out.command.direction() == Some(Direction::Pull),
+            "REQ-TEN-18: the lock-out holds by pulling, never reverses: {:?}",
+            out.command
+        );
+    }
     assert!(duty <= DUTY_MAX && duty.is_valid(), "REQ-TEN-02: duty {duty:?} above DUTY_MAX");
     if !matches!(phase, PullPhase::Idle | PullPhase::Release) {
         match out.command.direction() {
@@ -629,6 +689,15 @@ mod verification {
         Kgf::from_bits(bits)
     }
 
+    /// REQ-SM-08: a retarget from any valid profile state to any tension keeps the target in
+    /// the range and the profile valid.
+    #[kani::proof]
+    #[kani::unwind(6)]
+    fn verify_hold_retarget_in_range() {
+        let state = hold_state(kani::any(), kani::any(), kani::any(), kani::any());
+        let _in_domain = retarget_keeps_the_target_in_range(state, Kgf::from_bits(kani::any()));
+    }
+
     /// REQ-TEN-01/02/03, the composition: every valid controller state (law, estimator,
     /// Hall filter, profile in every phase), every measurement, every behaviour of the parts
     /// within their proven guarantees (see above). The estimator's four-step loop is stubbed;
@@ -643,6 +712,27 @@ mod verification {
     #[kani::stub(taut_core::tension::slip::SlipDamper::update, any_brake)]
     fn verify_controller_step_bounded() {
         let case: StepCase = kani::any();
+        kani::assume(case.lock.is_none());
+        kani::assume(controller_in(&case).is_valid());
+        assert!(controller_step_bounded(&case));
+    }
+
+    /// REQ-TEN-18 with REQ-TEN-01/02/03: the same composition with constant pull switched
+    /// off (the lock-out, only in the hold) at any Hall count — a split of the harness above
+    /// so each stays within two minutes: the locked step pulls, within `DUTY_MAX`, and keeps
+    /// the state valid.
+    #[kani::proof]
+    #[kani::unwind(6)]
+    #[kani::stub(taut_core::tension::estimator::TensionEstimator::update, any_estimate)]
+    #[kani::stub(taut_core::tension::motor::SpeedEstimator::update, any_speed)]
+    #[kani::stub(taut_core::tension::law::Rsmc::step, any_law_output)]
+    #[kani::stub(taut_core::tension::law::Pd::step, any_pd_force)]
+    #[kani::stub(taut_core::tension::motor::ForceToDuty::command, any_pull_command)]
+    #[kani::stub(taut_core::tension::slip::SlipDamper::update, any_brake)]
+    fn verify_lock_out_step_bounded() {
+        let mut case: StepCase = kani::any();
+        case.lock = Some(kani::any());
+        case.phase = 5; // PullPhase::ALL[5] = Hold
         kani::assume(controller_in(&case).is_valid());
         assert!(controller_step_bounded(&case));
     }

@@ -46,4 +46,9 @@ fn machine_model_check() {
         };
         assert!(report.machine_states.contains(&state), "{state:?} never reached");
     }
+    // REQ-SM-09: every hold the keys make — tension or timer shown, constant pull on or off —
+    // is explored (and, above, none of them is a trap).
+    for hold in [(false, false), (true, false), (false, true), (true, true)] {
+        assert!(report.holds.contains(&hold), "hold (timer, locked) = {hold:?} never reached");
+    }
 }

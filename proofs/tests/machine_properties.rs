@@ -5,16 +5,19 @@
     clippy::arithmetic_side_effects,
     clippy::cast_possible_truncation,
     clippy::indexing_slicing,
+    clippy::expect_used,
     reason = "test bookkeeping on small counts; a panic fails the test, as it should"
 )]
 
 use proptest::prelude::*;
 use taut_core::io::Key;
 use taut_core::machine::Machine;
+use taut_core::units::Kgf;
 use taut_proofs::machine::{
     CheckpointInput, STATE_KINDS, TickInput, apply, both_limits_fault_and_coast, check_tick,
     clear_only_with_zero_command, duty_bounded, fault_and_idle_coast, fault_latches,
-    never_toward_active_limit, overcurrent_coasts, releasing_stops_at_home, resume,
+    hold_adjustment_in_range, never_toward_active_limit, overcurrent_coasts,
+    releasing_stops_at_home, resume,
 };
 
 /// Load-cell codes: bottom rail, the unloaded tare, ≈ 3, 25 and 52 kgf, top rail.
@@ -61,6 +64,7 @@ fn checkpoints() -> Vec<CheckpointInput> {
                         held_ms: 0,
                         long_sent: false,
                         rail_ticks: if release { 19 } else { 0 },
+                        hold_adjust: if release { -5 } else { 0 },
                     };
                     if input.checkpoint().is_valid() {
                         out.push(input);
@@ -162,7 +166,7 @@ fn any_checkpoint() -> impl Strategy<Value = CheckpointInput> {
             prop::array::uniform5(0u8..25),
             prop::array::uniform2(-600i16..600),
         ),
-        (any::<u8>(), any::<u8>(), any::<u16>(), any::<bool>(), 0u8..25),
+        (any::<u8>(), any::<u8>(), any::<u16>(), any::<bool>(), 0u8..25, -1_200i16..1_200),
     )
         .prop_map(|(a, b, c, d)| CheckpointInput {
             state: a.0,
@@ -187,6 +191,7 @@ fn any_checkpoint() -> impl Strategy<Value = CheckpointInput> {
             held_ms: d.2,
             long_sent: d.3,
             rail_ticks: d.4,
+            hold_adjust: d.5,
         })
 }
 
@@ -295,4 +300,51 @@ fn global_fault_exhaustive() {
         }
     }
     println!("global_fault_exhaustive: {cases} cases");
+}
+
+/// Mirror of `verify_hold_adjustment_in_range` (Kani), exhaustive over what a run can start
+/// a hold from: every set point of both units as a main pull and as a 20 % knot pull, every
+/// adjustment from −1 100 to +1 100 tenths (beyond the 45 kgf range in either unit), Up and
+/// Down.
+#[test]
+fn hold_adjustment_in_range_exhaustive() {
+    use taut_core::settings::{
+        KnotBoost, PreStretch, PullKind, PullSettings, SetPoint, Speed, Unit,
+    };
+    let mut cases = 0u64;
+    for unit in [Unit::Kilograms, Unit::Pounds] {
+        for tenths in 0..=1_100u16 {
+            let Ok(point) = SetPoint::new(unit, tenths) else { continue };
+            let knot = KnotBoost::new(20).expect("valid");
+            let settings = PullSettings::new(point.to_kgf(), Speed::MAX, PreStretch::NONE, knot)
+                .expect("valid");
+            for kind in [PullKind::Main, PullKind::Knot] {
+                let base = settings.final_target(kind);
+                for adjust in -1_100i16..=1_100 {
+                    for step in [-1i8, 1] {
+                        hold_adjustment_in_range(base, unit, adjust, step);
+                        cases += 1;
+                    }
+                }
+            }
+        }
+    }
+    println!("hold_adjustment_in_range_exhaustive: {cases} cases");
+    assert!(cases > 5_000_000);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(20_000))]
+
+    /// Mirror of `verify_hold_adjustment_in_range` (Kani) over any base and adjustment.
+    #[test]
+    fn hold_adjustment_in_range_sampled(
+        base in any::<i32>(),
+        pounds in any::<bool>(),
+        adjust in any::<i16>(),
+        up in any::<bool>(),
+    ) {
+        let unit = if pounds { taut_core::settings::Unit::Pounds } else { taut_core::settings::Unit::Kilograms };
+        hold_adjustment_in_range(Kgf::from_bits(base), unit, adjust, if up { 1 } else { -1 });
+    }
 }

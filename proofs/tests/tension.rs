@@ -16,10 +16,11 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use proptest::prelude::*;
 use taut_core::tension::controller::{TAUT_GAINS, TAUT_PLANT};
 use taut_core::tension::law::RsmcGains;
+use taut_core::units::Kgf;
 use taut_proofs::tension::{
     EstimatorCase, LawCase, SlipCase, StepCase, controller_step_bounded, estimator_step_bounded,
-    force_to_duty_bounded, reciprocal_accurate, reciprocal_total, rsmc_step_bounded,
-    slip_damper_bounded,
+    force_to_duty_bounded, hold_state, reciprocal_accurate, reciprocal_total,
+    retarget_keeps_the_target_in_range, rsmc_step_bounded, slip_damper_bounded,
 };
 use taut_proofs::tension_reference::{TrackStep, coefficient_errors, law_tracks_reference};
 
@@ -94,8 +95,9 @@ fn step_case() -> impl Strategy<Value = StepCase> {
             any::<bool>(),
             any::<i32>(),
         ),
+        prop::option::of(any::<i32>()),
     )
-        .prop_map(|(a, b, c, d, e, f)| {
+        .prop_map(|(a, b, c, d, e, f, lock)| {
             let (peak, final_target) = if c.0 >= c.1 { (c.0, c.1) } else { (c.1, c.0) };
             StepCase {
                 paper: a.0,
@@ -123,6 +125,7 @@ fn step_case() -> impl Strategy<Value = StepCase> {
                 home: f.3,
                 end: f.4,
                 bus: f.5,
+                lock,
             }
         })
 }
@@ -353,4 +356,46 @@ fn fixed_rsmc_tracks_float_reference_at_rest_and_in_a_ramp() {
         COMPARED.load(Ordering::Relaxed)
     );
     assert!(total > 40_000, "{total}");
+}
+
+/// Exhaustive part of `verify_hold_retarget_in_range` (Kani): in every phase, from a valid
+/// target of every tenth of a kgf in the range, a retarget to every tenth from −1 to 60 kgf
+/// (and the extremes of the format).
+#[test]
+fn hold_retarget_in_range_exhaustive() {
+    let tenth = 6_554; // 0.1 kgf, bits
+    let mut cases = 0u64;
+    for phase in 0..7u8 {
+        for final_tenths in (50..=500).step_by(5) {
+            let final_bits = final_tenths * tenth;
+            let state = hold_state(phase, final_bits, final_bits, i64::from(final_bits) << 16);
+            let targets = (-10..=600).map(|t| t * tenth).chain([i32::MIN, i32::MAX, 0]);
+            for target in targets {
+                if retarget_keeps_the_target_in_range(state, Kgf::from_bits(target)) {
+                    cases += 1;
+                }
+            }
+        }
+    }
+    println!("hold_retarget_in_range_exhaustive: {cases} cases");
+    assert!(cases > 300_000);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(20_000))]
+
+    /// Mirror of `verify_hold_retarget_in_range` (Kani) over any profile values.
+    #[test]
+    fn hold_retarget_in_range_sampled(
+        phase in any::<u8>(),
+        peak in any::<i32>(),
+        final_target in any::<i32>(),
+        reference in any::<i64>(),
+        target in any::<i32>(),
+    ) {
+        let _in_domain = retarget_keeps_the_target_in_range(
+            hold_state(phase, peak, final_target, reference),
+            Kgf::from_bits(target),
+        );
+    }
 }

@@ -185,7 +185,7 @@ pub fn summary(run: &CycleRun) -> Summary {
         hold_s: holding.zip(releasing).map(|(h, r)| seconds(r - h)),
         creep_mm,
         tension_at_release_kgf: at(releasing).map(|r| r.truth.tension_kgf),
-        string_used_mm: run.pull.map(|p| p.string_mm),
+        string_used_mm: run.pull.map(|p| u32::from(p.string_mm)),
         true_string_mm,
         release_s: releasing.zip(home).map(|(r, h)| seconds(h - r)),
         peak_current_a: run.rows.iter().map(|r| r.truth.peak_current_a.abs()).fold(0.0, f64::max),

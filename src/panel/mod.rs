@@ -311,9 +311,18 @@ pub const FRAME_ROWS: u16 = 15;
 pub fn page_text(state: MachineState, outputs: &Outputs) -> String {
     if state != MachineState::Ready {
         return match state {
-            MachineState::Pulling | MachineState::Holding | MachineState::Releasing => {
-                "the measured tension".to_owned()
+            MachineState::Holding => {
+                // The timer's point (its colon) is on the second digit; a tension's on the third.
+                if display::has_point(&outputs.display, 1) {
+                    "tension timer (m.ss since at tension; Preset: back to the tension)".to_owned()
+                } else {
+                    "the measured tension — Up/Down adjust the hold (0.1 kg / 0.2 lb), \
+                     Function: constant pull off (LOCK) / on (PULL), Preset: tension timer, \
+                     Start releases"
+                        .to_owned()
+                }
             }
+            MachineState::Pulling | MachineState::Releasing => "the measured tension".to_owned(),
             MachineState::CalibrationEntry { .. } => {
                 "calibration: key in the gauge's reading with Up/Down, then Start".to_owned()
             }

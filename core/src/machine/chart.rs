@@ -36,7 +36,7 @@ use statig::prelude::*;
 use crate::drive::{Direction, DriveCommand, Duty};
 use crate::io::{Inputs, Key, Leds, LimitSwitches, Outputs};
 use crate::machine::fault::{FaultCode, Notice};
-use crate::machine::log::{PullRecord, string_mm};
+use crate::machine::log::{LoggedKgf, PullRecord, string_mm};
 use crate::machine::panel::{self, Beep, KeyEvent};
 use crate::machine::safety::{self, TensionSample, TensionWatch};
 use crate::machine::{Checkpoint, MachineState};
@@ -44,7 +44,9 @@ use crate::sense::calibration::{
     CALIBRATION_POINTS, CALIBRATION_TARGETS, Calibration, CalibrationPoint, CalibrationPoints,
 };
 use crate::sense::load_cell::LoadCellScale;
-use crate::settings::{KnotBoost, PreStretch, PullKind, PullSettings, Speed, Unit};
+use crate::settings::{
+    KnotBoost, PreStretch, PullKind, PullSettings, Speed, TENSION_MAX, TENSION_MIN, Unit,
+};
 use crate::store::{PRESET_COUNT, Record};
 use crate::tension::{Measurement, TensionController};
 use crate::units::Kgf;
@@ -114,6 +116,58 @@ pub const CLEAR_ATTEMPT: u16 = 100;
 pub const STORE_DELAY: u32 = 2_000;
 /// Ticks without a key before the panel returns from a settings page to the tension.
 pub const VIEW_TIMEOUT: u32 = 5_000;
+
+/// How long the digits show the new target after a hold adjustment (or `LOCK` / `PULL`
+/// after Function), ms.
+pub const ADJUST_SHOWN_MS: u16 = 1_000;
+
+/// What the hold's digits show for [`ADJUST_SHOWN_MS`] after a key.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub enum HoldMessage {
+    /// The adjusted target.
+    Target,
+    /// `LOCK`: constant pull off, the carriage held where it is.
+    Locked,
+    /// `PULL`: constant pull on again.
+    ConstantPull,
+}
+
+/// The hold's own data: the operator's adjustment, the tension timer, the page shown.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct Hold {
+    /// The adjustment of the held target, tenths of the set point's unit (fine steps of
+    /// 0.1 kg or 0.2 lb); the held target is [`hold_target`] of it.
+    pub adjust: i16,
+    /// The tension timer: milliseconds since the tension was reached.
+    pub held_ms: u32,
+    /// Whether the digits show the tension timer instead of the tension.
+    pub timer: bool,
+    /// What the digits show after a key, and for how many more milliseconds.
+    pub message: Option<(HoldMessage, u16)>,
+}
+
+impl Hold {
+    /// Just arrived at tension: no adjustment, the timer at zero, the tension shown.
+    pub const AT_TENSION: Self = Self { adjust: 0, held_ms: 0, timer: false, message: None };
+}
+
+/// The held target of a pull whose final target is `base`, adjusted by `adjust` tenths of
+/// `unit` (not clamped: [`hold_adjustment`] never lets it leave the tension range).
+#[must_use]
+pub fn hold_target(base: Kgf, unit: Unit, adjust: i16) -> Kgf {
+    base.saturating_add(unit.tenths_to_kgf(i32::from(adjust)))
+}
+
+/// REQ-SM-08, one Up (`step` = 1) or Down (−1) while holding, from adjustment `adjust` on a
+/// pull whose final target is `base`: the new adjustment and held target, or `None` — the
+/// adjustment refused — when the target would leave [`TENSION_MIN`]–[`TENSION_MAX`] (a
+/// knot pull's boosted target adjusts within the same range).
+#[must_use]
+pub fn hold_adjustment(base: Kgf, unit: Unit, adjust: i16, step: i8) -> Option<(i16, Kgf)> {
+    let next = adjust.checked_add(i16::from(step).checked_mul(unit.fine_step_tenths())?)?;
+    let target = hold_target(base, unit, next);
+    (target >= TENSION_MIN && target <= TENSION_MAX).then_some((next, target))
+}
 
 /// What one tick tells the machine: the inputs and what the machine made of them before
 /// dispatch (the debounced key event, the tension readings).
@@ -367,6 +421,28 @@ impl Chart {
         self.time_to_tension = 0;
         self.string_counts = 0;
         self.shown.1 = u16::MAX;
+    }
+}
+
+impl Chart {
+    /// The final target of the present pull before any hold adjustment.
+    fn base_target(&self) -> Kgf {
+        let kind = if self.knot_mode { PullKind::Knot } else { PullKind::Main };
+        self.pull_settings().final_target(kind)
+    }
+
+    /// The log entry of the pull being released from `hold`.
+    fn pull_record(&self, sample: &Sample, hold: &Hold) -> PullRecord {
+        let unit = self.record.settings.set_point().unit();
+        PullRecord {
+            target: LoggedKgf::from_kgf(hold_target(self.base_target(), unit, hold.adjust)),
+            reached: LoggedKgf::from_kgf(self.calibration.correct(sample.raw_average)),
+            peak: LoggedKgf::from_kgf(self.watch.peak),
+            adjust: LoggedKgf::from_kgf(unit.tenths_to_kgf(i32::from(hold.adjust))),
+            time_to_tension_ms: u16::try_from(self.time_to_tension).unwrap_or(u16::MAX),
+            held_s: u16::try_from(hold.held_ms.checked_div(1_000).unwrap_or(0)).unwrap_or(u16::MAX),
+            string_mm: u16::try_from(string_mm(self.string_counts)).unwrap_or(u16::MAX),
+        }
     }
 }
 
@@ -752,7 +828,7 @@ impl Chart {
             Some(State::releasing(0, AfterRelease::Ready))
         } else if output.at_tension {
             self.time_to_tension = *elapsed;
-            Some(State::holding())
+            Some(State::holding(Hold::AT_TENSION))
         } else if *elapsed >= PULL_TIMEOUT && *elapsed >= pull_timeout(self.pull_settings().speed())
         {
             Some(State::fault(FaultCode::PullTimeout, Recovery::Home, 0))
@@ -771,31 +847,77 @@ impl Chart {
         self.begin_pull(context, settings.peak_target(kind));
     }
 
-    /// Constant pull at the set tension; the beeper sounds on arrival; any key releases and
-    /// logs the pull.
+    /// Constant pull at the set tension (the beeper sounds on arrival). Start releases and
+    /// logs the pull; Up/Down move the held target by the unit's fine step
+    /// ([`hold_adjustment`]; the new target shows for [`ADJUST_SHOWN_MS`], and one that would
+    /// leave the tension range is refused with the refusal tones); Function switches constant
+    /// pull off for this hold (`LOCK`: the carriage stays where it is and the string may
+    /// creep) and on again (`PULL`); Preset switches the digits between the live tension and
+    /// the tension timer (`t1.05`: time since the tension was reached); any other key (a
+    /// long press) does nothing — no surprise release.
     #[state(superstate = "tensioned", entry_action = "enter_holding")]
-    fn holding(&mut self, context: &mut Context, event: &Tick) -> Outcome<State> {
+    fn holding(&mut self, context: &mut Context, event: &Tick, hold: &mut Hold) -> Outcome<State> {
         let Tick(sample) = event;
         let output = self.controller.step(&Self::measurement(sample, sample.tension));
         context.out.drive = output.command;
         context.out.leds = Leds { holding: true, ..self.unit_leds() };
-        self.show_working_tension(context, sample);
-        if pressed(sample.key) {
-            let kind = if self.knot_mode { PullKind::Knot } else { PullKind::Main };
-            let record = PullRecord {
-                target: self.pull_settings().final_target(kind),
-                reached: self.calibration.correct(sample.raw_average),
-                time_to_tension_ms: self.time_to_tension,
-                peak: self.watch.peak,
-                string_mm: string_mm(self.string_counts),
+        hold.held_ms = hold.held_ms.saturating_add(1);
+        let unit = self.record.settings.set_point().unit();
+        match sample.key {
+            Some(KeyEvent::Press(Key::Start)) => {
+                let record = self.pull_record(sample, hold);
+                let counters = &mut self.record.counters;
+                counters.pulls = counters.pulls.saturating_add(1);
+                counters.string_used_mm =
+                    counters.string_used_mm.saturating_add(string_mm(self.string_counts));
+                self.dirty = true;
+                context.completed = Some(record);
+                context.out.drive = DriveCommand::Coast;
+                context.next = Some(State::releasing(0, AfterRelease::Ready));
+            }
+            Some(key) if key.step() != 0 => {
+                match hold_adjustment(self.base_target(), unit, hold.adjust, key.step()) {
+                    Some((adjust, target)) if self.controller.retarget(target) => {
+                        hold.adjust = adjust;
+                        hold.message = Some((HoldMessage::Target, ADJUST_SHOWN_MS));
+                    }
+                    _ => {
+                        if pressed(sample.key) {
+                            context.beep = Some(Beep::Refused);
+                        }
+                    }
+                }
+            }
+            Some(KeyEvent::Press(Key::Function)) => {
+                let on = !self.controller.constant_pull();
+                if self.controller.set_constant_pull(on, sample.inputs.drive.steps) {
+                    let message = if on { HoldMessage::ConstantPull } else { HoldMessage::Locked };
+                    hold.message = Some((message, ADJUST_SHOWN_MS));
+                } else {
+                    context.beep = Some(Beep::Refused);
+                }
+            }
+            Some(KeyEvent::Press(Key::Preset)) => {
+                hold.timer = !hold.timer;
+                hold.message = None;
+                self.shown.1 = u16::MAX;
+            }
+            _ => {}
+        }
+        if let Some((message, left)) = hold.message {
+            hold.message = left.checked_sub(1).filter(|&ms| ms > 0).map(|ms| (message, ms));
+            context.out.display = match message {
+                HoldMessage::Target => {
+                    tension_display(hold_target(self.base_target(), unit, hold.adjust), unit)
+                }
+                HoldMessage::Locked => panel::text(b"LOCK"),
+                HoldMessage::ConstantPull => panel::text(b"PULL"),
             };
-            let counters = &mut self.record.counters;
-            counters.pulls = counters.pulls.saturating_add(1);
-            counters.string_used_mm = counters.string_used_mm.saturating_add(record.string_mm);
-            self.dirty = true;
-            context.completed = Some(record);
-            context.out.drive = DriveCommand::Coast;
-            context.next = Some(State::releasing(0, AfterRelease::Ready));
+            self.shown.1 = u16::MAX;
+        } else if hold.timer {
+            context.out.display = panel::clock(b't', hold.held_ms.checked_div(1_000).unwrap_or(0));
+        } else {
+            self.show_working_tension(context, sample);
         }
         Super
     }
@@ -1071,7 +1193,12 @@ pub(crate) fn state_at(checkpoint: &Checkpoint) -> State {
         }
         MachineState::Ready => State::ready(checkpoint.view),
         MachineState::Pulling => State::pulling(elapsed),
-        MachineState::Holding => State::holding(),
+        MachineState::Holding => State::holding(Hold {
+            adjust: checkpoint.hold_adjust,
+            held_ms: elapsed,
+            timer: false,
+            message: None,
+        }),
         MachineState::Releasing => State::releasing(elapsed, checkpoint.then),
         MachineState::Fault(code) => State::fault(code, checkpoint.recovery, checkpoint.clearing),
     }
@@ -1089,7 +1216,7 @@ pub(crate) fn public_state(state: &State) -> MachineState {
         State::CalibrationEntry { point, .. } => MachineState::CalibrationEntry { point: *point },
         State::Ready { .. } => MachineState::Ready,
         State::Pulling { .. } => MachineState::Pulling,
-        State::Holding {} => MachineState::Holding,
+        State::Holding { .. } => MachineState::Holding,
         State::Fault { code, .. } => MachineState::Fault(*code),
     }
 }

@@ -3,7 +3,8 @@
 //! # Theory of operation
 //!
 //! Every pull that reaches tension and is released leaves one [`PullRecord`] (target,
-//! tension when released, time to tension, peak) in a fixed-capacity ring buffer
+//! tension when released, time to tension, peak, how long it was held, the operator's
+//! adjustment during the hold, string drawn) in a fixed-capacity ring buffer
 //! ([`PullLog`], a `heapless::Deque`): when it is full the oldest record is dropped, so the
 //! log always holds the most recent pulls and never allocates. The log lives in RAM only;
 //! the lifetime totals go to the persisted [`crate::store::Counters`].
@@ -27,19 +28,55 @@ pub const STRING_COUNTS_PER_MM: i32 = 8;
 /// Default capacity of the pull log.
 pub const PULL_LOG_CAPACITY: usize = 32;
 
-/// One completed pull.
+/// A tension as the log keeps it: hundredths of a kgf in 16 bits (±327.67 kgf), rounded —
+/// finer than the display's tenth, half the size of a [`Kgf`].
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Debug, Default)]
+pub struct LoggedKgf(i16);
+
+impl LoggedKgf {
+    /// `tension` rounded to the hundredth, saturating at ±327.67 kgf.
+    #[must_use]
+    pub fn from_kgf(tension: Kgf) -> Self {
+        let hundredths = tension.to_hundredths_rounded();
+        let clamped = hundredths.clamp(i32::from(i16::MIN), i32::from(i16::MAX));
+        Self(i16::try_from(clamped).unwrap_or_default())
+    }
+
+    /// The tension.
+    #[must_use]
+    pub fn to_kgf(self) -> Kgf {
+        Kgf::from_hundredths(i32::from(self.0))
+    }
+
+    /// Hundredths of a kgf.
+    #[must_use]
+    pub const fn hundredths(self) -> i16 {
+        self.0
+    }
+}
+
+/// One completed pull: 14 bytes (the log's 32 entries are 448 B of the firmware's 8 KiB).
+/// Tensions are [`LoggedKgf`]; the times and the length are 16-bit: no pull reaches tension
+/// later than its time limit (at most [`crate::machine::pull_timeout`]'s 64.4 s, below
+/// 65.5 s), no hold is near 18 hours and no pull draws 65 m of string; the conversions
+/// saturate all the same.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
 pub struct PullRecord {
-    /// The tension held (the final target).
-    pub target: Kgf,
+    /// The tension held at the end (the final target with the hold's adjustment).
+    pub target: LoggedKgf,
     /// The measured tension when the operator released.
-    pub reached: Kgf,
-    /// Milliseconds from Start to "at tension".
-    pub time_to_tension_ms: u32,
+    pub reached: LoggedKgf,
     /// The highest tension measured during the pull.
-    pub peak: Kgf,
+    pub peak: LoggedKgf,
+    /// The operator's adjustment of the target during the hold (Up/Down): `target` less
+    /// this is what the pull was set to.
+    pub adjust: LoggedKgf,
+    /// Milliseconds from Start to "at tension".
+    pub time_to_tension_ms: u16,
+    /// Seconds from "at tension" to the release (the tension timer when released).
+    pub held_s: u16,
     /// String drawn during the pull, millimetres.
-    pub string_mm: u32,
+    pub string_mm: u16,
 }
 
 /// The most recent pulls, oldest first.
@@ -105,13 +142,27 @@ mod tests {
     #[test]
     fn ring_keeps_the_latest() {
         let mut log = PullLog::<3>::new();
-        for i in 0..5u32 {
+        for i in 0..5u16 {
             log.push(PullRecord { time_to_tension_ms: i, ..PullRecord::default() });
         }
-        let kept: heapless::Vec<u32, 3> = log.iter().map(|r| r.time_to_tension_ms).collect();
+        let kept: heapless::Vec<u16, 3> = log.iter().map(|r| r.time_to_tension_ms).collect();
         assert_eq!(kept.as_slice(), &[2, 3, 4]);
         assert_eq!(log.len(), 3);
         assert_eq!(log.last().map(|r| r.time_to_tension_ms), Some(4));
+    }
+
+    #[test]
+    fn logged_tensions_keep_the_hundredth_and_saturate() {
+        for hundredths in -6_000..=6_000 {
+            let logged = LoggedKgf::from_kgf(Kgf::from_hundredths(hundredths));
+            assert_eq!(i32::from(logged.hundredths()), hundredths);
+            assert_eq!(logged.to_kgf(), Kgf::from_hundredths(hundredths));
+        }
+        assert_eq!(LoggedKgf::from_kgf(Kgf::MAX).hundredths(), i16::MAX);
+        assert_eq!(LoggedKgf::from_kgf(Kgf::MIN).hundredths(), i16::MIN);
+        assert_eq!(LoggedKgf::from_kgf(Kgf::from_milli(25_004)).hundredths(), 2_500);
+        assert_eq!(LoggedKgf::from_kgf(Kgf::from_milli(25_006)).hundredths(), 2_501);
+        assert_eq!(size_of::<PullRecord>(), 14);
     }
 
     #[test]

@@ -47,14 +47,15 @@ use crate::store::{Record, StoreError};
 use crate::units::{AdcCode, Kgf};
 
 pub use chart::{
-    AfterRelease, CALIBRATION_SETTLE, CALIBRATION_SPEED, CALIBRATION_WINDOW, CLEAR_ATTEMPT,
-    ENTRY_MAX, ENTRY_MIN, MOTOR_TEST_DUTY, MOTOR_TEST_STEPS, MOTOR_TEST_TIMEOUT, PULL_TIMEOUT,
-    PULL_TIMEOUT_APPROACH_MS, PULL_TIMEOUT_TRAVEL_MM, RELEASE_TIMEOUT, Recovery, SELF_TEST_SETTLE,
-    SELF_TEST_TICKS, STORE_DELAY, VIEW_TIMEOUT, View, calibration_settings, fault_persists,
-    pull_timeout, tension_display,
+    ADJUST_SHOWN_MS, AfterRelease, CALIBRATION_SETTLE, CALIBRATION_SPEED, CALIBRATION_WINDOW,
+    CLEAR_ATTEMPT, ENTRY_MAX, ENTRY_MIN, Hold, HoldMessage, MOTOR_TEST_DUTY, MOTOR_TEST_STEPS,
+    MOTOR_TEST_TIMEOUT, PULL_TIMEOUT, PULL_TIMEOUT_APPROACH_MS, PULL_TIMEOUT_TRAVEL_MM,
+    RELEASE_TIMEOUT, Recovery, SELF_TEST_SETTLE, SELF_TEST_TICKS, STORE_DELAY, VIEW_TIMEOUT, View,
+    calibration_settings, fault_persists, hold_adjustment, hold_target, pull_timeout,
+    tension_display,
 };
 pub use fault::{FaultCode, Notice};
-pub use log::{PULL_LOG_CAPACITY, PullLog, PullRecord};
+pub use log::{LoggedKgf, PULL_LOG_CAPACITY, PullLog, PullRecord};
 pub use panel::{Beep, KeyEvent, KeyPad};
 
 use chart::{Chart, Context, Sample, State, Tick};
@@ -63,6 +64,10 @@ use panel::Beeper;
 /// Shift of the raw-tension running average: a first-order filter with a time constant of
 /// 2⁶ = 64 ticks.
 const AVERAGE_SHIFT: u32 = 6;
+
+/// The largest hold adjustment a run can reach, tenths of the unit: the whole tension range
+/// (45 kgf) is 450 tenths of a kg or 992 of a pound.
+pub const HOLD_ADJUST_MAX: u16 = 1_000;
 
 /// The state the machine is in, as a small value for displays, logs and tests.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
@@ -177,6 +182,9 @@ pub struct Checkpoint {
     pub clearing: u16,
     /// Ready: the page shown.
     pub view: View,
+    /// Holding: the operator's adjustment, tenths of the set point's unit (`elapsed` is the
+    /// tension timer).
+    pub hold_adjust: i16,
     /// The unloaded load-cell code the self-test tared at.
     pub tare: AdcCode,
     /// Tensioned states: the tension rules' state (start count, peak, persistence counters).
@@ -204,6 +212,7 @@ impl Checkpoint {
             recovery: Recovery::Home,
             clearing: 0,
             view: View::Tension,
+            hold_adjust: 0,
             tare: AdcCode::new(41),
             watch: safety::TensionWatch::new(0),
             knot_mode: false,
@@ -220,8 +229,9 @@ impl Checkpoint {
     }
 
     /// The invariant of everything but the key pad (whose own is [`KeyPad::is_valid`]):
-    /// calibration points 0–3, entered value 50–550, preset index 0–8, clear attempt within
-    /// its length, a tare inside the load cell's zero band, a valid tension watch.
+    /// calibration points 0–3, entered value 50–550, preset index 0–8, a hold adjustment
+    /// within ±[`HOLD_ADJUST_MAX`], clear attempt within its length, a tare inside the load
+    /// cell's zero band, a valid tension watch.
     #[must_use]
     pub fn chart_is_valid(&self) -> bool {
         let point_ok = match self.state {
@@ -236,6 +246,7 @@ impl Checkpoint {
         };
         point_ok
             && view_ok
+            && self.hold_adjust.unsigned_abs() <= HOLD_ADJUST_MAX
             && (ENTRY_MIN..=ENTRY_MAX).contains(&self.entered_hundredths)
             && self.clearing <= CLEAR_ATTEMPT
             && crate::sense::load_cell::LoadCellScale::NOMINAL.tared_at(self.tare).is_ok()
@@ -435,6 +446,21 @@ impl<const LOG: usize> Machine<LOG> {
             State::Ready { view } => *view,
             _ => View::Tension,
         }
+    }
+
+    /// The hold's data (adjustment, tension timer, page) while holding.
+    #[must_use]
+    pub fn hold(&self) -> Option<Hold> {
+        match self.chart.state() {
+            State::Holding { hold } => Some(*hold),
+            _ => None,
+        }
+    }
+
+    /// Whether the tension controller pulls constantly (false: switched off in this hold).
+    #[must_use]
+    pub fn constant_pull(&self) -> bool {
+        self.chart.inner().controller.constant_pull()
     }
 
     /// Knot mode.

@@ -18,7 +18,8 @@
 //! letters of `CAL`, `E-`, `SP`, `PS`, `Kn`, `P`, `Unit`, `kg`, `lb`, `GOOd`, `dOnE`, …) to
 //! bitmaps; [`text`] renders four characters, [`tenths`] a value with one decimal
 //! (`25.0`, `110.0` → `110.0` needs the point on the third digit), [`labelled`] a short
-//! label and a number (`SP 5`, `PS10`), [`fault`] `E-nn`.
+//! label and a number (`SP 5`, `PS10`), [`fault`] `E-nn`, [`clock`] a timer as `m:ss` with
+//! the decimal point for the colon (`t1.05`, `12.05`).
 //!
 //! **Beeper.** A [`Beeper`] plays one [`Beep`] pattern at a time from its start time: a
 //! click on a key press, a long tone at tension, three tones for a fault.
@@ -344,6 +345,20 @@ pub const fn labelled(label: &[u8; 2], value: u8) -> Display {
     [glyph(label[0]), glyph(label[1]), tens_glyph, glyph(ones_digit)]
 }
 
+/// A timer of `seconds` as `m:ss` on four digits, the decimal point standing for the colon:
+/// under ten minutes a one-letter `label` leads (`t1.05` = the tension timer at 1 min 5 s),
+/// from ten minutes the label gives way to the minutes' tens (`12.05`); from 99:59 on the
+/// display stays at `99.59`.
+#[must_use]
+pub const fn clock(label: u8, seconds: u32) -> Display {
+    let capped = if seconds > 5_999 { 5_999 } else { seconds };
+    let minutes = capped / 60;
+    let rest = capped % 60;
+    let lead = if minutes < 10 { glyph(label) } else { glyph(digit(minutes / 10)) };
+    let ones = Segments(glyph(digit(minutes)).0 | DECIMAL_POINT);
+    [lead, ones, glyph(digit(rest / 10)), glyph(digit(rest))]
+}
+
 /// `E-nn` for a fault number.
 #[must_use]
 pub const fn fault(number: u8) -> Display {
@@ -538,6 +553,37 @@ mod tests {
         assert_eq!(fault(17), text(b"E-17"));
         assert_eq!(labelled(b"SP", 5), text(b"SP 5"));
         assert_eq!(labelled(b"PS", 30), text(b"PS30"));
+    }
+
+    /// REQ-SM-10: `m.ss` with the point for the colon, a label under ten minutes, the
+    /// minutes' tens from ten, `99.59` at most.
+    #[test]
+    fn a_clock_shows_minutes_and_seconds() {
+        let with_colon = |chars: &[u8; 4]| {
+            let [a, b, c, d] = text(chars);
+            [a, Segments(b.0 | DECIMAL_POINT), c, d]
+        };
+        assert_eq!(clock(b't', 0), with_colon(b"t000"));
+        assert_eq!(clock(b't', 59), with_colon(b"t059"));
+        assert_eq!(clock(b't', 60), with_colon(b"t100"));
+        assert_eq!(clock(b't', 61), with_colon(b"t101"));
+        assert_eq!(clock(b'S', 599), with_colon(b"S959"));
+        assert_eq!(clock(b't', 600), with_colon(b"1000"));
+        assert_eq!(clock(b't', 725), with_colon(b"1205"));
+        assert_eq!(clock(b't', 5_999), with_colon(b"9959"));
+        assert_eq!(clock(b't', 6_000), with_colon(b"9959"));
+        assert_eq!(clock(b't', u32::MAX), with_colon(b"9959"));
+        // Every second of the first 100 minutes reads back as itself.
+        let value = |segments: Segments| {
+            (0..10u32).find(|&d| glyph(digit(d)).0 == segments.0 & !DECIMAL_POINT).unwrap_or(99)
+        };
+        for seconds in 0..6_000u32 {
+            let [lead, ones, tens_s, ones_s] = clock(b't', seconds);
+            let minutes_tens = if seconds < 600 { 0 } else { value(lead) };
+            let read = (minutes_tens * 10 + value(ones)) * 60 + value(tens_s) * 10 + value(ones_s);
+            assert_eq!(read, seconds);
+            assert_ne!(ones.0 & DECIMAL_POINT, 0);
+        }
     }
 
     #[test]

@@ -89,6 +89,20 @@ use crate::units::{Amps, Kgf, KgfPerSecond, Q16, Seconds, Volts};
 /// The most duty a release (homing) move uses: 60 %.
 pub const RELEASE_DUTY_MAX: Duty = Duty::from_raw_clamped(39_322);
 
+/// Constant pull off (lock-out, REQ-TEN-18): the carriage is held where it was locked, with
+/// this much force per Hall step it has moved from there: 0.1 kgf a step (52.9 µm), ≈ 1.9 kgf
+/// per mm. The motor's force is the string's estimated pull plus this spring, mapped to duty
+/// *at zero speed*, so the motor's own back-EMF damps the hold (`c_v/c_f` ≈ 6.8 kgf per mm/s:
+/// a 3.6 s time constant, no oscillation on any string), and the string's pull cancels out of
+/// the carriage's balance: what is left pins the carriage within a step or two of where it
+/// was (a 0.1 kgf sensing error moves it one step), while the string creeps at constant
+/// length — a crank machine's lock.
+pub const LOCK_STIFFNESS: Kgf = Kgf(Q16::lit("0.1"));
+
+/// The lock-out's spring acts over at most this many Hall steps either way (±5 kgf): a
+/// carriage pushed further (a clamp slipping) is not yanked back at full force.
+pub const LOCK_SPAN_STEPS: i32 = 50;
+
 /// The back-out (REQ-TEN-17): in the settle and the hold, a tension more than this above the
 /// reference, with the law asking for no pull at all, is backed out by driving the carriage
 /// toward home: 0.03 kgf, above the estimate's noise (≈ 0.005 kgf) so an at-tension string
@@ -275,6 +289,9 @@ pub struct TensionController {
     profile: Profile,
     /// The last estimate's tension (what the machine shows between pulls too).
     shown: Kgf,
+    /// Constant pull switched off for this hold: the Hall count the carriage is held at
+    /// (`None`: constant pull, the default).
+    lock: Option<i32>,
 }
 
 impl Default for TensionController {
@@ -360,6 +377,7 @@ impl TensionController {
             hold_gain: p.observer_gain_hold,
             profile: Profile::new(&p, period).map_err(ConfigError::Profile)?,
             shown: Kgf::ZERO,
+            lock: None,
         })
     }
 
@@ -387,6 +405,7 @@ impl TensionController {
             hold_gain: None,
             profile: Profile::FALLBACK,
             shown: Kgf::ZERO,
+            lock: None,
         }
     }
 
@@ -402,16 +421,49 @@ impl TensionController {
             rsmc.set_plant_scale(Q16::ONE);
         }
         self.profile.start(settings, kind);
+        self.lock = None;
     }
 
     /// Starts the release (homing) move.
     pub fn release(&mut self) {
         self.profile.release();
+        self.lock = None;
     }
 
     /// Stops at once: idle, coasting.
     pub fn stop(&mut self) {
         self.profile.stop();
+        self.lock = None;
+    }
+
+    /// REQ-TEN-18: switches constant pull off for the rest of this hold — the carriage is
+    /// held at Hall count `steps` (see [`LOCK_STIFFNESS`]) and the string may creep — or back
+    /// on: the reference restarts from the tension now and closes on the target as after
+    /// the settle, the law restarting from the present error (no kick). Refused (false,
+    /// nothing changes) outside the hold.
+    pub fn set_constant_pull(&mut self, on: bool, steps: i32) -> bool {
+        if self.profile.phase() != PullPhase::Hold {
+            return false;
+        }
+        if on {
+            if self.lock.take().is_some() {
+                self.profile.resume_from(self.shown);
+            }
+        } else {
+            self.lock = Some(steps);
+        }
+        true
+    }
+
+    /// Whether constant pull is on (it is unless switched off in this hold).
+    #[must_use]
+    pub const fn constant_pull(&self) -> bool {
+        self.lock.is_none()
+    }
+
+    /// Moves the held tension to `target` (see [`Profile::retarget`]); whether accepted.
+    pub fn retarget(&mut self, target: Kgf) -> bool {
+        self.profile.retarget(target)
     }
 
     /// The present phase.
@@ -458,14 +510,15 @@ impl TensionController {
 
     /// The invariant every reachable state satisfies: the law's, the estimator's and the
     /// profile's own invariants (targets and reference within `[0, TENSION_MAX]`, the peak
-    /// at or above the final target).
+    /// at or above the final target), and a lock-out only in the hold.
     #[must_use]
     pub fn is_valid(&self) -> bool {
         let law_ok = match &self.law {
             Law::Rsmc(rsmc) => rsmc.is_valid(),
             Law::Pd(_) => true,
         };
-        law_ok && self.estimator.is_valid() && self.profile.is_valid()
+        let lock_ok = self.lock.is_none() || self.profile.phase() == PullPhase::Hold;
+        law_ok && self.estimator.is_valid() && self.profile.is_valid() && lock_ok
     }
 
     /// Starts the braking ([`Profile::begin_braking`]) and applies what it identified: the
@@ -529,6 +582,10 @@ impl TensionController {
                     DriveCommand::Drive { direction: Direction::Pull, duty }
                 }
             }
+            PullPhase::Hold if self.lock.is_some() => {
+                self.profile.transitions(PullPhase::Hold, est.tension);
+                self.locked(est.tension, m.drive.steps, &mut force)
+            }
             PullPhase::Approach | PullPhase::PreStretch | PullPhase::Settle | PullPhase::Hold => {
                 self.closed_loop(&est, speed, slip_brake, &mut force)
             }
@@ -589,6 +646,17 @@ impl TensionController {
         *force_out = force;
         self.profile.transitions(phase, y);
         command
+    }
+
+    /// The lock-out's command (REQ-TEN-18): the string's pull `y` plus [`LOCK_STIFFNESS`] per
+    /// Hall step short of the locked count, at zero speed; a pull only, never a reversal.
+    fn locked(&self, y: Kgf, steps: i32, force_out: &mut Kgf) -> DriveCommand {
+        let held_at = self.lock.unwrap_or(steps);
+        let short = held_at.saturating_sub(steps).clamp(-LOCK_SPAN_STEPS, LOCK_SPAN_STEPS);
+        let spring = Kgf(LOCK_STIFFNESS.0.saturating_mul_int(short));
+        let force = y.saturating_add(spring);
+        *force_out = force;
+        self.map.command(force, MmPerSecond(Q16::ZERO)).0
     }
 
     /// REQ-TEN-17, the back-out: the law's `command` unless it asks for no pull at all while
@@ -719,6 +787,70 @@ mod tests {
             out = controller.step(&m);
         }
         out
+    }
+
+    /// REQ-TEN-18: constant pull goes off only in the hold; locked, the force is the string's
+    /// pull plus 0.1 kgf per step short of the locked count (±50 steps at most), always a
+    /// pull — even with the tension far over the reference, where the back-out would
+    /// release; on again, the law restarts from the present tension; a release, a stop and
+    /// a new pull each clear the lock.
+    #[test]
+    fn the_lock_out_holds_the_carriage_and_only_pulls() {
+        for phase in PullPhase::ALL {
+            let mut controller = TensionController::taut();
+            let mut state = controller.profile_state();
+            state.phase = phase;
+            controller.set_profile_state(state);
+            let accepted = controller.set_constant_pull(false, 100);
+            assert_eq!(accepted, phase == PullPhase::Hold, "{phase:?}");
+            assert_eq!(controller.constant_pull(), phase != PullPhase::Hold);
+            assert!(controller.is_valid());
+        }
+        let mut controller = TensionController::taut();
+        let mut state = controller.profile_state();
+        state.phase = PullPhase::Hold;
+        state.final_target = Kgf::from_int(25);
+        state.peak = Kgf::from_int(25);
+        controller.set_profile_state(state);
+        assert!(controller.set_constant_pull(false, 1_000));
+        let y = Kgf::from_int(25);
+        let force_at = |steps: i32| {
+            let mut force = Kgf::ZERO;
+            let command = controller.locked(y, steps, &mut force);
+            assert_eq!(command.direction(), Some(Direction::Pull), "{steps}");
+            force
+        };
+        assert_eq!(force_at(1_000), y);
+        assert_eq!(force_at(990), y.saturating_add(Kgf(LOCK_STIFFNESS.0 * 10)));
+        assert_eq!(force_at(1_010), y.saturating_sub(Kgf(LOCK_STIFFNESS.0 * 10)));
+        assert_eq!(force_at(0), y.saturating_add(Kgf(LOCK_STIFFNESS.0 * 50)), "span");
+        assert_eq!(force_at(i32::MAX), y.saturating_sub(Kgf(LOCK_STIFFNESS.0 * 50)), "span");
+        // Locked, 5 kgf over the reference: still a pull (unlocked, the back-out releases).
+        let over = Measurement { tension: Kgf::from_int(30), ..Measurement::default() };
+        for _ in 0..50 {
+            let out = controller.step(&over);
+            assert_eq!(out.command.direction(), Some(Direction::Pull));
+            assert_eq!(out.phase, PullPhase::Hold);
+        }
+        // Back on: the reference restarts from the tension now, the law from its error.
+        assert!(controller.set_constant_pull(true, 0));
+        assert!(controller.constant_pull());
+        let resumed = controller.profile_state();
+        assert_eq!(resumed.reference, Q32::from_q16(controller.tension().0));
+        assert!(resumed.fresh);
+        assert!(controller.tension() > Kgf::from_int(26), "{:?}", controller.tension());
+        // A release, a stop or a new pull clears the lock.
+        for clear in 0..3 {
+            controller.set_profile_state(state);
+            assert!(controller.set_constant_pull(false, 0));
+            match clear {
+                0 => controller.release(),
+                1 => controller.stop(),
+                _ => controller.start(&PullSettings::default(), PullKind::Main),
+            }
+            assert!(controller.constant_pull(), "{clear}");
+            assert!(controller.is_valid());
+        }
     }
 
     #[test]

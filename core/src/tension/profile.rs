@@ -42,7 +42,7 @@
 use crate::fixed::{
     Frac32, Q24, Q32, mul_q16, mul_q24, mul_wide, narrow, reciprocal_q24, saturate_i32,
 };
-use crate::settings::{MmPerSecond, PullKind, PullSettings, TENSION_MAX};
+use crate::settings::{MmPerSecond, PullKind, PullSettings, TENSION_MAX, TENSION_MIN};
 use crate::tension::estimator::Estimate;
 use crate::tension::law::{Reference, Saturation};
 use crate::units::{Kgf, KgfPerSecond, Q16, Seconds};
@@ -465,6 +465,31 @@ impl Profile {
         self.state.phase = PullPhase::Idle;
         self.state.ticks = 0;
         self.state.at_tension = false;
+    }
+
+    /// Moves the held tension to `target` while holding (the operator's Up/Down): the
+    /// reference closes on it as it closed on the final target (shaped) or steps to it
+    /// (step), and "at tension" stays latched. Refused — nothing changes — outside
+    /// [`PullPhase::Hold`] or outside [`TENSION_MIN`]–[`TENSION_MAX`]; the peak is raised
+    /// to the target if it is below it, so the peak stays at or above the final target.
+    pub fn retarget(&mut self, target: Kgf) -> bool {
+        let accepted =
+            self.state.phase == PullPhase::Hold && target >= TENSION_MIN && target <= TENSION_MAX;
+        if accepted {
+            self.state.final_target = target;
+            self.state.peak = self.state.peak.max(target);
+        }
+        accepted
+    }
+
+    /// Constant pull back on after a lock-out: the reference restarts from the tension `y`
+    /// (clamped to the range) and closes on the final target again, and the law restarts
+    /// from the present error. Only in [`PullPhase::Hold`].
+    pub fn resume_from(&mut self, y: Kgf) {
+        if self.state.phase == PullPhase::Hold {
+            self.set_reference(Q32::from_q16(y.0));
+            self.state.fresh = true;
+        }
     }
 
     /// Counts a tick in the present phase (saturating).

@@ -99,7 +99,10 @@ pub fn text(display: &Display) -> String {
         let character = match readings[index] {
             Reading::Blank => b' ',
             Reading::Either { digit, letter } => {
-                if left_is_letter || (leads && right_is_letter) {
+                // A glyph with the decimal point is a number's (`t1.05`: the timer's
+                // minutes), whatever stands left of it.
+                let pointed = segments.0 & DECIMAL_POINT != 0;
+                if !pointed && (left_is_letter || (leads && right_is_letter)) {
                     letters[index] = true;
                     letter
                 } else {

@@ -71,6 +71,9 @@ pub enum ReportKind {
     Robustness(RobustnessArgs),
     /// Whole machine cycles across the family, with injected string breaks and faults.
     Machine(MachineArgs),
+    /// The machine's string estimate (stiffness, creep) against the twin's truth, for every
+    /// string preset on the nominal machine and machines of the family.
+    String(StringArgs),
 }
 
 // ───────────────────────────── value parsers ─────────────────────────────
@@ -488,6 +491,20 @@ pub struct MachineArgs {
     /// Also print one line per cycle.
     #[arg(long)]
     pub detail: bool,
+}
+
+/// `taut report string` options.
+#[derive(Args, Clone, Debug)]
+pub struct StringArgs {
+    /// Machines of the family per string preset, beside the nominal machine.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 2, value_parser = whole(0_u64, 1_000))]
+    pub seeds: u64,
+    /// Seconds the operator holds before releasing (the creep window is the hold less 1 s).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 20, value_parser = whole(5_u32, 600))]
+    pub hold: u32,
+    /// Write the JSON summary here.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
 }
 
 #[cfg(test)]

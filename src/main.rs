@@ -16,6 +16,7 @@ fn main() {
             ReportKind::Ablation(args) => taut::report::ablation::main(args),
             ReportKind::Robustness(args) => taut::report::robustness::main(args),
             ReportKind::Machine(args) => taut::report::machine::main(args),
+            ReportKind::String(args) => taut::report::string::main(args),
         },
     };
     std::process::exit(match status {

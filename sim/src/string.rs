@@ -89,6 +89,14 @@ impl StringModel {
         self.tension_n
     }
 
+    /// How fast the tension would fall at constant length now, N/s: `Σ aᵢ/τᵢ` over the
+    /// relaxation arms — the string's creep, which a constant-pull hold makes up by
+    /// stretching it further (`K·ẋ` equals it while the tension is held constant).
+    #[must_use]
+    pub fn relaxation_rate_n_per_s(&self) -> f64 {
+        self.arms.iter().zip(self.params.relaxation).map(|(a, arm)| a / arm.time_constant_s).sum()
+    }
+
     /// Whether the string is in the machine and unbroken (it then moves with the carriage).
     #[must_use]
     pub const fn attached(&self) -> bool {

@@ -220,6 +220,9 @@ pub struct Truth {
     pub comparator_tripped: bool,
     /// The string's state.
     pub string: StringState,
+    /// How fast the string's tension would fall at constant length, kgf/s (its creep:
+    /// the relaxation arms' `Σ aᵢ/τᵢ`).
+    pub string_relaxation_kgf_per_s: f64,
     /// The limit switches as the carriage actuates them (before any wiring fault).
     pub limits: LimitSwitches,
     /// The Hall code the rotor angle produces (before glitches and faults).
@@ -536,6 +539,7 @@ impl Twin {
                 drive_fault: None,
                 comparator_tripped: false,
                 string: StringState::Absent,
+                string_relaxation_kgf_per_s: 0.0,
                 limits: LimitSwitches::default(),
                 hall: HallCode::from_raw(0),
                 stuck: true,
@@ -1198,6 +1202,7 @@ impl Twin {
             drive_fault: self.drive.fault(),
             comparator_tripped: s.comparator,
             string: self.string.state(),
+            string_relaxation_kgf_per_s: self.string.relaxation_rate_n_per_s() / NEWTONS_PER_KGF,
             limits: self.true_limits(),
             hall: hall_code_placed(self.theta_e_deg(), hall.offset_deg, hall.sensor_offsets_deg),
             stuck: self.carriage_stuck,

@@ -83,6 +83,15 @@ pub struct Summary {
     pub string_used_mm: Option<u32>,
     /// String drawn during the pull in truth, mm.
     pub true_string_mm: Option<f64>,
+    /// The string's stiffness as the machine estimated it, kgf/mm.
+    pub stiffness_kgf_per_mm: Option<f64>,
+    /// The twin string's instantaneous stiffness `E·A/L`, kgf/mm.
+    pub true_stiffness_kgf_per_mm: f64,
+    /// The string's creep in the hold as the machine estimated it, % of the tension per min.
+    pub creep_percent_per_min: Option<f64>,
+    /// The twin string's creep over the machine's window (1 s into the hold to the
+    /// release): its relaxation rate at constant length over the true tension, %/min.
+    pub true_creep_percent_per_min: Option<f64>,
     /// Release to Ready at home, s.
     pub release_s: Option<f64>,
     /// The largest winding (phase) current of the job, true, A.
@@ -102,6 +111,9 @@ pub struct Summary {
     /// Key presses in the job.
     pub presses: u32,
 }
+
+/// The machine's creep window opens this long into the hold, ms (its `CREEP_SETTLE_MS`).
+const CREEP_WINDOW_FROM_MS: u64 = taut_core::machine::string::CREEP_SETTLE_MS as u64;
 
 /// The first time `state` was entered at or after `from` ms.
 #[must_use]
@@ -155,6 +167,16 @@ pub fn summary(run: &CycleRun) -> Summary {
     let at = |t: Option<u64>| t.and_then(|t| run.rows.iter().find(|r| r.t_ms >= t));
     let creep_mm =
         at(holding).zip(at(releasing)).map(|(h, r)| r.truth.carriage_mm - h.truth.carriage_mm);
+    let creep_window = holding.zip(releasing).map(|(h, r)| (h + CREEP_WINDOW_FROM_MS, r));
+    let true_creep_percent_per_min = creep_window.and_then(|(from, to)| {
+        let (mut rate, mut tension, mut n) = (0.0, 0.0, 0u32);
+        for row in rows_between(run, from, to) {
+            rate += row.truth.string_relaxation_kgf_per_s;
+            tension += row.truth.tension_kgf;
+            n += 1;
+        }
+        (n > 0 && tension > 0.0).then(|| rate / tension * 100.0 * 60.0)
+    });
     let true_string_mm = at(pulling)
         .zip(at(releasing))
         .map(|(p, r)| r.truth.string_travel_mm - p.truth.string_travel_mm);
@@ -187,6 +209,16 @@ pub fn summary(run: &CycleRun) -> Summary {
         tension_at_release_kgf: at(releasing).map(|r| r.truth.tension_kgf),
         string_used_mm: run.pull.map(|p| u32::from(p.string_mm)),
         true_string_mm,
+        stiffness_kgf_per_mm: run
+            .pull
+            .and_then(|p| p.stiffness)
+            .map(|k| f64::from(k.milli()) / 1_000.0),
+        true_stiffness_kgf_per_mm: run.config.string.stiffness_kgf_per_cm / 10.0,
+        creep_percent_per_min: run
+            .pull
+            .and_then(|p| p.creep)
+            .map(|c| f64::from(c.centi_percent_per_minute()) / 100.0),
+        true_creep_percent_per_min,
         release_s: releasing.zip(home).map(|(r, h)| seconds(h - r)),
         peak_current_a: run.rows.iter().map(|r| r.truth.peak_current_a.abs()).fold(0.0, f64::max),
         current_sensing: run.config.current_sense.name(),
@@ -259,6 +291,22 @@ pub fn table(run: &CycleRun) -> String {
                 s.true_string_mm.map_or_else(|| "—".to_owned(), |v| format!("{v:.1} mm"))
             ),
         ),
+        (
+            "string stiffness (machine's estimate / twin's E·A/L)",
+            format!(
+                "{} / {:.3} kgf/mm",
+                s.stiffness_kgf_per_mm.map_or_else(|| "—".to_owned(), |v| format!("{v:.3}")),
+                s.true_stiffness_kgf_per_mm
+            ),
+        ),
+        (
+            "string creep in the hold (machine's estimate / twin's)",
+            format!(
+                "{} / {} % of the tension per minute",
+                s.creep_percent_per_min.map_or_else(|| "—".to_owned(), |v| format!("{v:.2}")),
+                s.true_creep_percent_per_min.map_or_else(|| "—".to_owned(), |v| format!("{v:.2}"))
+            ),
+        ),
         ("release to home", secs(s.release_s)),
         (
             "peak winding current (true)",
@@ -320,6 +368,10 @@ pub fn json(run: &CycleRun) -> Value {
         "tension_at_release_kgf": s.tension_at_release_kgf,
         "string_used_mm": s.string_used_mm,
         "true_string_mm": s.true_string_mm,
+        "stiffness_kgf_per_mm": s.stiffness_kgf_per_mm,
+        "true_stiffness_kgf_per_mm": s.true_stiffness_kgf_per_mm,
+        "creep_percent_per_min": s.creep_percent_per_min,
+        "true_creep_percent_per_min": s.true_creep_percent_per_min,
         "release_s": s.release_s,
         "peak_current_a": s.peak_current_a,
         "current_sensing": s.current_sensing,

@@ -4,7 +4,8 @@
 //!   figures issue 8 defines, against the *true* tension;
 //! - [`ablation`]: taut with each improvement switched off in turn, on the same scenarios;
 //! - [`robustness`]: each uncertainty axis of the family swept alone;
-//! - [`machine`]: whole machine cycles with injected string breaks and faults.
+//! - [`machine`]: whole machine cycles with injected string breaks and faults;
+//! - [`string`]: the machine's string estimate (stiffness, creep) against the twin's truth.
 //!
 //! # A scenario, and a pull on it
 //!
@@ -39,6 +40,7 @@ pub mod ablation;
 pub mod accuracy;
 pub mod machine;
 pub mod robustness;
+pub mod string;
 
 use taut_core::sense::calibration::Calibration;
 use taut_core::settings::{KnotBoost, PreStretch, PullKind, PullSettings, Speed};

@@ -39,6 +39,7 @@ use crate::machine::fault::{FaultCode, Notice};
 use crate::machine::log::{LoggedKgf, PullRecord, string_mm};
 use crate::machine::panel::{self, Beep, KeyEvent};
 use crate::machine::safety::{self, TensionSample, TensionWatch};
+use crate::machine::string::StringProbe;
 use crate::machine::{Checkpoint, MachineState};
 use crate::sense::calibration::{
     CALIBRATION_POINTS, CALIBRATION_TARGETS, Calibration, CalibrationPoint, CalibrationPoints,
@@ -303,6 +304,8 @@ pub struct Chart {
     pub time_to_tension: u32,
     /// String-encoder counts of the present pull.
     pub string_counts: i32,
+    /// The string's stiffness and creep, measured through the present pull.
+    pub probe: StringProbe,
     /// The calibration points taken so far.
     pub calibration_points: CalibrationPoints,
     /// Consecutive moving ticks with the load cell at a rail.
@@ -344,6 +347,7 @@ impl Chart {
             peak_target: Kgf::ZERO,
             time_to_tension: 0,
             string_counts: 0,
+            probe: StringProbe::NEW,
             calibration_points: [CalibrationPoint::default(); CALIBRATION_POINTS],
             rail_ticks: 0,
             driven_ms: 0,
@@ -420,6 +424,7 @@ impl Chart {
         self.peak_target = peak;
         self.time_to_tension = 0;
         self.string_counts = 0;
+        self.probe = StringProbe::NEW;
         self.shown.1 = u16::MAX;
     }
 }
@@ -442,6 +447,14 @@ impl Chart {
             time_to_tension_ms: u16::try_from(self.time_to_tension).unwrap_or(u16::MAX),
             held_s: u16::try_from(hold.held_ms.checked_div(1_000).unwrap_or(0)).unwrap_or(u16::MAX),
             string_mm: u16::try_from(string_mm(self.string_counts)).unwrap_or(u16::MAX),
+            stiffness: self.probe.stiffness(),
+            // At constant pull only: a locked carriage does not creep.
+            creep: if self.controller.constant_pull() {
+                let held = hold_target(self.base_target(), unit, hold.adjust);
+                self.probe.creep(sample.inputs.drive.steps, hold.held_ms, held)
+            } else {
+                None
+            },
         }
     }
 }
@@ -822,6 +835,8 @@ impl Chart {
         context.expect_motion = taking_up(sample.tension, self.peak_target);
         context.out.leds = Leds { pulling: true, ..self.unit_leds() };
         self.show_working_tension(context, sample);
+        let averaged = self.calibration.correct(sample.raw_average);
+        self.probe.pulling(sample.inputs.drive.steps, averaged, self.base_target());
         *elapsed = elapsed.saturating_add(1);
         context.next = if pressed(sample.key) {
             context.out.drive = DriveCommand::Coast;
@@ -862,6 +877,7 @@ impl Chart {
         context.out.drive = output.command;
         context.out.leds = Leds { holding: true, ..self.unit_leds() };
         hold.held_ms = hold.held_ms.saturating_add(1);
+        self.probe.holding(sample.inputs.drive.steps, hold.held_ms);
         let unit = self.record.settings.set_point().unit();
         match sample.key {
             Some(KeyEvent::Press(Key::Start)) => {
@@ -880,6 +896,7 @@ impl Chart {
                     Some((adjust, target)) if self.controller.retarget(target) => {
                         hold.adjust = adjust;
                         hold.message = Some((HoldMessage::Target, ADJUST_SHOWN_MS));
+                        self.probe.hold_changed(hold.held_ms);
                     }
                     _ => {
                         if pressed(sample.key) {
@@ -893,6 +910,7 @@ impl Chart {
                 if self.controller.set_constant_pull(on, sample.inputs.drive.steps) {
                     let message = if on { HoldMessage::ConstantPull } else { HoldMessage::Locked };
                     hold.message = Some((message, ADJUST_SHOWN_MS));
+                    self.probe.hold_changed(hold.held_ms);
                 } else {
                     context.beep = Some(Beep::Refused);
                 }

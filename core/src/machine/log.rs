@@ -17,6 +17,7 @@
 
 use heapless::Deque;
 
+use crate::machine::string::{CreepRate, Stiffness};
 use crate::units::Kgf;
 
 /// Counts of the string encoder per millimetre of string: a 100-line encoder (400 counts
@@ -55,7 +56,7 @@ impl LoggedKgf {
     }
 }
 
-/// One completed pull: 14 bytes (the log's 32 entries are 448 B of the firmware's 8 KiB).
+/// One completed pull: 18 bytes (the log's 32 entries are 576 B of the firmware's 8 KiB).
 /// Tensions are [`LoggedKgf`]; the times and the length are 16-bit: no pull reaches tension
 /// later than its time limit (at most [`crate::machine::pull_timeout`]'s 64.4 s, below
 /// 65.5 s), no hold is near 18 hours and no pull draws 65 m of string; the conversions
@@ -77,6 +78,11 @@ pub struct PullRecord {
     pub held_s: u16,
     /// String drawn during the pull, millimetres.
     pub string_mm: u16,
+    /// The string's stiffness near the set tension (see [`super::string`]), if measured.
+    pub stiffness: Option<Stiffness>,
+    /// The string's creep during the hold (see [`super::string`]), if the hold was long
+    /// enough at constant pull.
+    pub creep: Option<CreepRate>,
 }
 
 /// The most recent pulls, oldest first.
@@ -162,7 +168,7 @@ mod tests {
         assert_eq!(LoggedKgf::from_kgf(Kgf::MIN).hundredths(), i16::MIN);
         assert_eq!(LoggedKgf::from_kgf(Kgf::from_milli(25_004)).hundredths(), 2_500);
         assert_eq!(LoggedKgf::from_kgf(Kgf::from_milli(25_006)).hundredths(), 2_501);
-        assert_eq!(size_of::<PullRecord>(), 14);
+        assert_eq!(size_of::<PullRecord>(), 18);
     }
 
     #[test]

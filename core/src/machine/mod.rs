@@ -38,6 +38,7 @@ pub mod fault;
 pub mod log;
 pub mod panel;
 pub mod safety;
+pub mod string;
 
 use statig::prelude::{InitializedStateMachine, IntoStateMachineExt};
 

@@ -136,6 +136,12 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["report", "machine", "--sensing", "hall"], USAGE, "--sensing"),
     (&["report", "machine", "--threads", "0"], USAGE, "--threads"),
     (&["report", "machine", "--json", "UNWRITABLE/m.json"], RUNTIME, "cannot write"),
+    // ── report string ──
+    (&["report", "string", "--seeds", "-1"], USAGE, "--seeds"),
+    (&["report", "string", "--seeds", "1001"], USAGE, "--seeds"),
+    (&["report", "string", "--hold", "4"], USAGE, "--hold"),
+    (&["report", "string", "--hold", "abc"], USAGE, "--hold"),
+    (&["report", "string", "--json", "UNWRITABLE/s.json"], RUNTIME, "cannot write"),
     // ── unknown subcommands and options ──
     (&["report", "speed"], USAGE, "unrecognized subcommand"),
     (&["pull", "--force", "9"], USAGE, "--force"),

@@ -393,3 +393,83 @@ fn panel_script_hold_adjusts_and_times() {
     // One release only: the one Start asked for.
     assert_eq!(transcript.matches("-> releasing").count(), 1, "a key released the hold early");
 }
+
+/// REQ-UI-10 from a script: Preset twice opens the information pages, Function walks them —
+/// the stringing timer (started, read to the tick, stopped, reset), the pull log (the pull
+/// just made, with its adjustment), the counters, the string estimate and the service page
+/// (whose Start runs the self-test again) — each showing its label for a second, then the
+/// value.
+#[test]
+fn panel_script_information_pages() {
+    let mut s = session(Flash::Calibrated);
+    let transcript = run(
+        &mut s,
+        &format!(
+            "{TO_READY}\
+             press start\n\
+             until holding 20000\n\
+             wait 1000\n\
+             press up 2\n\
+             wait 5000\n\
+             press start\n\
+             until ready 20000\n\
+             press preset\n\
+             expect display \"P  1\"\n\
+             press preset\n\
+             expect display r0.00\n\
+             press up\n\
+             until display r0.01 1100\n\
+             wait 60000\n\
+             expect display 22.0\n\
+             press preset 2\n\
+             expect display r1.01\n\
+             press up\n\
+             wait 2000\n\
+             expect display r1.01\n\
+             press down\n\
+             expect display r0.00\n\
+             press function\n\
+             expect display PULL\n\
+             until display 1 1100\n\
+             press preset\n\
+             expect display SEt\n\
+             until display 22.2 1100\n\
+             press preset 2\n\
+             expect display Adj\n\
+             until display 0.2 1100\n\
+             press preset 4\n\
+             expect display StiF\n\
+             until display 0.74 1100\n\
+             press preset\n\
+             expect display CrEP\n\
+             until display 20.3 1100\n\
+             press function\n\
+             expect display PULL\n\
+             until display 1 1100\n\
+             press up\n\
+             expect display bOOt\n\
+             until display 2 1100\n\
+             press function\n\
+             expect display StiF\n\
+             until display 0.74 1100\n\
+             press up\n\
+             expect display CrEP\n\
+             until display 20.3 1100\n\
+             press function\n\
+             expect display Cd\n\
+             wait 1000\n\
+             print\n\
+             press up 6\n\
+             expect display bUS\n\
+             until display 24.0 1100\n\
+             press start\n\
+             until homing 1000\n\
+             until ready 10000\n"
+        ),
+    )
+    .unwrap();
+    assert!(
+        transcript.contains("ready -> self test"),
+        "Start on the service page reruns the self-test"
+    );
+}

@@ -144,7 +144,8 @@ pub struct CheckpointInput {
     pub self_test: bool,
     /// Fault: clear-attempt ticks left.
     pub clearing: u16,
-    /// Ready page (modulo 6; page 5 is the preset page of `index`).
+    /// Ready page (modulo 11; the preset, log, counters, string and service pages take
+    /// their item from `index`).
     pub view: u8,
     /// Tare code.
     pub tare: u16,
@@ -179,6 +180,13 @@ pub struct CheckpointInput {
 )]
 pub const STATE_KINDS: u8 = MachineState::KINDS.len() as u8;
 
+/// The pull log's capacity as the checkpoint's index type.
+#[expect(
+    clippy::cast_possible_truncation,
+    reason = "a few dozen entries; a const item cannot use try_from"
+)]
+const LOG_ENTRIES: u8 = taut_core::machine::PULL_LOG_CAPACITY as u8;
+
 /// The calibration's point count as the checkpoint's index type.
 #[expect(
     clippy::cast_possible_truncation,
@@ -202,13 +210,18 @@ impl CheckpointInput {
             MachineState::Fault(_) => MachineState::Fault(code),
             other => other,
         };
-        let view = match self.view % 6 {
+        let view = match self.view % 11 {
             0 => View::Tension,
             1 => View::Speed,
             2 => View::PreStretch,
             3 => View::Knot,
             4 => View::Unit,
-            _ => View::Preset(self.index % 9),
+            5 => View::Preset(self.index % 9),
+            6 => View::Timer,
+            7 => View::Log { entry: self.index % LOG_ENTRIES, field: self.index % 9 },
+            8 => View::Counters(self.index % 3),
+            9 => View::String(self.index % 2),
+            _ => View::Service(self.index % 10),
         };
         // The tracked tension never exceeds the peak (the watch's invariant).
         let peak_tenths = i32::from(self.peak_tenths.min(600));
@@ -647,6 +660,11 @@ mod verification {
             2 => View::Knot,
             3 => View::Unit,
             4 => View::Preset(kani::any()),
+            5 => View::Timer,
+            6 => View::Log { entry: kani::any(), field: kani::any() },
+            7 => View::Counters(kani::any()),
+            8 => View::String(kani::any()),
+            9 => View::Service(kani::any()),
             _ => View::Tension,
         };
         let checkpoint = Checkpoint {

@@ -34,8 +34,8 @@
 //! # What is explored, and why that is exhaustive enough
 //!
 //! An abstract state ([`Key`]) is the machine's public state ([`MachineState`], with its
-//! calibration point or fault code), the panel page (Ready's page; the hold's tension or
-//! timer), knot mode, constant pull on or off, a pending notice, whether
+//! calibration point or fault code), the panel page (Ready's page — an information page's
+//! item index only changes its digits and is not kept; the hold's tension or timer), knot mode, constant pull on or off, a pending notice, whether
 //! the pull has seen tension (≥ 5 kgf, which arms the string-break rule), and the whole
 //! environment. The machine's remaining data — timers, the controller's integrators, the
 //! settings' values — is not part of the key: the first concrete machine that reaches a key
@@ -437,7 +437,7 @@ impl World {
         let ready = state == MachineState::Ready;
         Key {
             state,
-            view: if ready { self.machine.view() } else { View::Tension },
+            view: if ready { abstract_view(self.machine.view()) } else { View::Tension },
             knot: self.machine.knot_mode(),
             notice: self.machine.notice().is_some(),
             tensioned: state.is_moving() && self.machine.watch().peak >= safety::BREAK_MIN_PEAK,
@@ -446,6 +446,19 @@ impl World {
             env: self.env,
             drive_fault: self.drive_fault,
         }
+    }
+}
+
+/// A Ready page as the abstract state keeps it: the information pages' indices (which log
+/// entry, field or item is shown) change only the digits, so each page is one abstract view.
+#[must_use]
+pub const fn abstract_view(view: View) -> View {
+    match view {
+        View::Log { .. } => View::Log { entry: 0, field: 0 },
+        View::Counters(_) => View::Counters(0),
+        View::String(_) => View::String(0),
+        View::Service(_) => View::Service(0),
+        other => other,
     }
 }
 
@@ -495,6 +508,8 @@ pub struct Report {
     pub machine_states: HashSet<MachineState>,
     /// The holds seen: (the timer shown, constant pull off).
     pub holds: HashSet<(bool, bool)>,
+    /// The Ready pages seen (as [`abstract_view`] keeps them).
+    pub ready_views: HashSet<View>,
 }
 
 /// Explores every abstract state reachable from power-up in each of `starts`, checking every
@@ -604,7 +619,9 @@ pub fn explore(starts: &[Env], limit: usize) -> Report {
         .filter(|key| key.state == MachineState::Holding)
         .map(|key| (key.hold_timer, key.locked))
         .collect();
-    Report { states: keys.len(), transitions, ticks, traps, machine_states, holds }
+    let ready_views =
+        keys.iter().filter(|key| key.state == MachineState::Ready).map(|key| key.view).collect();
+    Report { states: keys.len(), transitions, ticks, traps, machine_states, holds, ready_views }
 }
 
 /// The actions that first reached state `index`, from power-up.

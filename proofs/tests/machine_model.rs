@@ -9,7 +9,7 @@
     reason = "reports the run's duration in seconds; nothing is decided on it"
 )]
 
-use taut_core::machine::MachineState;
+use taut_core::machine::{MachineState, View};
 use taut_core::sense::calibration::CALIBRATION_POINTS;
 use taut_proofs::machine_model::{Env, explore};
 
@@ -50,5 +50,15 @@ fn machine_model_check() {
     // is explored (and, above, none of them is a trap).
     for hold in [(false, false), (true, false), (false, true), (true, true)] {
         assert!(report.holds.contains(&hold), "hold (timer, locked) = {hold:?} never reached");
+    }
+    // REQ-UI-10: every information page is reached (and none is a trap).
+    for view in [
+        View::Timer,
+        View::Log { entry: 0, field: 0 },
+        View::Counters(0),
+        View::String(0),
+        View::Service(0),
+    ] {
+        assert!(report.ready_views.contains(&view), "{view:?} never reached");
     }
 }

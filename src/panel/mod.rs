@@ -34,7 +34,7 @@ pub mod script;
 pub mod terminal;
 
 use taut_core::io::{Key, Keys, Outputs};
-use taut_core::machine::{FaultCode, MachineState};
+use taut_core::machine::{FaultCode, MachineState, View};
 use taut_core::settings::Unit;
 use taut_core::store::{RECORD_LEN, Record};
 use taut_sim::bench::{Bench, SessionError, commission, factory_config, kgf, state_name};
@@ -227,7 +227,11 @@ impl PanelSession {
             if unit == Unit::Pounds { "lb" } else { "kg" },
             width = GAUGE_WIDTH - 4
         ));
-        lines.push(format!("| shows: {}", page_text(self.state(), out)));
+        let view = self.bench.machine().view();
+        lines.push(format!(
+            "| shows: {}",
+            information_text(view).unwrap_or_else(|| page_text(self.state(), out))
+        ));
         if let Some(hint) = self.hint() {
             lines.push(format!("| next:  {hint}"));
         }
@@ -306,6 +310,30 @@ pub const FRAME_COLUMNS: u16 = 96;
 /// The rows the interactive panel needs.
 pub const FRAME_ROWS: u16 = 15;
 
+/// What an information page shows and which keys work on it (`None` for the other pages).
+#[must_use]
+pub fn information_text(view: View) -> Option<String> {
+    let text = match view {
+        View::Timer => {
+            "stringing timer r m.ss (Up: start/stop, Down: reset when stopped; Function: the pull log)"
+        }
+        View::Log { .. } => {
+            "pull log, label then value (Up: older pull, Down: newer, Preset: next field — PULL SEt PEAk Adj riSE HOLd Str StiF CrEP; Function: counters)"
+        }
+        View::Counters(_) => {
+            "counters, label then value (Up/Down: PULL bOOt Str m; Function: the string)"
+        }
+        View::String(_) => {
+            "the last pull's string: StiF kgf/mm, CrEP %/min of the tension (Up/Down; Function: service)"
+        }
+        View::Service(_) => {
+            "service (Up/Down: Cd load-cell code, tArE zero V, CAL1-4 raw kgf, bUS V, Err1-3 faults; Start: self-test again; Function: the tension)"
+        }
+        _ => return None,
+    };
+    Some(text.to_owned())
+}
+
 /// What the display shows, in words: the Ready page and its range, or the state's reading.
 #[must_use]
 pub fn page_text(state: MachineState, outputs: &Outputs) -> String {
@@ -336,7 +364,7 @@ pub fn page_text(state: MachineState, outputs: &Outputs) -> String {
     if display::text(&outputs.display).starts_with('P')
         && display::page_value(&outputs.display, b"P ").is_some()
     {
-        return "preset page (P n): Up/Down choose, Start loads, hold Preset stores".to_owned();
+        return "preset page (P n): Up/Down choose, Start loads, hold Preset stores; Preset again: the information pages".to_owned();
     }
     match page_shown(&outputs.display) {
         Some((Page::Tension, _)) => {

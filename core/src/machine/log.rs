@@ -26,8 +26,10 @@ use crate::units::Kgf;
 /// could take before the 16-bit difference became ambiguous.
 pub const STRING_COUNTS_PER_MM: i32 = 8;
 
-/// Default capacity of the pull log.
-pub const PULL_LOG_CAPACITY: usize = 32;
+/// Default capacity of the pull log: a whole racket — a tennis or badminton racket takes
+/// 18–22 tension pulls and 4 knots — with room to spare (28 × 18 B = 504 B of the
+/// firmware's 8 KiB of RAM; 32 entries did not fit beside the stringer's head).
+pub const PULL_LOG_CAPACITY: usize = 28;
 
 /// A tension as the log keeps it: hundredths of a kgf in 16 bits (±327.67 kgf), rounded —
 /// finer than the display's tenth, half the size of a [`Kgf`].
@@ -56,7 +58,7 @@ impl LoggedKgf {
     }
 }
 
-/// One completed pull: 18 bytes (the log's 32 entries are 576 B of the firmware's 8 KiB).
+/// One completed pull: 18 bytes.
 /// Tensions are [`LoggedKgf`]; the times and the length are 16-bit: no pull reaches tension
 /// later than its time limit (at most [`crate::machine::pull_timeout`]'s 64.4 s, below
 /// 65.5 s), no hold is near 18 hours and no pull draws 65 m of string; the conversions
@@ -119,6 +121,13 @@ impl<const N: usize> PullLog<N> {
         self.entries.back()
     }
 
+    /// The record `back` pulls before the latest (0: the latest).
+    #[must_use]
+    pub fn back(&self, back: usize) -> Option<&PullRecord> {
+        let index = self.len().checked_sub(back)?.checked_sub(1)?;
+        self.entries.iter().nth(index)
+    }
+
     /// Number of records held.
     #[must_use]
     pub fn len(&self) -> usize {
@@ -155,6 +164,10 @@ mod tests {
         assert_eq!(kept.as_slice(), &[2, 3, 4]);
         assert_eq!(log.len(), 3);
         assert_eq!(log.last().map(|r| r.time_to_tension_ms), Some(4));
+        assert_eq!(log.back(0).map(|r| r.time_to_tension_ms), Some(4));
+        assert_eq!(log.back(2).map(|r| r.time_to_tension_ms), Some(2));
+        assert_eq!(log.back(3), None);
+        assert_eq!(log.back(usize::MAX), None);
     }
 
     #[test]

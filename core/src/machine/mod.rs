@@ -49,11 +49,11 @@ use crate::units::{AdcCode, Kgf};
 
 pub use chart::{
     ADJUST_SHOWN_MS, AfterRelease, CALIBRATION_SETTLE, CALIBRATION_SPEED, CALIBRATION_WINDOW,
-    CLEAR_ATTEMPT, ENTRY_MAX, ENTRY_MIN, Hold, HoldMessage, MOTOR_TEST_DUTY, MOTOR_TEST_STEPS,
-    MOTOR_TEST_TIMEOUT, PULL_TIMEOUT, PULL_TIMEOUT_APPROACH_MS, PULL_TIMEOUT_TRAVEL_MM,
-    RELEASE_TIMEOUT, Recovery, SELF_TEST_SETTLE, SELF_TEST_TICKS, STORE_DELAY, VIEW_TIMEOUT, View,
-    calibration_settings, fault_persists, hold_adjustment, hold_target, pull_timeout,
-    tension_display,
+    CLEAR_ATTEMPT, COUNTER_ITEMS, ENTRY_MAX, ENTRY_MIN, Hold, HoldMessage, LABEL_MS, LOG_FIELDS,
+    MOTOR_TEST_DUTY, MOTOR_TEST_STEPS, MOTOR_TEST_TIMEOUT, PULL_TIMEOUT, PULL_TIMEOUT_APPROACH_MS,
+    PULL_TIMEOUT_TRAVEL_MM, RELEASE_TIMEOUT, Recovery, SELF_TEST_SETTLE, SELF_TEST_TICKS,
+    SERVICE_ITEMS, STORE_DELAY, StringingTimer, VIEW_TIMEOUT, View, calibration_settings,
+    fault_persists, hold_adjustment, hold_target, pull_timeout, tension_display,
 };
 pub use fault::{FaultCode, Notice};
 pub use log::{LoggedKgf, PULL_LOG_CAPACITY, PullLog, PullRecord};
@@ -230,7 +230,8 @@ impl Checkpoint {
     }
 
     /// The invariant of everything but the key pad (whose own is [`KeyPad::is_valid`]):
-    /// calibration points 0–3, entered value 50–550, preset index 0–8, a hold adjustment
+    /// calibration points 0–3, entered value 50–550, a page's indices within their lists
+    /// ([`View::is_valid`]), a hold adjustment
     /// within ±[`HOLD_ADJUST_MAX`], clear attempt within its length, a tare inside the load
     /// cell's zero band, a valid tension watch.
     #[must_use]
@@ -241,10 +242,7 @@ impl Checkpoint {
             }
             _ => true,
         };
-        let view_ok = match self.view {
-            View::Preset(index) => usize::from(index) < crate::store::PRESET_COUNT,
-            _ => true,
-        };
+        let view_ok = self.view.is_valid();
         point_ok
             && view_ok
             && self.hold_adjust.unsigned_abs() <= HOLD_ADJUST_MAX
@@ -394,6 +392,17 @@ impl<const LOG: usize> Machine<LOG> {
         if let Some(record) = context.completed {
             self.log.push(record);
         }
+        let mut outputs = context.out;
+        if let State::Ready { view } = self.chart.state() {
+            let chart = self.chart.inner();
+            if let (Some((entry, field)), None) = (view.log_field(), chart.notice) {
+                outputs.display = if chart.idle < LABEL_MS {
+                    LOG_FIELDS.get(usize::from(field)).map_or([panel::BLANK; 4], |l| panel::text(l))
+                } else {
+                    self.log_value(entry, field)
+                };
+            }
+        }
         match context.beep {
             Some(beep) => self.beeper.play(beep, inputs.now_ms),
             None => {
@@ -402,9 +411,36 @@ impl<const LOG: usize> Machine<LOG> {
                 }
             }
         }
-        let mut outputs = context.out;
         outputs.beeper = self.beeper.sounding(inputs.now_ms);
         outputs
+    }
+
+    /// The log page's value: `field` of [`LOG_FIELDS`] of the entry `entry` back from the
+    /// latest, or `----` when the log has no such entry or the pull no such measurement.
+    fn log_value(&self, entry: u8, field: u8) -> crate::io::Display {
+        let chart = self.chart.inner();
+        let unit = chart.record.settings.set_point().unit();
+        let none = panel::text(b"----");
+        let Some(record) = self.log.back(usize::from(entry)) else { return none };
+        match field {
+            0 => panel::integer(chart.record.counters.pulls.saturating_sub(u32::from(entry))),
+            1 => tension_display(record.target.to_kgf(), unit),
+            2 => tension_display(record.peak.to_kgf(), unit),
+            3 => tension_display(record.adjust.to_kgf(), unit),
+            4 => panel::hundredths(i32::from(record.time_to_tension_ms / 10)),
+            5 => panel::clock(b' ', u32::from(record.held_s)),
+            6 => panel::integer(u32::from(record.string_mm)),
+            7 => record.stiffness.map_or(none, |k| panel::hundredths(i32::from(k.milli() / 10))),
+            _ => record
+                .creep
+                .map_or(none, |c| panel::tenths(i32::from(c.centi_percent_per_minute() / 10))),
+        }
+    }
+
+    /// The stringing timer.
+    #[must_use]
+    pub fn stringing_timer(&self) -> StringingTimer {
+        self.chart.inner().stringing
     }
 
     /// The record to persist when [`Outputs::store`] is set.

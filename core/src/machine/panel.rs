@@ -345,6 +345,27 @@ pub const fn labelled(label: &[u8; 2], value: u8) -> Display {
     [glyph(label[0]), glyph(label[1]), tens_glyph, glyph(ones_digit)]
 }
 
+/// A whole number right-aligned on four digits, leading zeros blank (`  12`, `1234`); from
+/// 9 999 on the display stays at `9999`.
+#[must_use]
+pub const fn integer(value: u32) -> Display {
+    let capped = if value > 9_999 { 9_999 } else { value };
+    [
+        leading_digit(capped, 1_000),
+        leading_digit(capped, 100),
+        leading_digit(capped, 10),
+        glyph(digit(capped)),
+    ]
+}
+
+/// The digit of `value` at `place` (1 000, 100, 10), blank while `value` is below it.
+const fn leading_digit(value: u32, place: u32) -> Segments {
+    match value.checked_div(place) {
+        Some(shifted) if value >= place => glyph(digit(shifted)),
+        _ => BLANK,
+    }
+}
+
 /// A timer of `seconds` as `m:ss` on four digits, the decimal point standing for the colon:
 /// under ten minutes a one-letter `label` leads (`t1.05` = the tension timer at 1 min 5 s),
 /// from ten minutes the label gives way to the minutes' tens (`12.05`); from 99:59 on the
@@ -567,7 +588,7 @@ mod tests {
         assert_eq!(clock(b't', 59), with_colon(b"t059"));
         assert_eq!(clock(b't', 60), with_colon(b"t100"));
         assert_eq!(clock(b't', 61), with_colon(b"t101"));
-        assert_eq!(clock(b'S', 599), with_colon(b"S959"));
+        assert_eq!(clock(b'r', 599), with_colon(b"r959"));
         assert_eq!(clock(b't', 600), with_colon(b"1000"));
         assert_eq!(clock(b't', 725), with_colon(b"1205"));
         assert_eq!(clock(b't', 5_999), with_colon(b"9959"));
@@ -584,6 +605,16 @@ mod tests {
             assert_eq!(read, seconds);
             assert_ne!(ones.0 & DECIMAL_POINT, 0);
         }
+    }
+
+    #[test]
+    fn integers_are_right_aligned_and_capped() {
+        assert_eq!(integer(0), [BLANK, BLANK, BLANK, glyph(b'0')]);
+        assert_eq!(integer(12), [BLANK, BLANK, glyph(b'1'), glyph(b'2')]);
+        assert_eq!(integer(105), [BLANK, glyph(b'1'), glyph(b'0'), glyph(b'5')]);
+        assert_eq!(integer(1_234), text(b"1234"));
+        assert_eq!(integer(9_999), text(b"9999"));
+        assert_eq!(integer(u32::MAX), text(b"9999"));
     }
 
     #[test]

@@ -47,6 +47,14 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// The terminal front panel: the machine on the twin in real time (or from --script).
+    ///
+    /// Pages, from Ready: Function walks the settings — tension, SP speed, PS pre-stretch,
+    /// Kn knot, unit, bE beeper, CP constant pull — back to the tension; Preset opens the
+    /// presets (P n) and Function from there the information pages — r stringing timer, the pull
+    /// log, the counters, the string (stiffness, creep), service — which Function walks
+    /// back to the tension. Holding: Up/Down adjust the held tension, Function switches
+    /// constant pull (LOCK / PULL), Preset shows the tension timer (t m.ss), Start releases.
+    #[command(verbatim_doc_comment)]
     Panel(PanelArgs),
     /// The paper's simulation (section 7.3) with taut-core's fixed-point laws.
     Paper(PaperArgs),

@@ -129,7 +129,7 @@ fn machine_flow_any_key_during_pull_releases() {
 fn machine_flow_panel_settings_units_and_presets() {
     let mut rig = Rig::nominal(StringKind::TennisSynthetic);
     rig.expect_state(MachineState::Ready, 30_000);
-    // Function walks the pages: speed, pre-stretch, knot, unit.
+    // Function walks the pages: speed, pre-stretch, knot, unit, beeper, constant pull.
     rig.press(Key::Function);
     assert_eq!(rig.machine().view(), View::Speed);
     assert_eq!(rig.outputs().display, panel::text(b"SP 5"));
@@ -145,6 +145,11 @@ fn machine_flow_panel_settings_units_and_presets() {
     rig.press(Key::Function);
     rig.press(Key::Up);
     assert_eq!(rig.outputs().display, panel::text(b" lb "));
+    // Then the preferences (beeper, constant pull), then the tension again.
+    rig.press(Key::Function);
+    assert_eq!(rig.machine().view(), View::Beeper);
+    rig.press(Key::Function);
+    assert_eq!(rig.machine().view(), View::ConstantPull);
     rig.press(Key::Function);
     // 25.0 kg is 55.1 lb, on the 0.5 lb step: 55.0.
     assert_eq!(display_tenths(&rig.outputs().display), Some(550));
@@ -381,4 +386,54 @@ fn machine_flow_function_locks_and_resumes_constant_pull() {
         assert!((resumed - held).abs() < 0.05, "back to {held:.3}: {resumed:.3}");
         assert_eq!(rig.machine().state(), MachineState::Holding);
     }
+}
+
+/// REQ-UI-11: the preference pages after the unit — beeper off mutes the clicks and the
+/// at-tension tone (never a fault's), constant pull off starts every hold locked — are
+/// stored in the record and survive a power cycle.
+#[test]
+fn machine_flow_preferences_mute_the_beeper_and_lock_the_hold() {
+    let mut rig = Rig::nominal(StringKind::TennisSynthetic);
+    rig.expect_state(MachineState::Ready, 30_000);
+    for _ in 0..5 {
+        rig.press(Key::Function);
+    }
+    assert_eq!(rig.machine().view(), View::Beeper);
+    assert_eq!(rig.outputs().display, panel::text(b"bEon"));
+    rig.press(Key::Up);
+    assert_eq!(rig.outputs().display, panel::text(b"bEoF"));
+    rig.press(Key::Function);
+    assert_eq!(rig.outputs().display, panel::text(b"CPon"));
+    rig.press(Key::Down);
+    assert_eq!(rig.outputs().display, panel::text(b"CPoF"));
+    rig.run(2_500);
+    let stored = Record::decode(rig.flash()).expect("stored");
+    assert!(!stored.preferences.beeper && !stored.preferences.constant_pull);
+
+    // Muted: a key press does not click.
+    rig.press(Key::Function);
+    let mut sounded = false;
+    rig.twin_mut().press(taut_core::io::Keys::NONE.with(Key::Start), 60);
+    for _ in 0..20_000 {
+        rig.tick();
+        sounded |= rig.outputs().beeper;
+        if rig.machine().state() == MachineState::Holding {
+            break;
+        }
+    }
+    rig.tick();
+    assert_eq!(rig.machine().state(), MachineState::Holding);
+    assert!(!sounded, "no click, no at-tension tone");
+    // The hold started locked.
+    assert!(!rig.machine().constant_pull());
+    assert_eq!(rig.outputs().display, panel::text(b"LOCK"));
+    rig.press(Key::Function);
+    assert!(rig.machine().constant_pull(), "Function: constant pull for this pull");
+    rig.press(Key::Start);
+    rig.expect_state(MachineState::Ready, 20_000);
+
+    // A power cycle keeps them.
+    let mut again = Rig::power_up(&TwinConfig::nominal(StringKind::TennisSynthetic), rig.flash());
+    again.expect_state(MachineState::Ready, 30_000);
+    assert_eq!(again.machine().record().preferences, stored.preferences);
 }

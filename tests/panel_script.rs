@@ -86,6 +86,10 @@ fn keys_walk_the_settings_pages_and_change_the_set_point() {
              expect display lb\n\
              expect led lb on\n\
              press function\n\
+             expect display bEon\n\
+             press function\n\
+             expect display CPon\n\
+             press function\n\
              expect display 58.0\n"
         ),
     )
@@ -347,43 +351,7 @@ fn the_frame_says_which_page_the_display_shows() {
 #[test]
 fn panel_script_hold_adjusts_and_times() {
     let mut s = session(Flash::Calibrated);
-    let transcript = run(
-        &mut s,
-        &format!(
-            "{TO_READY}\
-             press start\n\
-             until holding 20000\n\
-             wait 1500\n\
-             expect tension 21.9 22.1\n\
-             press up 5\n\
-             expect display 22.5\n\
-             expect state holding\n\
-             wait 2500\n\
-             expect tension 22.4 22.6\n\
-             press down 3\n\
-             expect display 22.2\n\
-             wait 2500\n\
-             expect tension 22.1 22.3\n\
-             press function\n\
-             expect display LOCK\n\
-             wait 1000\n\
-             press function\n\
-             expect display PULL\n\
-             wait 2000\n\
-             expect tension 22.1 22.3\n\
-             press preset\n\
-             until display t0.20 20000\n\
-             wait 999\n\
-             expect display t0.20\n\
-             wait 1\n\
-             expect display t0.21\n\
-             press preset\n\
-             expect state holding\n\
-             press start\n\
-             until ready 20000\n"
-        ),
-    )
-    .unwrap();
+    let transcript = run(&mut s, include_str!("panel/hold.txt")).unwrap();
     let machine = s.bench().machine();
     let entry = machine.log().last().expect("the pull is logged");
     println!("log: {entry:?}");
@@ -402,72 +370,7 @@ fn panel_script_hold_adjusts_and_times() {
 #[test]
 fn panel_script_information_pages() {
     let mut s = session(Flash::Calibrated);
-    let transcript = run(
-        &mut s,
-        &format!(
-            "{TO_READY}\
-             press start\n\
-             until holding 20000\n\
-             wait 1000\n\
-             press up 2\n\
-             wait 5000\n\
-             press start\n\
-             until ready 20000\n\
-             press preset\n\
-             expect display \"P  1\"\n\
-             press preset\n\
-             expect display r0.00\n\
-             press up\n\
-             until display r0.01 1100\n\
-             wait 60000\n\
-             expect display 22.0\n\
-             press preset 2\n\
-             expect display r1.01\n\
-             press up\n\
-             wait 2000\n\
-             expect display r1.01\n\
-             press down\n\
-             expect display r0.00\n\
-             press function\n\
-             expect display PULL\n\
-             until display 1 1100\n\
-             press preset\n\
-             expect display SEt\n\
-             until display 22.2 1100\n\
-             press preset 2\n\
-             expect display Adj\n\
-             until display 0.2 1100\n\
-             press preset 4\n\
-             expect display StiF\n\
-             until display 0.74 1100\n\
-             press preset\n\
-             expect display CrEP\n\
-             until display 20.3 1100\n\
-             press function\n\
-             expect display PULL\n\
-             until display 1 1100\n\
-             press up\n\
-             expect display bOOt\n\
-             until display 2 1100\n\
-             press function\n\
-             expect display StiF\n\
-             until display 0.74 1100\n\
-             press up\n\
-             expect display CrEP\n\
-             until display 20.3 1100\n\
-             press function\n\
-             expect display Cd\n\
-             wait 1000\n\
-             print\n\
-             press up 6\n\
-             expect display bUS\n\
-             until display 24.0 1100\n\
-             press start\n\
-             until homing 1000\n\
-             until ready 10000\n"
-        ),
-    )
-    .unwrap();
+    let transcript = run(&mut s, include_str!("panel/pages.txt")).unwrap();
     assert!(
         transcript.contains("ready -> self test"),
         "Start on the service page reruns the self-test"

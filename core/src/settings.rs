@@ -344,6 +344,45 @@ impl KnotBoost {
     }
 }
 
+/// The machine's preferences: not part of a pull (presets do not hold them), set on their
+/// own Ready pages and kept in the record.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct Preferences {
+    /// The beeper's clicks and at-tension tone (fault tones always sound: a fault is a
+    /// safety signal).
+    pub beeper: bool,
+    /// Constant pull in the hold by default (off: every hold starts locked, `LOCK`; Function
+    /// still switches it for one pull).
+    pub constant_pull: bool,
+}
+
+impl Default for Preferences {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+impl Preferences {
+    /// Beeper on, constant pull on.
+    pub const DEFAULT: Self = Self { beeper: true, constant_pull: true };
+
+    /// The record's flags byte: bit 0 set = beeper off, bit 1 set = constant pull off (so
+    /// zero — what a version-2 record holds in that byte — is the default).
+    #[must_use]
+    pub const fn flags(self) -> u8 {
+        (if self.beeper { 0 } else { 1 }) | (if self.constant_pull { 0 } else { 2 })
+    }
+
+    /// The preferences of a flags byte; `None` with any other bit set.
+    #[must_use]
+    pub const fn from_flags(flags: u8) -> Option<Self> {
+        if flags & !3 != 0 {
+            return None;
+        }
+        Some(Self { beeper: flags & 1 == 0, constant_pull: flags & 2 == 0 })
+    }
+}
+
 /// Everything the operator sets for a pull: what the panel edits, a preset holds and the
 /// stored record keeps.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]

@@ -21,12 +21,12 @@
 //! [`crate::sense::calibration::Calibration::new`] when the machine starts: an implausible
 //! calibration is then dropped with a notice, and the settings beside it are kept.
 //!
-//! # Layout (format version 2, little-endian, [`RECORD_LEN`] = 128 bytes)
+//! # Layout (format version 3, little-endian, [`RECORD_LEN`] = 128 bytes)
 //!
 //! | offset | size | field |
 //! |---|---|---|
 //! | 0 | 2 | magic `b"TT"` |
-//! | 2 | 1 | format version (2) |
+//! | 2 | 1 | format version (3) |
 //! | 3 | 1 | reserved, 0 |
 //! | 4 | 6 | current settings (see below) |
 //! | 10 | 54 | presets 1–9, 6 bytes each |
@@ -35,7 +35,8 @@
 //! | 97 | 4 | counter: pulls (`u32`) |
 //! | 101 | 4 | counter: string used, millimetres (`u32`) |
 //! | 105 | 4 | counter: boots (`u32`) |
-//! | 109 | 15 | reserved, 0 |
+//! | 109 | 1 | preferences: bit 0 beeper off, bit 1 constant pull off; other bits 0 |
+//! | 110 | 14 | reserved, 0 |
 //! | 124 | 4 | CRC-32/ISCSI of bytes 0..124 |
 //!
 //! Offsets from 65 on are those of four points; they are computed from
@@ -48,17 +49,19 @@
 //!
 //! # Migration
 //!
-//! Format version 1 had no boot counter and a calibration flag (0/1) where version 2 has the
-//! point count; its other fields lie where version 2 has them. [`Record::decode`] reads a
-//! version-1 record into today's [`Record`] (boots 0) instead of refusing it, and
-//! [`Record::decode_version`] says which format the bytes were in. The machine writes the
-//! record back in version 2 soon after every boot (it counts the boot), so a migrated record
-//! is rewritten without the operator doing anything.
+//! Format version 1 had no boot counter and a calibration flag (0/1) where later versions have
+//! the point count; version 2 had no preferences byte (it was reserved, so zero: the default
+//! preferences); their other fields lie where version 3 has them. [`Record::decode`] reads a
+//! version-1 or version-2 record into today's [`Record`] (boots 0 for version 1, the default
+//! preferences for both) instead of refusing it, and [`Record::decode_version`] says which
+//! format the bytes were in. The machine writes the record back in version 3 soon after
+//! every boot (it counts the boot), so a migrated record is rewritten without the operator
+//! doing anything.
 
 use crc::{CRC_32_ISCSI, Crc};
 
 use crate::sense::calibration::{CALIBRATION_POINTS, CalibrationPoint, CalibrationPoints};
-use crate::settings::{SetPoint, Settings, Unit};
+use crate::settings::{Preferences, SetPoint, Settings, Unit};
 use crate::units::Kgf;
 
 /// Size of an encoded [`Record`] in bytes.
@@ -67,8 +70,12 @@ pub const RECORD_LEN: usize = 128;
 /// The first two bytes of every record.
 pub const MAGIC: [u8; 2] = *b"TT";
 
-/// The format version this code writes (it also reads [`FORMAT_V1`], migrating it).
-pub const FORMAT_VERSION: u8 = 2;
+/// The format version this code writes (it also reads [`FORMAT_V1`] and [`FORMAT_V2`],
+/// migrating them).
+pub const FORMAT_VERSION: u8 = 3;
+
+/// The second format version: no preferences byte (its place reserved, zero).
+pub const FORMAT_V2: u8 = 2;
 
 /// The first format version: no boot counter, a 0/1 calibration flag, four points.
 pub const FORMAT_V1: u8 = 1;
@@ -103,22 +110,28 @@ struct Layout {
     points: usize,
     /// Whether the version has the boot counter.
     boots: bool,
+    /// Whether the version has the preferences byte.
+    preferences: bool,
 }
 
 impl Layout {
     /// Version 1: four points, no boot counter.
-    const V1: Self = Self { points: 4, boots: false };
+    const V1: Self = Self { points: 4, boots: false, preferences: false };
+    /// Version 2: the boot counter, no preferences.
+    const V2: Self = Self { points: CALIBRATION_POINTS, boots: true, preferences: false };
     /// Today's version.
-    const CURRENT: Self = Self { points: CALIBRATION_POINTS, boots: true };
+    const CURRENT: Self = Self { points: CALIBRATION_POINTS, boots: true, preferences: true };
 
     /// Offset of the counters.
     const fn counters(self) -> usize {
         OFFSET_CALIBRATION.saturating_add(1).saturating_add(self.points.saturating_mul(8))
     }
 
-    /// Offset of the reserved bytes (after the counters).
+    /// Offset of the reserved bytes (after the counters and the preferences).
     const fn reserved(self) -> usize {
-        self.counters().saturating_add(if self.boots { 12 } else { 8 })
+        self.counters()
+            .saturating_add(if self.boots { 12 } else { 8 })
+            .saturating_add(if self.preferences { 1 } else { 0 })
     }
 
     /// Whether the fields end before the CRC.
@@ -127,14 +140,16 @@ impl Layout {
     }
 }
 
-const _: () =
-    assert!(Layout::CURRENT.fits() && Layout::V1.fits() && RECORD_LEN <= 256, "layout overflows");
+const _: () = assert!(
+    Layout::CURRENT.fits() && Layout::V2.fits() && Layout::V1.fits() && RECORD_LEN <= 256,
+    "layout overflows"
+);
 
 /// Whether today's layout would hold a calibration of `points` points (the record's side of
 /// "another point count is one constant": five fit, six would not).
 #[must_use]
 pub const fn layout_fits(points: usize) -> bool {
-    Layout { points, boots: true }.fits()
+    Layout { points, boots: true, preferences: true }.fits()
 }
 
 /// A unit's code in the record (0 kg, 1 lb).
@@ -201,7 +216,7 @@ pub enum StoreError {
     /// The calibration block is malformed (a point count other than 0 and the build's, a
     /// version-1 flag other than 0/1, or points stored without a calibration).
     InvalidCalibration,
-    /// A reserved byte is not zero.
+    /// A reserved byte is not zero (or a preferences bit this version does not define).
     ReservedNotZero,
 }
 
@@ -216,6 +231,8 @@ pub struct Record {
     pub calibration: Option<CalibrationPoints>,
     /// Lifetime counters.
     pub counters: Counters,
+    /// Beeper and constant-pull preferences.
+    pub preferences: Preferences,
 }
 
 impl Record {
@@ -247,6 +264,7 @@ impl Record {
         w.u32(self.counters.pulls);
         w.u32(self.counters.string_used_mm);
         w.u32(self.counters.boots);
+        w.u8(self.preferences.flags());
         // The reserved bytes stay zero; the CRC covers everything before it.
         let body = out.first_chunk::<OFFSET_CRC>().copied().unwrap_or([0; OFFSET_CRC]);
         let mut w = Writer { bytes: &mut out, at: OFFSET_CRC };
@@ -275,7 +293,7 @@ impl Record {
             return Err(StoreError::NoRecord);
         }
         let version = r.u8();
-        if version != FORMAT_V1 && version != FORMAT_VERSION {
+        if version != FORMAT_V1 && version != FORMAT_V2 && version != FORMAT_VERSION {
             return Err(StoreError::UnknownVersion);
         }
         let body = bytes.first_chunk::<OFFSET_CRC>().ok_or(StoreError::TooShort)?;
@@ -285,10 +303,10 @@ impl Record {
         }
         // Each version's reserved bytes from a constant offset (a model checker then reads
         // them at known places rather than at an offset that depends on the version byte).
-        let tail_is_zero = if version == FORMAT_V1 {
-            zero_from::<{ Layout::V1.reserved() }>(bytes)
-        } else {
-            zero_from::<{ Layout::CURRENT.reserved() }>(bytes)
+        let tail_is_zero = match version {
+            FORMAT_V1 => zero_from::<{ Layout::V1.reserved() }>(bytes),
+            FORMAT_V2 => zero_from::<{ Layout::V2.reserved() }>(bytes),
+            _ => zero_from::<{ Layout::CURRENT.reserved() }>(bytes),
         };
         if r.u8() != 0 || !tail_is_zero {
             return Err(StoreError::ReservedNotZero);
@@ -307,7 +325,9 @@ impl Record {
         let string_used_mm = r.u32();
         let boots = if version == FORMAT_V1 { 0 } else { r.u32() };
         let counters = Counters { pulls, string_used_mm, boots };
-        Ok((Self { settings, presets, calibration, counters }, version))
+        // Version 2 held zero here (reserved, checked above): the default preferences.
+        let preferences = Preferences::from_flags(r.u8()).ok_or(StoreError::ReservedNotZero)?;
+        Ok((Self { settings, presets, calibration, counters, preferences }, version))
     }
 
     /// Whether every settings field satisfies its invariant (true of every decoded record
@@ -486,7 +506,7 @@ mod tests {
 
     #[test]
     fn unknown_version_is_refused_before_the_crc() {
-        for version in [0, 3, 0xFF] {
+        for version in [0, 4, 0xFF] {
             let mut bytes = sample().encode();
             bytes[2] = version;
             assert_eq!(Record::decode(&bytes), Err(StoreError::UnknownVersion));
@@ -517,9 +537,50 @@ mod tests {
         if record.calibration.is_some() {
             bytes[OFFSET_CALIBRATION] = 1;
         }
-        let boots = Layout::V1.reserved();
-        bytes[boots..boots + 4].fill(0);
+        // The boot counter and the preferences were reserved bytes, zero.
+        bytes[Layout::V1.reserved()..OFFSET_CRC].fill(0);
         resealed(bytes)
+    }
+
+    /// `record` as format version 2 wrote it: version 2, no preferences byte (reserved, zero).
+    fn version_2(record: &Record) -> [u8; RECORD_LEN] {
+        let mut bytes = record.encode();
+        bytes[2] = FORMAT_V2;
+        bytes[Layout::V2.reserved()..OFFSET_CRC].fill(0);
+        resealed(bytes)
+    }
+
+    #[test]
+    fn a_version_2_record_is_migrated_with_the_default_preferences() {
+        let record =
+            Record { preferences: Preferences { beeper: false, constant_pull: false }, ..sample() };
+        let old = version_2(&record);
+        let migrated = Record { preferences: Preferences::DEFAULT, ..record };
+        assert_eq!(Record::decode_version(&old), Ok((migrated, FORMAT_V2)));
+        // Version 2's byte 109 was reserved: set, the record is refused, not misread.
+        let mut reserved = old;
+        reserved[Layout::V2.reserved()] = 2;
+        assert_eq!(Record::decode(&resealed(reserved)), Err(StoreError::ReservedNotZero));
+    }
+
+    #[test]
+    fn preferences_round_trip_and_unknown_bits_are_refused() {
+        for beeper in [false, true] {
+            for constant_pull in [false, true] {
+                let preferences = Preferences { beeper, constant_pull };
+                assert_eq!(Preferences::from_flags(preferences.flags()), Some(preferences));
+                let record = Record { preferences, ..sample() };
+                assert_eq!(Record::decode(&record.encode()), Ok(record));
+            }
+        }
+        assert_eq!(Preferences::DEFAULT.flags(), 0, "zero is the default: version 2's byte");
+        let at = Layout::V2.reserved();
+        for flags in 4..=u8::MAX {
+            assert_eq!(Preferences::from_flags(flags), None, "{flags}");
+            let mut bytes = sample().encode();
+            bytes[at] = flags;
+            assert_eq!(Record::decode(&resealed(bytes)), Err(StoreError::ReservedNotZero));
+        }
     }
 
     #[test]

@@ -144,7 +144,7 @@ pub struct CheckpointInput {
     pub self_test: bool,
     /// Fault: clear-attempt ticks left.
     pub clearing: u16,
-    /// Ready page (modulo 11; the preset, log, counters, string and service pages take
+    /// Ready page (modulo 13; the preset, log, counters, string and service pages take
     /// their item from `index`).
     pub view: u8,
     /// Tare code.
@@ -210,7 +210,7 @@ impl CheckpointInput {
             MachineState::Fault(_) => MachineState::Fault(code),
             other => other,
         };
-        let view = match self.view % 11 {
+        let view = match self.view % 13 {
             0 => View::Tension,
             1 => View::Speed,
             2 => View::PreStretch,
@@ -221,6 +221,8 @@ impl CheckpointInput {
             7 => View::Log { entry: self.index % LOG_ENTRIES, field: self.index % 9 },
             8 => View::Counters(self.index % 3),
             9 => View::String(self.index % 2),
+            10 => View::Beeper,
+            11 => View::ConstantPull,
             _ => View::Service(self.index % 10),
         };
         // The tracked tension never exceeds the peak (the watch's invariant).
@@ -665,6 +667,8 @@ mod verification {
             7 => View::Counters(kani::any()),
             8 => View::String(kani::any()),
             9 => View::Service(kani::any()),
+            10 => View::Beeper,
+            11 => View::ConstantPull,
             _ => View::Tension,
         };
         let checkpoint = Checkpoint {

@@ -12,9 +12,9 @@
 //! the `machine` fuzz target (its record bytes go through `Record::decode`).
 
 use taut_core::sense::calibration::{CALIBRATION_POINTS, CalibrationPoint};
-use taut_core::settings::{SetPoint, Settings, Unit};
+use taut_core::settings::{Preferences, SetPoint, Settings, Unit};
 use taut_core::store::{
-    Counters, FORMAT_V1, FORMAT_VERSION, PRESET_COUNT, RECORD_LEN, Record, checksum,
+    Counters, FORMAT_V1, FORMAT_V2, FORMAT_VERSION, PRESET_COUNT, RECORD_LEN, Record, checksum,
 };
 use taut_core::units::Kgf;
 
@@ -37,16 +37,33 @@ pub fn decoded_is_canonical(stored: &[u8], record: &Record, version: u8) {
     let encoded = record.encode();
     if version == FORMAT_VERSION {
         assert_eq!(&encoded[..], stored, "REQ-STORE-01: decoding is not canonical");
+    } else if version == FORMAT_V2 {
+        assert_eq!(record.preferences, Preferences::DEFAULT, "REQ-STORE-05: version 2 prefs");
+        assert_eq!(&as_version_2(encoded)[..], stored, "REQ-STORE-05: migration changed a field");
     } else {
         assert_eq!(version, FORMAT_V1, "REQ-STORE-05: decoded a version it does not know");
         assert_eq!(record.counters.boots, 0, "REQ-STORE-05: version 1 has no boot counter");
+        assert_eq!(record.preferences, Preferences::DEFAULT, "REQ-STORE-05: version 1 prefs");
         assert_eq!(&as_version_1(encoded)[..], stored, "REQ-STORE-05: migration changed a field");
     }
 }
 
-/// Today's encoding of a record with no boots as format version 1 wrote it: the version
-/// byte 1, the calibration block's first byte (offset 64) a 0/1 flag instead of the point
-/// count, the boot counter's bytes (zero) reserved, the CRC resealed.
+/// Today's encoding of a record with the default preferences as format version 2 wrote it:
+/// the version byte 2 (the preferences byte, zero, was reserved), the CRC resealed.
+#[must_use]
+pub fn as_version_2(mut bytes: [u8; RECORD_LEN]) -> [u8; RECORD_LEN] {
+    if let Some(version) = bytes.get_mut(2) {
+        *version = FORMAT_V2;
+    }
+    let (body, crc) = bytes.split_at_mut(RECORD_LEN - 4);
+    crc.copy_from_slice(&checksum(body).to_le_bytes());
+    bytes
+}
+
+/// Today's encoding of a record with no boots and the default preferences as format
+/// version 1 wrote it: the version byte 1, the calibration block's first byte (offset 64) a
+/// 0/1 flag instead of the point count, the boot counter's and the preferences' bytes (zero)
+/// reserved, the CRC resealed.
 #[must_use]
 pub fn as_version_1(mut bytes: [u8; RECORD_LEN]) -> [u8; RECORD_LEN] {
     if let Some(version) = bytes.get_mut(2) {
@@ -111,6 +128,8 @@ pub struct RecordInput {
     pub string_mm: u32,
     /// Boots.
     pub boots: u32,
+    /// Preferences flags (bits 0–1 used; others make the record invalid input).
+    pub preferences: u8,
 }
 
 impl RecordInput {
@@ -119,6 +138,7 @@ impl RecordInput {
     pub fn record(&self) -> Option<Record> {
         let settings = self.settings.settings()?;
         let preset = self.preset.settings()?;
+        let preferences = Preferences::from_flags(self.preferences)?;
         let (raw, reference) = self.calibration_bits;
         let calibration = self.calibrated.then(|| {
             let mut points = [CalibrationPoint::default(); CALIBRATION_POINTS];
@@ -138,6 +158,7 @@ impl RecordInput {
                 string_used_mm: self.string_mm,
                 boots: self.boots,
             },
+            preferences,
         })
     }
 }
@@ -182,9 +203,9 @@ mod verification {
     #[kani::stub(taut_core::store::checksum, xor_checksum)]
     fn verify_store_decode_is_total() {
         let bytes: [u8; RECORD_LEN] = kani::any();
-        // Every version byte but 1 (today's format, and every unknown one); version 1 is the
-        // next harness's, so that each stays within the two-minute budget.
-        kani::assume(bytes.get(2) != Some(&FORMAT_V1));
+        // Every version byte but 1 and 2 (today's format, and every unknown one); versions 1
+        // and 2 are the next harnesses', so that each stays within the two-minute budget.
+        kani::assume(bytes.get(2) != Some(&FORMAT_V1) && bytes.get(2) != Some(&FORMAT_V2));
         decode_is_total(&bytes);
     }
 
@@ -194,6 +215,15 @@ mod verification {
     fn verify_store_decode_migrates_version_1() {
         let bytes: [u8; RECORD_LEN] = kani::any();
         kani::assume(bytes.get(2) == Some(&FORMAT_V1));
+        decode_is_total(&bytes);
+    }
+
+    #[kani::proof]
+    #[kani::unwind(130)]
+    #[kani::stub(taut_core::store::checksum, xor_checksum)]
+    fn verify_store_decode_migrates_version_2() {
+        let bytes: [u8; RECORD_LEN] = kani::any();
+        kani::assume(bytes.get(2) == Some(&FORMAT_V2));
         decode_is_total(&bytes);
     }
 

@@ -32,7 +32,7 @@
 //!   machine powered up with a record whose calibration fails shows the notice `n-03`
 //!   instead of using it, and one whose calibration passes shows no notice.
 
-use crate::machine_store::{as_version_1, decoded_is_canonical};
+use crate::machine_store::{as_version_1, as_version_2, decoded_is_canonical};
 use taut_core::machine::{Machine, Notice};
 use taut_core::sense::calibration::{
     CALIBRATION_TARGETS, Calibration, CalibrationPoint, GAIN_RANGE_Q30, KNEE, OFFSET_LIMIT,
@@ -256,6 +256,7 @@ pub fn seed_records() -> Vec<(&'static str, Record)> {
         presets: [settings(Unit::Pounds, 1100, 1, 0, 0); PRESET_COUNT],
         calibration: Some(points(|_, target| (target.saturating_sub(5), target))),
         counters: Counters { pulls: u32::MAX, string_used_mm: u32::MAX, boots: u32::MAX },
+        preferences: taut_core::settings::Preferences { beeper: false, constant_pull: false },
     };
     vec![
         ("default", Record::default()),
@@ -276,11 +277,20 @@ pub fn seed_inputs() -> Vec<(String, Vec<u8>)> {
             input.extend_from_slice(&record.encode());
             out.push((format!("{name}_{suffix}"), input));
         }
-        // The same record as format version 1 wrote it (no boot counter), for the migration.
-        let old = Record { counters: Counters { boots: 0, ..record.counters }, ..record };
+        // The same record as format version 1 wrote it (no boot counter, no preferences) and
+        // as version 2 did (no preferences), for the migrations.
+        let defaults = taut_core::settings::Preferences::DEFAULT;
+        let old = Record {
+            counters: Counters { boots: 0, ..record.counters },
+            preferences: defaults,
+            ..record
+        };
         let mut input = vec![Mode::Raw.selector()];
         input.extend_from_slice(&as_version_1(old.encode()));
         out.push((format!("{name}_v1_raw"), input));
+        let mut input = vec![Mode::Raw.selector()];
+        input.extend_from_slice(&as_version_2(Record { preferences: defaults, ..record }.encode()));
+        out.push((format!("{name}_v2_raw"), input));
     }
     out
 }

@@ -51,8 +51,10 @@ fn machine_model_check() {
     for hold in [(false, false), (true, false), (false, true), (true, true)] {
         assert!(report.holds.contains(&hold), "hold (timer, locked) = {hold:?} never reached");
     }
-    // REQ-UI-10: every information page is reached (and none is a trap).
+    // REQ-UI-10/11: every information and preference page is reached (and none is a trap).
     for view in [
+        View::Beeper,
+        View::ConstantPull,
         View::Timer,
         View::Log { entry: 0, field: 0 },
         View::Counters(0),

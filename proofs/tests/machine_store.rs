@@ -9,10 +9,11 @@
 )]
 
 use proptest::prelude::*;
-use taut_core::store::FORMAT_V1;
+use taut_core::settings::Preferences;
+use taut_core::store::{FORMAT_V1, FORMAT_V2};
 use taut_core::store::{RECORD_LEN, Record, StoreError};
 use taut_proofs::machine_store::{
-    RecordInput, SettingsInput, as_version_1, decode_is_total, round_trips,
+    RecordInput, SettingsInput, as_version_1, as_version_2, decode_is_total, round_trips,
 };
 
 fn sample_records() -> Vec<Record> {
@@ -29,8 +30,21 @@ fn sample_records() -> Vec<Record> {
             pulls: 12_345,
             string_mm: 6_789_012,
             boots: 0,
+            preferences: 0,
         };
         out.push(input.record().expect("valid sample"));
+    }
+    out
+}
+
+/// The samples with every preferences value (beeper and constant pull on or off).
+fn sample_records_with_preferences() -> Vec<Record> {
+    let mut out = Vec::new();
+    for record in sample_records() {
+        for flags in 0..4 {
+            let preferences = Preferences::from_flags(flags).expect("defined bits");
+            out.push(Record { preferences, ..record });
+        }
     }
     out
 }
@@ -38,7 +52,7 @@ fn sample_records() -> Vec<Record> {
 #[test]
 fn machine_store_bit_flips_exhaustive() {
     let mut cases = 0u32;
-    for record in sample_records() {
+    for record in sample_records_with_preferences() {
         round_trips(&record);
         let bytes = record.encode();
         for index in 0..RECORD_LEN {
@@ -74,6 +88,29 @@ fn machine_store_version_1_records_migrate() {
         }
     }
     println!("machine_store_version_1_records_migrate: {cases} corrupted version-1 records");
+}
+
+/// REQ-STORE-05: every sample record written by format version 2 (no preferences byte) is
+/// read with the default preferences and every other field kept; a single-bit flip of the
+/// old bytes is still refused.
+#[test]
+fn machine_store_version_2_records_migrate() {
+    let mut cases = 0u32;
+    for record in sample_records() {
+        let old = as_version_2(record.encode());
+        assert_eq!(Record::decode_version(&old), Ok((record, FORMAT_V2)));
+        decode_is_total(&old);
+        for index in 0..RECORD_LEN {
+            for bit in 0..8 {
+                let mut corrupt = old;
+                corrupt[index] ^= 1 << bit;
+                decode_is_total(&corrupt);
+                assert!(Record::decode(&corrupt).is_err(), "v2 flip {index}:{bit} accepted");
+                cases += 1;
+            }
+        }
+    }
+    println!("machine_store_version_2_records_migrate: {cases} corrupted version-2 records");
 }
 
 #[test]

@@ -161,13 +161,17 @@ fn decode_edited(
     Record::decode(&bytes)
 }
 
-/// REQ-STORE-03: the reserved bytes (3 and 109–123; 105–108 are the boot counter) must be
-/// zero even when the CRC is good, so a later format that uses them cannot be misread as this
-/// one.
+/// REQ-STORE-03: the reserved bytes (3 and 110–123; 105–108 are the boot counter, 109 the
+/// preferences, whose undefined bits count as reserved) must be zero even when the CRC is
+/// good, so a later format that uses them cannot be misread as this one.
 #[test]
 fn record_rules_reserved_bytes_are_refused_behind_a_good_crc() {
     for (name, record) in seed_records() {
-        for index in std::iter::once(3).chain(109..CRC_OFFSET) {
+        for value in [4u8, 0x80, 0xFF] {
+            let decoded = decode_edited(&record, |bytes| bytes[109] = value);
+            assert_eq!(decoded, Err(StoreError::ReservedNotZero), "{name}: preferences {value}");
+        }
+        for index in std::iter::once(3).chain(110..CRC_OFFSET) {
             for value in [1u8, 0x80, 0xFF] {
                 let decoded = decode_edited(&record, |bytes| bytes[index] = value);
                 assert_eq!(

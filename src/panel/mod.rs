@@ -364,7 +364,7 @@ pub fn page_text(state: MachineState, outputs: &Outputs) -> String {
     if display::text(&outputs.display).starts_with('P')
         && display::page_value(&outputs.display, b"P ").is_some()
     {
-        return "preset page (P n): Up/Down choose, Start loads, hold Preset stores; Preset again: the information pages".to_owned();
+        return "preset page (P n): Up/Down choose, Start loads, hold Preset stores; Function: the information pages".to_owned();
     }
     match page_shown(&outputs.display) {
         Some((Page::Tension, _)) => {

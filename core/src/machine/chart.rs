@@ -245,9 +245,10 @@ pub enum AfterRelease {
 
 /// The page the Ready panel shows.
 ///
-/// The settings pages (Tension … Unit) follow each other on Function; Preset opens the
-/// preset page, and Preset again the information pages (stringing timer, pull log,
-/// counters, string, service), which Function walks back to the tension.
+/// The settings pages (Tension … Unit, then the beeper and constant-pull preferences) follow
+/// each other on Function; Preset opens the preset page (where a long Preset stores), and
+/// Function from there the information pages (stringing timer, pull log, counters, string,
+/// service), which Function walks back to the tension.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
 pub enum View {
     /// The tension set point (`25.0`).
@@ -261,6 +262,11 @@ pub enum View {
     Knot,
     /// Unit (` kg` / ` lb`).
     Unit,
+    /// The beeper's clicks and at-tension tone on or off (`bEon` / `bEoF`; fault tones
+    /// always sound).
+    Beeper,
+    /// Constant pull in the hold by default, or every hold locked (`CPon` / `CPoF`).
+    ConstantPull,
     /// Preset selection (`P 3`); the number is 0-based.
     Preset(u8),
     /// The stringing timer (`r1.05`: r for the racket; an `S` would read as a 5): Up starts and stops it, Down resets it when stopped.
@@ -309,7 +315,10 @@ impl View {
             Self::Speed => Self::PreStretch,
             Self::PreStretch => Self::Knot,
             Self::Knot => Self::Unit,
-            Self::Unit | Self::Preset(_) | Self::Service(_) => Self::Tension,
+            Self::Unit => Self::Beeper,
+            Self::Beeper => Self::ConstantPull,
+            Self::ConstantPull | Self::Service(_) => Self::Tension,
+            Self::Preset(_) => Self::Timer,
             Self::Timer => Self::Log { entry: 0, field: 0 },
             Self::Log { .. } => Self::Counters(0),
             Self::Counters(_) => Self::String(0),
@@ -971,7 +980,11 @@ impl Chart {
             Some(State::releasing(0, AfterRelease::Ready))
         } else if output.at_tension {
             self.time_to_tension = *elapsed;
-            Some(State::holding(Hold::AT_TENSION))
+            // Constant pull off in the preferences: the hold starts locked (`LOCK`).
+            let locked = !self.record.preferences.constant_pull
+                && self.controller.set_constant_pull(false, sample.inputs.drive.steps);
+            let message = locked.then_some((HoldMessage::Locked, ADJUST_SHOWN_MS));
+            Some(State::holding(Hold { message, ..Hold::AT_TENSION }))
         } else if *elapsed >= PULL_TIMEOUT && *elapsed >= pull_timeout(self.pull_settings().speed())
         {
             Some(State::fault(FaultCode::PullTimeout, Recovery::Home, 0))
@@ -1231,10 +1244,7 @@ impl Chart {
         let now = sample.inputs.now_ms;
         match (key, *view) {
             (KeyEvent::Press(Key::Start), View::Service(_)) => Some(State::self_test(0, 0)),
-            (KeyEvent::Press(Key::Preset), View::Preset(_)) => {
-                *view = View::Timer;
-                None
-            }
+            (KeyEvent::Press(Key::Preset), View::Preset(_)) => None,
             (KeyEvent::Press(Key::Preset), View::Log { entry, field }) => {
                 let next = field.saturating_add(1);
                 let field = if usize::from(next) < LOG_FIELDS.len() { next } else { 0 };
@@ -1318,6 +1328,16 @@ impl Chart {
                 *view = View::Preset(index.saturating_add_signed(step).min(last));
                 None
             }
+            (_, View::Beeper | View::ConstantPull) if step != 0 => {
+                let preferences = &mut self.record.preferences;
+                if *view == View::Beeper {
+                    preferences.beeper = !preferences.beeper;
+                } else {
+                    preferences.constant_pull = !preferences.constant_pull;
+                }
+                self.dirty = true;
+                None
+            }
             (_, page) if step != 0 => {
                 let updated = match page {
                     View::Tension => {
@@ -1358,6 +1378,12 @@ impl Chart {
                 Unit::Kilograms => panel::text(b" kg "),
                 Unit::Pounds => panel::text(b" lb "),
             },
+            View::Beeper => {
+                panel::text(if self.record.preferences.beeper { b"bEon" } else { b"bEoF" })
+            }
+            View::ConstantPull => {
+                panel::text(if self.record.preferences.constant_pull { b"CPon" } else { b"CPoF" })
+            }
             View::Preset(index) => panel::labelled(b"P ", index.saturating_add(1)),
             View::Timer => {
                 let ms = self.stringing.elapsed_ms(sample.inputs.now_ms);
@@ -1516,12 +1542,12 @@ mod tests {
     #[test]
     fn views_cycle_back_to_tension() {
         let mut view = View::Tension;
-        for _ in 0..5 {
+        for _ in 0..7 {
             assert!(!view.is_information());
             view = view.next();
         }
         assert_eq!(view, View::Tension);
-        assert_eq!(View::Preset(4).next(), View::Tension);
+        assert_eq!(View::Preset(4).next(), View::Timer, "the presets lead to the information");
         // The information pages: timer, log, counters, string, service, then the tension.
         let mut view = View::Timer;
         let mut walked = 0;

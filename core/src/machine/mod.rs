@@ -403,13 +403,14 @@ impl<const LOG: usize> Machine<LOG> {
                 };
             }
         }
-        match context.beep {
-            Some(beep) => self.beeper.play(beep, inputs.now_ms),
-            None => {
-                if matches!(key, Some(KeyEvent::Press(_))) {
-                    self.beeper.play(Beep::Click, inputs.now_ms);
-                }
-            }
+        let beep = match context.beep {
+            Some(beep) => Some(beep),
+            None => matches!(key, Some(KeyEvent::Press(_))).then_some(Beep::Click),
+        };
+        // The beeper preference mutes clicks and tones, never the fault pattern.
+        let audible = self.chart.inner().record.preferences.beeper;
+        if let Some(beep) = beep.filter(|beep| audible || *beep == Beep::Fault) {
+            self.beeper.play(beep, inputs.now_ms);
         }
         outputs.beeper = self.beeper.sounding(inputs.now_ms);
         outputs
@@ -516,6 +517,7 @@ impl<const LOG: usize> Machine<LOG> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::{Key, Keys};
     use crate::sense::load_cell::LoadCellScale;
     use crate::settings::Unit;
 
@@ -541,6 +543,31 @@ mod tests {
             out = machine.tick(&inputs);
         }
         out
+    }
+
+    /// REQ-UI-11: with the beeper off a key does not click, but a fault still sounds.
+    #[test]
+    fn a_muted_beeper_still_sounds_a_fault() {
+        let mut record = Record::default();
+        record.preferences.beeper = false;
+        for muted in [true, false] {
+            record.preferences.beeper = !muted;
+            let mut machine: Machine =
+                Machine::resume(record, &Checkpoint::at(MachineState::Ready));
+            let mut clicked = false;
+            for now in 1..=60u32 {
+                let keys = if now <= 40 { Keys::NONE.with(Key::Up) } else { Keys::NONE };
+                let inputs =
+                    Inputs { now_ms: now, keys, load_cell: AdcCode::new(41), ..Inputs::default() };
+                clicked |= machine.tick(&inputs).beeper;
+            }
+            assert_eq!(clicked, !muted, "a key click, muted {muted}");
+            let both = LimitSwitches { home: true, end: true };
+            let inputs = Inputs { now_ms: 61, limits: both, ..Inputs::default() };
+            let out = machine.tick(&inputs);
+            assert_eq!(machine.fault(), Some(FaultCode::LimitsBoth));
+            assert!(out.beeper, "the fault sounds, muted {muted}");
+        }
     }
 
     #[test]

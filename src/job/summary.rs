@@ -85,8 +85,11 @@ pub struct Summary {
     pub true_string_mm: Option<f64>,
     /// The string's stiffness as the machine estimated it, kgf/mm.
     pub stiffness_kgf_per_mm: Option<f64>,
+    /// The string's true stiffness in this pull (true tension over true travel between 1/2
+    /// and 3/4 of the target, where the machine measures), kgf/mm.
+    pub true_stiffness_kgf_per_mm: Option<f64>,
     /// The twin string's instantaneous stiffness `E·A/L`, kgf/mm.
-    pub true_stiffness_kgf_per_mm: f64,
+    pub instantaneous_stiffness_kgf_per_mm: f64,
     /// The string's creep in the hold as the machine estimated it, % of the tension per min.
     pub creep_percent_per_min: Option<f64>,
     /// The twin string's creep over the machine's window (1 s into the hold to the
@@ -177,6 +180,13 @@ pub fn summary(run: &CycleRun) -> Summary {
         }
         (n > 0 && tension > 0.0).then(|| rate / tension * 100.0 * 60.0)
     });
+    let true_stiffness_kgf_per_mm = pulling.and_then(|start| {
+        let mut rows = rows_between(run, start, pull_end);
+        let lower = rows.find(|r| r.truth.tension_kgf >= target / 2.0)?;
+        let upper = rows.find(|r| r.truth.tension_kgf >= target * 0.75)?;
+        let travel = upper.truth.carriage_mm - lower.truth.carriage_mm;
+        (travel > 0.0).then(|| (upper.truth.tension_kgf - lower.truth.tension_kgf) / travel)
+    });
     let true_string_mm = at(pulling)
         .zip(at(releasing))
         .map(|(p, r)| r.truth.string_travel_mm - p.truth.string_travel_mm);
@@ -213,7 +223,8 @@ pub fn summary(run: &CycleRun) -> Summary {
             .pull
             .and_then(|p| p.stiffness)
             .map(|k| f64::from(k.milli()) / 1_000.0),
-        true_stiffness_kgf_per_mm: run.config.string.stiffness_kgf_per_cm / 10.0,
+        true_stiffness_kgf_per_mm,
+        instantaneous_stiffness_kgf_per_mm: run.config.string.stiffness_kgf_per_cm / 10.0,
         creep_percent_per_min: run
             .pull
             .and_then(|p| p.creep)
@@ -292,11 +303,12 @@ pub fn table(run: &CycleRun) -> String {
             ),
         ),
         (
-            "string stiffness (machine's estimate / twin's E·A/L)",
+            "string stiffness (machine's estimate / true in this pull / E·A/L)",
             format!(
-                "{} / {:.3} kgf/mm",
+                "{} / {} / {:.3} kgf/mm",
                 s.stiffness_kgf_per_mm.map_or_else(|| "—".to_owned(), |v| format!("{v:.3}")),
-                s.true_stiffness_kgf_per_mm
+                s.true_stiffness_kgf_per_mm.map_or_else(|| "—".to_owned(), |v| format!("{v:.3}")),
+                s.instantaneous_stiffness_kgf_per_mm
             ),
         ),
         (
@@ -370,6 +382,7 @@ pub fn json(run: &CycleRun) -> Value {
         "true_string_mm": s.true_string_mm,
         "stiffness_kgf_per_mm": s.stiffness_kgf_per_mm,
         "true_stiffness_kgf_per_mm": s.true_stiffness_kgf_per_mm,
+        "instantaneous_stiffness_kgf_per_mm": s.instantaneous_stiffness_kgf_per_mm,
         "creep_percent_per_min": s.creep_percent_per_min,
         "true_creep_percent_per_min": s.true_creep_percent_per_min,
         "release_s": s.release_s,

@@ -184,6 +184,8 @@ pub struct Sample {
     pub tension: Kgf,
     /// The uncorrected tension averaged over ≈ 64 ms (calibration points).
     pub raw_average: Kgf,
+    /// The Hall count through the same filter as `raw_average`, ×2¹⁶ (the string probe).
+    pub steps_average: i64,
     /// String-encoder counts since the previous tick.
     pub string_counts: i16,
 }
@@ -973,7 +975,7 @@ impl Chart {
         context.out.leds = Leds { pulling: true, ..self.unit_leds() };
         self.show_working_tension(context, sample);
         let averaged = self.calibration.correct(sample.raw_average);
-        self.probe.pulling(sample.inputs.drive.steps, averaged, self.base_target());
+        self.probe.pulling(sample.steps_average, averaged, self.base_target());
         *elapsed = elapsed.saturating_add(1);
         context.next = if pressed(sample.key) {
             context.out.drive = DriveCommand::Coast;

@@ -264,6 +264,11 @@ pub struct Machine<const LOG: usize = PULL_LOG_CAPACITY> {
     raw_average: Kgf,
     /// The two raw samples before this tick's (for the average's median of three).
     raw_recent: [Kgf; 2],
+    /// The Hall count filtered exactly as `raw_average` (median of three, then the same
+    /// average), ×2¹⁶: the string probe's travel, lagging as its tension does.
+    steps_average: i64,
+    /// The two Hall counts before this tick's.
+    steps_recent: [i32; 2],
     string_counter: Option<u16>,
 }
 
@@ -348,6 +353,8 @@ impl<const LOG: usize> Machine<LOG> {
             log: PullLog::new(),
             raw_average: Kgf::ZERO,
             raw_recent: [Kgf::ZERO; 2],
+            steps_average: i64::from(sample.inputs.drive.steps) << 16,
+            steps_recent: [sample.inputs.drive.steps; 2],
             string_counter: None,
         }
     }
@@ -369,6 +376,15 @@ impl<const LOG: usize> Machine<LOG> {
         let gap = median.to_bits().saturating_sub(self.raw_average.to_bits());
         self.raw_average =
             Kgf::from_bits(self.raw_average.to_bits().saturating_add(gap >> AVERAGE_SHIFT));
+        // The Hall count through the same filter, so a straight load line T = K·x + c stays
+        // straight between the two averages whatever the speed does (a linear filter
+        // commutes with it): the probe's K = ΔT/Δx carries no lag.
+        let steps = inputs.drive.steps;
+        let [older_steps, old_steps] = self.steps_recent;
+        self.steps_recent = [old_steps, steps];
+        let steps_median = older_steps.min(old_steps).max(older_steps.max(old_steps).min(steps));
+        let steps_gap = (i64::from(steps_median) << 16).saturating_sub(self.steps_average);
+        self.steps_average = self.steps_average.saturating_add(steps_gap >> AVERAGE_SHIFT);
         let string_counts = match self.string_counter {
             // The wrapping difference of a 16-bit counter, read as signed.
             Some(previous) => {
@@ -384,6 +400,7 @@ impl<const LOG: usize> Machine<LOG> {
             raw,
             tension,
             raw_average: self.raw_average,
+            steps_average: self.steps_average,
             string_counts,
         };
         let mut context = Context::new(sample);

@@ -8,9 +8,13 @@
 //! tension the first time the tension reaches half the pull's final target ([`LOWER_SHARE`])
 //! and again at three quarters ([`UPPER_SHARE`]); the stiffness is the tension gained over the
 //! carriage travel between them, `K = ΔT / (Δsteps · 52.917 µm)`, kgf per mm of carriage
-//! travel. Both readings are the machine's ≈ 64 ms running average of the calibrated
-//! tension (a switching spike never lands on a probe point): at a steady carriage speed both
-//! lag by the same travel, which cancels in the difference. The points sit below the
+//! travel. The tension is the machine's ≈ 64 ms running average (median of three, then a
+//! first-order average: a switching spike never lands on a probe point), and the Hall count
+//! goes through *the same* filter. A linear filter commutes with the load line `T = K·x + c`,
+//! so the two averages stay on it whatever the carriage's speed does — accelerating, or the
+//! average still settling after the string went taut (on a stiff string at full speed the
+//! lower point comes ≈ 0.13 s after it, inside the average's settling: with the raw count
+//! that lag difference read 7 % too stiff). The points sit below the
 //! braking onset on every string (the braking adds at most `K·v²/(2a)` ≈ 3.4 kgf on the
 //! stiffest string at full speed, 14 % of 25 kgf) and above the string's straightening toe,
 //! so the line between them is the string's own. A string pulled at a finite speed shows a
@@ -93,8 +97,8 @@ impl CreepRate {
 /// The probe's state through one pull.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
 pub struct StringProbe {
-    /// The Hall count and tension at the lower probe point.
-    lower: Option<(i32, Kgf)>,
+    /// The filtered Hall count (×2¹⁶) and tension at the lower probe point.
+    lower: Option<(i64, Kgf)>,
     /// Whether the upper point has been passed (the stiffness is final).
     upper_passed: bool,
     /// The stiffness, once both points were passed.
@@ -112,18 +116,19 @@ fn share_of(value: Kgf, (numerator, denominator): (i32, i32)) -> Kgf {
     Kgf::from_bits(i32::try_from(part).unwrap_or(0))
 }
 
-/// `K = ΔT / (Δsteps · NM_PER_STEP)` in thousandths of a kgf per mm; `None` without travel
-/// or without a rise, or beyond the type's range.
+/// `K = ΔT / (Δsteps · NM_PER_STEP)` in thousandths of a kgf per mm, the Hall counts in
+/// 2⁻¹⁶ steps; `None` without travel or without a rise, or beyond the type's range.
 #[must_use]
-pub fn stiffness_between(from: (i32, Kgf), to: (i32, Kgf)) -> Option<Stiffness> {
-    let steps = i64::from(to.0).checked_sub(i64::from(from.0)).filter(|&s| s > 0)?;
+pub fn stiffness_between(from: (i64, Kgf), to: (i64, Kgf)) -> Option<Stiffness> {
+    let steps = to.0.checked_sub(from.0).filter(|&s| s > 0)?;
     let rise = i64::from(to.1.to_bits()).checked_sub(i64::from(from.1.to_bits()))?;
     if rise <= 0 {
         return None;
     }
-    // kgf bits / 65 536 per (steps · nm / 10⁶ mm) × 1 000 = bits · 10⁹ / (65 536 · nm · steps).
+    // kgf bits / 2¹⁶ per (steps / 2¹⁶ · nm / 10⁶ mm) × 1 000 = bits · 10⁹ / (nm · steps);
+    // steps in 2⁻¹⁶ and tension in 2⁻¹⁶ kgf cancel.
     let numerator = rise.checked_mul(1_000_000_000)?;
-    let denominator = steps.checked_mul(NM_PER_STEP)?.checked_mul(65_536)?;
+    let denominator = steps.checked_mul(NM_PER_STEP)?;
     let milli = numerator.checked_add(denominator / 2)?.checked_div(denominator)?;
     u16::try_from(milli).ok().and_then(Stiffness::from_milli)
 }
@@ -171,9 +176,9 @@ impl StringProbe {
         opens_at: CREEP_SETTLE_MS,
     };
 
-    /// One pulling tick at Hall count `steps` with the averaged tension `tension`, on a pull
-    /// whose final target is `target`.
-    pub fn pulling(&mut self, steps: i32, tension: Kgf, target: Kgf) {
+    /// One pulling tick at the filtered Hall count `steps` (×2¹⁶), with the tension through
+    /// the same filter `tension`, on a pull whose final target is `target`.
+    pub fn pulling(&mut self, steps: i64, tension: Kgf, target: Kgf) {
         if self.upper_passed {
             return;
         }
@@ -234,8 +239,13 @@ mod tests {
     /// A tension ramp of `milli_per_step` milli-kgf per Hall step, from 0.
     fn ramp(probe: &mut StringProbe, milli_per_step: i32, target: Kgf, steps: i32) {
         for step in 0..steps {
-            probe.pulling(step, Kgf::from_milli(step * milli_per_step), target);
+            probe.pulling(i64::from(step) << 16, Kgf::from_milli(step * milli_per_step), target);
         }
+    }
+
+    /// `steps` Hall steps as the probe takes them (×2¹⁶).
+    fn at(steps: i64) -> i64 {
+        steps << 16
     }
 
     #[test]
@@ -259,26 +269,36 @@ mod tests {
     fn the_probe_points_are_half_and_three_quarters_of_the_target() {
         let mut probe = StringProbe::NEW;
         let target = Kgf::from_int(20);
-        probe.pulling(0, Kgf::from_milli(9_999), target);
-        probe.pulling(10, Kgf::from_int(10), target);
-        probe.pulling(20, Kgf::from_milli(14_999), target);
+        probe.pulling(at(0), Kgf::from_milli(9_999), target);
+        probe.pulling(at(10), Kgf::from_int(10), target);
+        probe.pulling(at(20), Kgf::from_milli(14_999), target);
         assert_eq!(probe.stiffness(), None);
         // From step 10 at 10 kgf to step 110 at 15 kgf: 5 kgf over 5.2917 mm.
-        probe.pulling(110, Kgf::from_int(15), target);
+        probe.pulling(at(110), Kgf::from_int(15), target);
         assert_eq!(probe.stiffness().map(Stiffness::milli), Some(945));
+        // A fraction of a step counts: 100.5 steps.
+        let mut half = StringProbe::NEW;
+        half.pulling(at(10), Kgf::from_int(10), target);
+        half.pulling(at(110) + (1 << 15), Kgf::from_int(15), target);
+        assert_eq!(half.stiffness().map(Stiffness::milli), Some(940));
         // Later ticks do not move it.
-        probe.pulling(200, Kgf::from_int(30), target);
+        probe.pulling(at(200), Kgf::from_int(30), target);
         assert_eq!(probe.stiffness().map(Stiffness::milli), Some(945));
     }
 
     #[test]
     fn no_travel_or_no_rise_gives_no_stiffness() {
-        let at = |steps, kgf| (steps, Kgf::from_int(kgf));
+        let at = |steps: i64, kgf| (steps << 16, Kgf::from_int(kgf));
         assert_eq!(stiffness_between(at(10, 10), at(10, 15)), None, "no travel");
         assert_eq!(stiffness_between(at(10, 10), at(5, 15)), None, "backwards");
         assert_eq!(stiffness_between(at(10, 10), at(20, 10)), None, "no rise");
         assert_eq!(stiffness_between(at(0, 0), at(1, 50)), None, "944.9 kgf/mm: beyond the type");
-        assert_eq!(stiffness_between(at(i32::MIN, 0), at(i32::MAX, 50)), None, "rounds to zero");
+        assert_eq!(stiffness_between(at(-(1 << 40), 0), at(1 << 40, 50)), None, "rounds to zero");
+        assert_eq!(
+            stiffness_between((i64::MIN, Kgf::ZERO), (i64::MAX, Kgf::MAX)),
+            None,
+            "overflow"
+        );
     }
 
     #[test]

@@ -796,6 +796,19 @@ mod verification {
         }
     }
 
+    /// REQ-DRV-12's evidence: for any code, zero and applied duty, on a winding sense and on
+    /// a link-average one, "motoring" means a current the board reads in the driven
+    /// direction, at least an eighth of the limit (× the duty on a link average, the duty at
+    /// least a quarter) — so a braking, coasting or noisy reading can never count an
+    /// overspeed.
+    #[kani::proof]
+    fn verify_motoring_evidence() {
+        let code: u16 = kani::any();
+        let zero: u16 = kani::any();
+        let duty: u16 = kani::any();
+        motoring_evidence(code, zero, duty);
+    }
+
     /// REQ-DRV-10 at the window itself: for every back-EMF, on the nominal 24 V bus and at
     /// the regeneration threshold (where the lower edge changes rule), each edge of the
     /// window keeps the current within the limit. Every bus code is covered by `proofs/tests/drive.rs`
@@ -839,5 +852,46 @@ pub fn window_bounds_current(bus: u16, emf_mv: i32) {
                 assert!(low - e >= floor - 10, "REQ-DRV-10: lower edge {low} mV at {e} mV");
             }
         }
+    }
+}
+
+/// REQ-DRV-12 on [`taut_core::drive::DriveConfig::motoring`]: on the paper's winding sense a
+/// code is motoring exactly when it is at least `limit/8` codes above the zero; on a
+/// link-average sense exactly when `(code − zero) × 2¹⁶ ≥ max(D, ¼) × limit/8`; never at or
+/// below the zero, never below the quarter-duty floor's `limit/32` (≥ 4 × the worst noise).
+#[allow(
+    clippy::arithmetic_side_effects,
+    reason = "specification arithmetic on bounded values: codes ≤ 65 535, duty < 2¹⁶, in u64"
+)]
+pub fn motoring_evidence(code: u16, zero: u16, duty: u16) {
+    use taut_core::drive::limit::{CurrentLimit, CurrentSense};
+    let (code, zero, duty) = (AdcCode::new(code), AdcCode::new(zero), Duty::from_raw_clamped(duty));
+    let above = u64::from(code.get().saturating_sub(zero.get()));
+    let winding = taut_core::drive::DriveConfig::PAPER;
+    let eighth = u64::from(winding.limit_codes() / 8);
+    assert_eq!(
+        winding.motoring(code, zero, duty),
+        code.get() > zero.get() && above >= eighth,
+        "REQ-DRV-12: winding motoring at {above} codes"
+    );
+    let Ok(link) = taut_core::drive::DriveConfig::new(
+        CurrentSense::LINK_AVERAGE_BIDIRECTIONAL,
+        taut_core::drive::BusSense::PAPER,
+        CurrentLimit::PAPER,
+        12_000,
+    ) else {
+        panic!("the link-average board is a valid configuration");
+    };
+    let eighth = u64::from(link.limit_codes() / 8);
+    let scaled = u64::from(duty.raw().max(16_384)) * eighth;
+    let motoring = link.motoring(code, zero, duty);
+    assert_eq!(
+        motoring,
+        code.get() > zero.get() && above * 65_536 >= scaled,
+        "REQ-DRV-12: link motoring at {above} codes, duty {}",
+        duty.raw()
+    );
+    if motoring {
+        assert!(above * 32 >= eighth * 8, "REQ-DRV-12: motoring below a quarter of 1 A");
     }
 }

@@ -21,8 +21,9 @@ use taut_core::drive::{
 use taut_core::sense::current;
 use taut_proofs::drive::{
     CheckedDrive, CommandInput, Observer, StepInput, apply, bounded_duty, check_all,
-    commutation_is_consistent, duty_constructors_bounded, hall_fault_after, no_shoot_through,
-    pattern_is_safe, sequencer_step_is_safe, six_step_entry_is_well_formed, window_bounds_current,
+    commutation_is_consistent, duty_constructors_bounded, hall_fault_after, motoring_evidence,
+    no_shoot_through, pattern_is_safe, sequencer_step_is_safe, six_step_entry_is_well_formed,
+    window_bounds_current,
 };
 
 /// The lowest current code that is an overcurrent, found from the conversion (not from the
@@ -389,4 +390,21 @@ fn window_bounds_current_every_bus_code() {
         }
     }
     println!("window_bounds_current_every_bus_code: {cases} cases");
+}
+
+/// REQ-DRV-12's evidence: every code against a unidirectional zero (0), the mid-rail zero and
+/// an offset one, at duties from 0 to full in steps of 1/64 and the quarter floor's
+/// neighbours.
+#[test]
+fn motoring_evidence_every_code() {
+    let mut cases = 0u64;
+    for zero in [0u16, 2_048, 2_100] {
+        for duty in (0..=65_535u16).step_by(1_024).chain([16_383, 16_384, 16_385, 65_535]) {
+            for code in 0..=4_095u16 {
+                motoring_evidence(code, zero, duty);
+                cases += 1;
+            }
+        }
+    }
+    println!("motoring_evidence_every_code: {cases} cases");
 }

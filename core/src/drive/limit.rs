@@ -478,6 +478,27 @@ impl DriveConfig {
         }
     }
 
+    /// Whether the sampled current code is a motoring current of at least an eighth of the
+    /// window's limit (1 A) — REQ-DRV-12's evidence that the winding is driven, not braked.
+    /// A winding reading is compared as it is; a link average reads `≈ D·I`, so it is
+    /// compared with `D` × an eighth of the limit, `D` the duty applied (at least
+    /// [`MOTORING_DUTY_FLOOR`], which keeps the threshold four times above the worst
+    /// board's noise).
+    #[must_use]
+    pub fn motoring(&self, code: AdcCode, zero: AdcCode, applied: Duty) -> bool {
+        let Some(codes) = code.get().checked_sub(zero.get()).map(u64::from) else {
+            return false;
+        };
+        let eighth = u64::from(self.limit_codes / 8);
+        match self.sense.reading {
+            CurrentReading::Winding => codes >= eighth,
+            CurrentReading::LinkAverage => {
+                let duty = u64::from(applied.max(MOTORING_DUTY_FLOOR).raw());
+                codes.saturating_mul(u64::from(DUTY_ONE)) >= duty.saturating_mul(eighth)
+            }
+        }
+    }
+
     /// The duty at which the winding current is zero for a back-EMF `emf_mv` (same sign
     /// convention as [`Self::window`]), on the bus `bus`.
     #[must_use]
@@ -493,6 +514,10 @@ impl DriveConfig {
         zero.get().abs_diff(self.sense.design_zero.get()) <= self.sense.zero_tolerance
     }
 }
+
+/// The least duty a link-average reading's motoring threshold is scaled by: a quarter
+/// (0.25 A of reading, four times the noisiest board's 0.06 A rms).
+pub const MOTORING_DUTY_FLOOR: Duty = Duty::from_raw_clamped(16_384);
 
 /// `mv / bus_mv` as a duty, rounded up (`round_up`, for a lower edge) or down (an upper
 /// edge), at most [`DUTY_MAX`]. `mv ≤ 2 × EMF_MAX_MV`, so `mv × 4 096` fits a `u32`; the

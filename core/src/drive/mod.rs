@@ -40,6 +40,11 @@
 //!    to the zero-current duty in a period whose sampled winding current is at the fold-back
 //!    threshold, and always clamped into the **duty window** — so the winding current stays
 //!    within the limit whatever the command, the rotor speed or the bus voltage (`limit`).
+//!    The same step keeps three confirmed rules on the current the window cannot hold, each
+//!    latching an overcurrent: a sustained over-limit reading ([`FOLD_BACK_TRIP`]), a lower
+//!    edge lifting the duty for [`LIFT_LIMIT`], and a rotor **motoring faster than its
+//!    applied voltage** for [`OVERSPEED_LIMIT`] — with motoring current a healthy winding's
+//!    back-EMF is below `D·V`, so a Hall speed above it means lost turns or flux (REQ-DRV-12).
 //!
 //! Between steps 2 and 3 the drive also watches the **winding balance** ([`balance`]): the
 //! three conducting pairs' currents, compared once per fast revolution; a sustained imbalance
@@ -68,6 +73,7 @@ pub use limit::{BusSense, DriveConfig, DutyWindow, TARE_SETTLE};
 
 use crate::io::LimitSwitches;
 use crate::units::{AdcCode, Amps, Volts};
+use duty::DUTY_ONE;
 
 /// Clock of the PWM timer: the STM32G431's TIM1 at 170 MHz.
 pub const PWM_TIMER_HZ: u32 = 170_000_000;
@@ -139,6 +145,31 @@ pub const FOLD_BACK_TRIP_PERIODS: u16 = FOLD_BACK_TRIP / FOLD_BACK_RISE;
 /// link-average board, where no sample need show it. The current cannot be held by the
 /// window, which is what [`DriveFault::Overcurrent`] means.
 pub const LIFT_LIMIT: PwmTicks = PwmTicks::from_micros(500_000);
+
+/// How long the rotor may turn faster than the applied voltage can drive a healthy winding,
+/// while drawing motoring current, before the drive latches an overcurrent (REQ-DRV-12):
+/// 20 ms of PWM-timer ticks, net (an overspeeding conducting period adds its ticks, any
+/// other call takes its ticks off).
+///
+/// With motoring current `i > 0` the winding's own equation `D·V = e + i·R + L·di/dt` gives
+/// `e < D·V` whatever the load does, once the inductive transient (`τe` ≈ 1 ms) has passed:
+/// a healthy motor never turns faster than its applied voltage while it motors. A winding
+/// that does has lost back-EMF per unit speed — an inter-turn short (fewer turns in one
+/// phase) or a demagnetised rotor — and it shows on every kind of current sense, an
+/// RC-filtered link average included, because it needs only the current's sign (motoring)
+/// and the Hall speed. The test allows the back-EMF constant's tolerance, the bus divider's,
+/// a Hall edge placed 5° early and the link filter's lag: the Hall speed's back-EMF (nominal
+/// `Ke`) must exceed the applied voltage by [`OVERSPEED_MARGIN`] and [`OVERSPEED_FLOOR_MV`],
+/// with a motoring reading of at least an eighth of the window's limit.
+pub const OVERSPEED_LIMIT: PwmTicks = PwmTicks::from_micros(20_000);
+
+/// The overspeed test's relative margin, in sixteenths: the Hall speed's back-EMF × 15/16
+/// must exceed the applied voltage (a 6.7 % excess).
+pub const OVERSPEED_MARGIN: u32 = 15;
+
+/// The overspeed test's absolute margin, mV: slow rotors (a hold's creep, a single Hall step
+/// timed against the dead time's loss) are never judged.
+pub const OVERSPEED_FLOOR_MV: u32 = 1_000;
 
 /// Bus current that trips the drive: 12 A (motor rated 5.5 A; 50 kgf needs ≈ 3.5 A; stall
 /// at 24 V would be ≈ 29 A).
@@ -323,6 +354,13 @@ pub struct Drive {
     lifted_for: PwmTicks,
     /// The three conducting pairs' currents, revolution by revolution ([`balance`]).
     balance: WindingBalance,
+    /// Net ticks the rotor has turned faster than the applied voltage drives a healthy
+    /// winding while motoring ([`OVERSPEED_LIMIT`]).
+    overspeed_for: PwmTicks,
+    /// The step interval averaged over about a revolution (1/8 per step; 0: unknown): the
+    /// overspeed test's speed, free of the Hall sensors' placement and of the call's
+    /// quantisation.
+    interval_average: PwmTicks,
     /// The last sample's current and bus codes, for [`Drive::status`].
     last_current: AdcCode,
     last_bus: AdcCode,
@@ -386,6 +424,8 @@ impl Drive {
             duty_hold: Duty::ZERO,
             lifted_for: PwmTicks(0),
             balance: WindingBalance::new(),
+            overspeed_for: PwmTicks(0),
+            interval_average: PwmTicks(0),
             last_current: config.sense().design_zero,
             last_bus: AdcCode::new(0),
         }
@@ -609,7 +649,15 @@ impl Drive {
         } else {
             PwmTicks(self.lifted_for.0.saturating_sub(sample.elapsed.0))
         };
-        if self.folded >= FOLD_BACK_TRIP || self.lifted_for >= LIFT_LIMIT {
+        self.overspeed_for = match self.overspeeding(sample.current, sample.bus_voltage) {
+            Some(true) => PwmTicks(self.overspeed_for.0.saturating_add(sample.elapsed.0)),
+            Some(false) => PwmTicks(self.overspeed_for.0.saturating_sub(sample.elapsed.0)),
+            None => self.overspeed_for,
+        };
+        if self.folded >= FOLD_BACK_TRIP
+            || self.lifted_for >= LIFT_LIMIT
+            || self.overspeed_for >= OVERSPEED_LIMIT
+        {
             self.latch(DriveFault::Overcurrent);
             return self.off(sample);
         }
@@ -631,6 +679,7 @@ impl Drive {
     fn off(&mut self, sample: DriveSample) -> DriveOutput {
         self.folded = 0;
         self.lifted_for = PwmTicks(0);
+        self.overspeed_for = PwmTicks(0);
         self.energized = None;
         self.sequencer.all_off();
         self.off_with(SwitchPattern::ALL_OFF, sample)
@@ -642,6 +691,7 @@ impl Drive {
         self.applied = Duty::ZERO;
         self.hold_duty(Duty::ZERO, sample.elapsed);
         self.lifted_for = PwmTicks(self.lifted_for.0.saturating_sub(sample.elapsed.0));
+        self.overspeed_for = PwmTicks(self.overspeed_for.0.saturating_sub(sample.elapsed.0));
         if pattern.is_all_off() {
             self.off_for = PwmTicks(self.off_for.0.saturating_add(sample.elapsed.0));
             if self.off_for >= TARE_SETTLE {
@@ -663,6 +713,38 @@ impl Drive {
     #[must_use]
     pub const fn lifted_for(&self) -> PwmTicks {
         self.lifted_for
+    }
+
+    /// Net ticks the rotor has overspeeded while motoring ([`OVERSPEED_LIMIT`]).
+    #[must_use]
+    pub const fn overspeed_for(&self) -> PwmTicks {
+        self.overspeed_for
+    }
+
+    /// REQ-DRV-12: `None` unless the current sampled in this call (`current`, driven by the
+    /// previous call's duty in the direction still energised, the rotor turning that way)
+    /// is motoring; then whether the Hall speed's back-EMF (averaged over about a
+    /// revolution), with its margins, exceeds the voltage that duty put on the winding from
+    /// the bus `bus`.
+    fn overspeeding(&self, current: AdcCode, bus: AdcCode) -> Option<bool> {
+        let direction = self.energized?;
+        let motoring = !self.applied.is_zero()
+            && self.config.motoring(current, self.current_zero(), self.applied)
+            && self.rotation == Some(direction)
+            && self.interval_average.0 != 0;
+        if !motoring {
+            return None;
+        }
+        let ticks = self.interval_average.0.max(self.quiet_for.0);
+        let emf = u64::from(self.config.emf_mv(ticks));
+        const ONE: u64 = DUTY_ONE as u64;
+        let applied_mv = u64::from(self.config.bus().millivolts(bus))
+            .saturating_mul(u64::from(self.applied.raw()))
+            / ONE;
+        Some(
+            emf.saturating_mul(u64::from(OVERSPEED_MARGIN)) / 16
+                > applied_mv.saturating_add(u64::from(OVERSPEED_FLOOR_MV)),
+        )
     }
 
     /// The duty a link-average current reading is judged by: the largest applied lately.
@@ -741,6 +823,14 @@ impl Drive {
     /// same way; a turn-around starts it afresh) and the rotation.
     fn stepped(&mut self, direction: Direction) {
         self.interval = if self.rotation == Some(direction) { self.quiet_for } else { PwmTicks(0) };
+        self.interval_average = match (self.interval.0, self.interval_average.0) {
+            (0, _) => PwmTicks(0),
+            (now, 0) => PwmTicks(now),
+            (now, average) => {
+                let gap = i64::from(now).saturating_sub(i64::from(average)) / 8;
+                PwmTicks(u32::try_from(i64::from(average).saturating_add(gap)).unwrap_or(average))
+            }
+        };
         self.rotation = Some(direction);
         self.quiet_for = PwmTicks(0);
     }
@@ -1100,6 +1190,139 @@ mod tests {
         }
         assert_eq!(drive.lifted_for().0, 0);
         assert_eq!(drive.fault(), None);
+    }
+
+    /// A rotor turning forward one sector every `per_sector` periods (20: ≈ 15.7 V of
+    /// back-EMF), driven toward `Pull` at `duty` for `calls` periods with the sampled
+    /// current `current` (codes; 164 = 1 A of the paper's winding sense).
+    fn turning_at(
+        drive: &mut Drive,
+        first: &mut u32,
+        per_sector: u32,
+        calls: u32,
+        duty: u16,
+        current: u16,
+    ) {
+        drive.set_command(pull(duty));
+        for _ in 0..calls {
+            let sector = Sector::S0.advanced(u8::try_from((*first / per_sector) % 6).unwrap_or(0));
+            drive.step(DriveSample { current: AdcCode::new(current), ..sample(sector) });
+            *first += 1;
+        }
+    }
+
+    /// 3 A of winding reading on the paper's sense.
+    const THREE_AMPS: u16 = 492;
+
+    #[test]
+    fn a_rotor_that_motors_faster_than_its_voltage_latches_an_overcurrent_in_twenty_ms() {
+        // ≈ 15.7 V of back-EMF against 45 % of 24 V (10.8 V): with motoring current a healthy
+        // winding cannot turn this fast (REQ-DRV-12). Net overspeeding time rises by each
+        // period's ticks and latches at 20 ms.
+        let mut drive = settled(Sector::S0);
+        let mut call = 0;
+        turning_at(&mut drive, &mut call, 20, 240, 29_491, 0);
+        assert_eq!(drive.overspeed_for().0, 0, "no motoring current: not judged");
+        turning_at(&mut drive, &mut call, 20, 200, 29_491, THREE_AMPS);
+        assert_eq!(drive.overspeed_for().0, 200 * 8_500);
+        let left = (OVERSPEED_LIMIT.0 - drive.overspeed_for().0) / 8_500;
+        turning_at(&mut drive, &mut call, 20, left - 1, 29_491, THREE_AMPS);
+        assert_eq!(drive.fault(), None, "one period short of the limit");
+        turning_at(&mut drive, &mut call, 20, 1, 29_491, THREE_AMPS);
+        assert_eq!(drive.fault(), Some(DriveFault::Overcurrent));
+        assert_eq!(drive.pattern(), SwitchPattern::ALL_OFF);
+    }
+
+    #[test]
+    fn a_rotor_within_its_voltage_or_braking_is_never_an_overspeed() {
+        // 70 % of 24 V (16.8 V) against ≈ 15.7 V: motoring, as a healthy winding does.
+        let mut drive = settled(Sector::S0);
+        let mut call = 0;
+        turning_at(&mut drive, &mut call, 20, 20_000, 45_875, THREE_AMPS);
+        assert_eq!((drive.fault(), drive.overspeed_for().0), (None, 0));
+        // Just inside the margins: 15/16 of the back-EMF is not above the applied voltage
+        // plus a volt (60 %: 14.4 V + 1 V against 14.7 V).
+        turning_at(&mut drive, &mut call, 20, 20_000, 39_322, THREE_AMPS);
+        assert_eq!((drive.fault(), drive.overspeed_for().0), (None, 0));
+        // Braking (no motoring reading) at 45 %: not evidence either way, the count holds.
+        turning_at(&mut drive, &mut call, 20, 100, 29_491, THREE_AMPS);
+        let counted = drive.overspeed_for();
+        assert_eq!(counted.0, 99 * 8_500, "the first period's current flowed under 60 %");
+        turning_at(&mut drive, &mut call, 20, 20_000, 29_491, 100);
+        assert_eq!((drive.fault(), drive.overspeed_for()), (None, counted));
+        // Motoring within the voltage takes it back, period by period.
+        // (while the duty slews up from 45 % the first few periods still count).
+        turning_at(&mut drive, &mut call, 20, 60, 45_875, THREE_AMPS);
+        assert!(drive.overspeed_for() < counted);
+        turning_at(&mut drive, &mut call, 20, 200, 45_875, THREE_AMPS);
+        assert_eq!(drive.overspeed_for().0, 0);
+        // Coasting takes it back too.
+        turning_at(&mut drive, &mut call, 20, 60, 29_491, THREE_AMPS);
+        assert!(drive.overspeed_for().0 > 0);
+        drive.set_command(DriveCommand::Coast);
+        for _ in 0..60 {
+            drive.step(sample(Sector::S0.advanced(u8::try_from((call / 20) % 6).unwrap_or(0))));
+            call += 1;
+        }
+        assert_eq!((drive.fault(), drive.overspeed_for().0), (None, 0));
+    }
+
+    #[test]
+    fn the_overspeed_speed_is_averaged_over_about_a_revolution() {
+        // At 20 periods a sector and 60 % (14.4 V + 1 V against 15/16 × 15.7 V) nothing
+        // counts; one sector timed 15 periods (a Hall edge placed early: 20.9 V at once) moves
+        // the average an eighth of the way (19.4 periods: 16.2 V × 15/16 = 15.2 V) and still
+        // nothing counts.
+        let mut drive = settled(Sector::S0);
+        let mut call = 0;
+        turning_at(&mut drive, &mut call, 20, 2_400, 39_322, THREE_AMPS);
+        let sector = |call: u32| Sector::S0.advanced(u8::try_from((call / 20) % 6).unwrap_or(0));
+        let next = sector(call).advanced(1);
+        drive.set_command(pull(39_322));
+        for _ in 0..15 {
+            drive.step(DriveSample { current: AdcCode::new(THREE_AMPS), ..sample(sector(call)) });
+        }
+        for _ in 0..40 {
+            drive.step(DriveSample { current: AdcCode::new(THREE_AMPS), ..sample(next) });
+        }
+        assert_eq!((drive.fault(), drive.overspeed_for().0), (None, 0));
+        // A rotor that really turns at 15 periods a sector (≈ 21 V: the window's lower edge
+        // lifts the duty to ≈ 64 %, 15.3 V) counts once the average has come within reach:
+        // after three steps it is at 18.4 periods (17.2 V × 15/16 = 16.1 V, not above
+        // 16.3 V), after the fourth it counts.
+        let mut drive = settled(Sector::S0);
+        let mut call = 0;
+        turning_at(&mut drive, &mut call, 20, 2_400, 39_322, THREE_AMPS);
+        let mut fast = 0;
+        turning_at(&mut drive, &mut fast, 15, 45, 39_322, THREE_AMPS);
+        assert_eq!(drive.overspeed_for().0, 0, "three fast steps: the average lags");
+        turning_at(&mut drive, &mut fast, 15, 60, 39_322, THREE_AMPS);
+        assert!(drive.overspeed_for().0 > 0);
+    }
+
+    #[test]
+    fn a_link_average_board_judges_motoring_by_the_duty() {
+        // An RC-filtered link reads ≈ D·I: at 23 % duty 1 A of winding current reads 0.23 A.
+        // Motoring means at least D × 1 A of reading (D at least a quarter), anything less
+        // is not judged.
+        let (drive, _, duty) = link_board_driving();
+        let config = drive.config();
+        let zero = AdcCode::new(2_048);
+        let floor = Duty::from_raw_clamped(16_384);
+        assert!(duty < floor);
+        // 1 A at the floor's 25 % = 0.25 A = 20.5 codes above the zero (1 A = 81.92 codes).
+        assert!(!config.motoring(AdcCode::new(2_068), zero, duty));
+        assert!(config.motoring(AdcCode::new(2_069), zero, duty));
+        assert!(!config.motoring(AdcCode::new(2_000), zero, duty), "braking");
+        // At full duty the threshold is the full ampere.
+        let full = Duty::from_raw_clamped(62_259);
+        assert!(!config.motoring(AdcCode::new(2_048 + 76), zero, full));
+        assert!(config.motoring(AdcCode::new(2_048 + 78), zero, full));
+        // A winding sense reads the current itself: 1 A whatever the duty.
+        let winding = Drive::new().config();
+        let eighth = winding.limit_codes() / 8;
+        assert!(winding.motoring(AdcCode::new(eighth), AdcCode::new(0), floor));
+        assert!(!winding.motoring(AdcCode::new(eighth - 1), AdcCode::new(0), full));
     }
 
     /// `revolutions` forward revolutions at 20 periods per sector (6 ms each) under a 60 %

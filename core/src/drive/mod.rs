@@ -163,9 +163,10 @@ pub const LIFT_LIMIT: PwmTicks = PwmTicks::from_micros(500_000);
 /// with a motoring reading of at least an eighth of the window's limit.
 pub const OVERSPEED_LIMIT: PwmTicks = PwmTicks::from_micros(20_000);
 
-/// The overspeed test's relative margin, in sixteenths: the Hall speed's back-EMF × 15/16
-/// must exceed the applied voltage (a 6.7 % excess).
-pub const OVERSPEED_MARGIN: u32 = 15;
+/// The overspeed test's relative margin, in eighths: the Hall speed's back-EMF × 7/8 must
+/// exceed the applied voltage (a 14 % excess): a healthy motor whose `Ke` is up to 17 % below
+/// the nameplate's (bus divider 2 % low) never counts at any bus up to 30 V.
+pub const OVERSPEED_MARGIN: u32 = 7;
 
 /// The overspeed test's absolute margin, mV: slow rotors (a hold's creep, a single Hall step
 /// timed against the dead time's loss) are never judged.
@@ -736,15 +737,12 @@ impl Drive {
             return None;
         }
         let ticks = self.interval_average.0.max(self.quiet_for.0);
-        let emf = u64::from(self.config.emf_mv(ticks));
-        const ONE: u64 = DUTY_ONE as u64;
+        // 7 × e ≤ 7 × EMF_MAX_MV fits a u32; V × duty is one 32 × 32 → 64-bit product.
+        let emf = self.config.emf_mv(ticks).saturating_mul(OVERSPEED_MARGIN) / 8;
         let applied_mv = u64::from(self.config.bus().millivolts(bus))
             .saturating_mul(u64::from(self.applied.raw()))
-            / ONE;
-        Some(
-            emf.saturating_mul(u64::from(OVERSPEED_MARGIN)) / 16
-                > applied_mv.saturating_add(u64::from(OVERSPEED_FLOOR_MV)),
-        )
+            >> DUTY_ONE.trailing_zeros();
+        Some(u64::from(emf) > applied_mv.saturating_add(u64::from(OVERSPEED_FLOOR_MV)))
     }
 
     /// The duty a link-average current reading is judged by: the largest applied lately.
@@ -826,10 +824,10 @@ impl Drive {
         self.interval_average = match (self.interval.0, self.interval_average.0) {
             (0, _) => PwmTicks(0),
             (now, 0) => PwmTicks(now),
-            (now, average) => {
-                let gap = i64::from(now).saturating_sub(i64::from(average)) / 8;
-                PwmTicks(u32::try_from(i64::from(average).saturating_add(gap)).unwrap_or(average))
+            (now, average) if now >= average => {
+                PwmTicks(average.saturating_add(now.saturating_sub(average) / 8))
             }
+            (now, average) => PwmTicks(average.saturating_sub(average.saturating_sub(now) / 8)),
         };
         self.rotation = Some(direction);
         self.quiet_for = PwmTicks(0);
@@ -1240,9 +1238,13 @@ mod tests {
         let mut call = 0;
         turning_at(&mut drive, &mut call, 20, 20_000, 45_875, THREE_AMPS);
         assert_eq!((drive.fault(), drive.overspeed_for().0), (None, 0));
-        // Just inside the margins: 15/16 of the back-EMF is not above the applied voltage
-        // plus a volt (60 %: 14.4 V + 1 V against 14.7 V).
-        turning_at(&mut drive, &mut call, 20, 20_000, 39_322, THREE_AMPS);
+        // At the margins' edge: 7/8 of 15 735 mV is 13 768 mV; 53.25 % of 23 994 mV plus a
+        // volt is 13 778 mV (not above), 53.1 % plus a volt 13 741 mV (above).
+        turning_at(&mut drive, &mut call, 20, 20_000, 34_900, THREE_AMPS);
+        assert_eq!((drive.fault(), drive.overspeed_for().0), (None, 0));
+        turning_at(&mut drive, &mut call, 20, 20, 34_800, THREE_AMPS);
+        assert_eq!(drive.overspeed_for().0, 19 * 8_500, "the first period flowed at 53.25 %");
+        turning_at(&mut drive, &mut call, 20, 200, 34_900, THREE_AMPS);
         assert_eq!((drive.fault(), drive.overspeed_for().0), (None, 0));
         // Braking (no motoring reading) at 45 %: not evidence either way, the count holds.
         turning_at(&mut drive, &mut call, 20, 100, 29_491, THREE_AMPS);
@@ -1269,9 +1271,9 @@ mod tests {
 
     #[test]
     fn the_overspeed_speed_is_averaged_over_about_a_revolution() {
-        // At 20 periods a sector and 60 % (14.4 V + 1 V against 15/16 × 15.7 V) nothing
-        // counts; one sector timed 15 periods (a Hall edge placed early: 20.9 V at once) moves
-        // the average an eighth of the way (19.4 periods: 16.2 V × 15/16 = 15.2 V) and still
+        // At 20 periods a sector and 60 % (14.4 V + 1 V against 7/8 × 15.7 V) nothing
+        // counts; one sector timed 15 periods (a Hall edge placed early: 21 V at once) moves
+        // the average an eighth of the way (19.4 periods: 16.2 V × 7/8 = 14.2 V) and still
         // nothing counts.
         let mut drive = settled(Sector::S0);
         let mut call = 0;
@@ -1287,16 +1289,15 @@ mod tests {
         }
         assert_eq!((drive.fault(), drive.overspeed_for().0), (None, 0));
         // A rotor that really turns at 15 periods a sector (≈ 21 V: the window's lower edge
-        // lifts the duty to ≈ 64 %, 15.3 V) counts once the average has come within reach:
-        // after three steps it is at 18.4 periods (17.2 V × 15/16 = 16.1 V, not above
-        // 16.3 V), after the fourth it counts.
+        // lifts the duty to ≈ 64 %, 15.3 V) counts once the average has come within reach
+        // (7/8 of its back-EMF above 16.3 V: below ≈ 16.8 periods, eight steps on).
         let mut drive = settled(Sector::S0);
         let mut call = 0;
         turning_at(&mut drive, &mut call, 20, 2_400, 39_322, THREE_AMPS);
         let mut fast = 0;
-        turning_at(&mut drive, &mut fast, 15, 45, 39_322, THREE_AMPS);
-        assert_eq!(drive.overspeed_for().0, 0, "three fast steps: the average lags");
-        turning_at(&mut drive, &mut fast, 15, 60, 39_322, THREE_AMPS);
+        turning_at(&mut drive, &mut fast, 15, 90, 39_322, THREE_AMPS);
+        assert_eq!(drive.overspeed_for().0, 0, "six fast steps: the average lags");
+        turning_at(&mut drive, &mut fast, 15, 150, 39_322, THREE_AMPS);
         assert!(drive.overspeed_for().0 > 0);
     }
 

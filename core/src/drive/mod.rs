@@ -1246,6 +1246,9 @@ mod tests {
         assert_eq!(drive.overspeed_for().0, 19 * 8_500, "the first period flowed at 53.25 %");
         turning_at(&mut drive, &mut call, 20, 200, 34_900, THREE_AMPS);
         assert_eq!((drive.fault(), drive.overspeed_for().0), (None, 0));
+        // Exactly at the edge (53.21 %: 12 768 mV + 1 V = 13 768 mV) is not above.
+        turning_at(&mut drive, &mut call, 20, 2_000, 34_875, THREE_AMPS);
+        assert_eq!((drive.fault(), drive.overspeed_for().0), (None, 0));
         // Braking (no motoring reading) at 45 %: not evidence either way, the count holds.
         turning_at(&mut drive, &mut call, 20, 100, 29_491, THREE_AMPS);
         let counted = drive.overspeed_for();
@@ -1299,6 +1302,19 @@ mod tests {
         assert_eq!(drive.overspeed_for().0, 0, "six fast steps: the average lags");
         turning_at(&mut drive, &mut fast, 15, 150, 39_322, THREE_AMPS);
         assert!(drive.overspeed_for().0 > 0);
+        // The average follows a slowing rotor up by an eighth of the gap per step: from 15
+        // periods a sector at 80 % (healthy: 16.8 V + 1 V against 7/8 × 21 V) to 20 at 60 %
+        // it still reads the faster speed for a few steps (counting), then takes it all back.
+        let mut drive = settled(Sector::S0);
+        let mut call = 0;
+        turning_at(&mut drive, &mut call, 15, 3_000, 52_429, THREE_AMPS);
+        assert_eq!((drive.fault(), drive.overspeed_for().0), (None, 0));
+        // The last sector was S1 (call 2 999 at 15 periods); S2 comes next.
+        let mut slow = 40;
+        turning_at(&mut drive, &mut slow, 20, 40, 39_322, THREE_AMPS);
+        assert!(drive.overspeed_for().0 > 0, "the average lags the slowing rotor");
+        turning_at(&mut drive, &mut slow, 20, 2_000, 39_322, THREE_AMPS);
+        assert_eq!((drive.fault(), drive.overspeed_for().0), (None, 0));
     }
 
     #[test]

@@ -1125,12 +1125,7 @@ mod tests {
     /// window's lower edge at 24 V is ≈ 0.42), driven toward `Pull` at `duty` for `calls`
     /// periods from `drive`'s state; returns the drive's fault after the last call.
     fn turning_forward(drive: &mut Drive, first: &mut u32, calls: u32, duty: u16) {
-        drive.set_command(pull(duty));
-        for _ in 0..calls {
-            let sector = Sector::S0.advanced(u8::try_from((*first / 20) % 6).unwrap_or(0));
-            drive.step(sample(sector));
-            *first += 1;
-        }
+        turning_at(drive, first, 20, calls, duty, 0);
     }
 
     #[test]

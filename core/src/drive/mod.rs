@@ -148,8 +148,9 @@ pub const LIFT_LIMIT: PwmTicks = PwmTicks::from_micros(500_000);
 
 /// How long the rotor may turn faster than the applied voltage can drive a healthy winding,
 /// while drawing motoring current, before the drive latches an overcurrent (REQ-DRV-12):
-/// 20 ms of PWM-timer ticks, net (an overspeeding conducting period adds its ticks, any
-/// other call takes its ticks off).
+/// 20 ms of PWM-timer ticks, net (an overspeeding motoring period adds its ticks, a motoring
+/// period within the voltage and any call that does not conduct take their ticks off, a
+/// conducting period without motoring current leaves the count as it is).
 ///
 /// With motoring current `i > 0` the winding's own equation `D·V = e + i·R + L·di/dt` gives
 /// `e < D·V` whatever the load does, once the inductive transient (`τe` ≈ 1 ms) has passed:
@@ -160,7 +161,8 @@ pub const LIFT_LIMIT: PwmTicks = PwmTicks::from_micros(500_000);
 /// and the Hall speed. The test allows the back-EMF constant's tolerance, the bus divider's,
 /// a Hall edge placed 5° early and the link filter's lag: the Hall speed's back-EMF (nominal
 /// `Ke`) must exceed the applied voltage by [`OVERSPEED_MARGIN`] and [`OVERSPEED_FLOOR_MV`],
-/// with a motoring reading of at least an eighth of the window's limit.
+/// with a motoring reading of at least an eighth of the window's limit (× the duty, at least
+/// a quarter, on a link-average board: [`limit::DriveConfig::motoring`]).
 pub const OVERSPEED_LIMIT: PwmTicks = PwmTicks::from_micros(20_000);
 
 /// The overspeed test's relative margin, in eighths: the Hall speed's back-EMF × 7/8 must

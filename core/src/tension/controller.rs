@@ -126,6 +126,11 @@ pub const BACK_OUT_DUTY_MAX: Duty = Duty::from_raw_clamped(13_107);
 /// The shortest and longest control periods accepted: 50 µs to 10 ms.
 pub const PERIOD_RANGE_US: (u32, u32) = (50, 10_000);
 
+/// The carriage speed (filtered, [`SpeedEstimator`]) below which a carriage that has
+/// finished its braking counts as stopped and the observer takes its hold gain: 5 mm/s, a
+/// Hall step in about 10 ms.
+pub const HOLD_GAIN_SPEED: MmPerSecond = MmPerSecond::from_int(5);
+
 /// Which law computes the force.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
 pub enum LawConfig {
@@ -286,6 +291,9 @@ pub struct TensionController {
     braking_gain: Option<Q16>,
     /// The observer's gain after the braking.
     hold_gain: Option<Q16>,
+    /// The braking has ended and the observer keeps its braking gain until the carriage
+    /// has stopped ([`HOLD_GAIN_SPEED`]).
+    hold_gain_pending: bool,
     profile: Profile,
     /// The last estimate's tension (what the machine shows between pulls too).
     shown: Kgf,
@@ -375,6 +383,7 @@ impl TensionController {
             adapt_plant: p.adapt_plant,
             braking_gain: p.observer_gain_braking,
             hold_gain: p.observer_gain_hold,
+            hold_gain_pending: false,
             profile: Profile::new(&p, period).map_err(ConfigError::Profile)?,
             shown: Kgf::ZERO,
             lock: None,
@@ -403,6 +412,7 @@ impl TensionController {
             adapt_plant: false,
             braking_gain: None,
             hold_gain: None,
+            hold_gain_pending: false,
             profile: Profile::FALLBACK,
             shown: Kgf::ZERO,
             lock: None,
@@ -422,6 +432,7 @@ impl TensionController {
         }
         self.profile.start(settings, kind);
         self.lock = None;
+        self.hold_gain_pending = false;
     }
 
     /// Starts the release (homing) move.
@@ -615,8 +626,15 @@ impl TensionController {
         let phase = self.profile.phase();
         let advance = self.profile.advance();
         if advance.braking_ended {
+            self.hold_gain_pending = true;
+        }
+        if self.hold_gain_pending && speed.0.abs() <= HOLD_GAIN_SPEED.0 {
             // From here the carriage moves by single Hall steps at most, and the observer
-            // (still fusing them) takes its hold gain.
+            // (still fusing them) takes its hold gain. Not at the parabola's end: a carriage
+            // that braked short of its planned deceleration still runs on, and while it
+            // decelerates the cell reads low (its low-pass lags, a gripper outboard of it
+            // reads its inertial force), which the hold's faster gain would fuse.
+            self.hold_gain_pending = false;
             if let Some(alpha) = self.hold_gain {
                 self.estimator.set_observer_gain(alpha);
             }
@@ -912,6 +930,61 @@ mod tests {
             }
         }
         (-1, Kgf::ZERO)
+    }
+
+    /// The observer keeps its braking gain after the braking parabola ends while the
+    /// carriage still runs on, and takes its hold gain once the carriage has stopped.
+    #[test]
+    fn the_hold_gain_waits_for_the_carriage_to_stop() {
+        let mut controller = TensionController::taut();
+        let settings = valid(PullSettings::new(
+            Kgf::from_int(25),
+            Speed::MAX,
+            PreStretch::NONE,
+            KnotBoost::NONE,
+        ));
+        controller.start(&settings, PullKind::Main);
+        let measure = |steps: i32| {
+            // A 1 kgf/mm string whose slack ends at step 100.
+            let stretch_nm = i64::from((steps - 100).max(0)) * 52_917;
+            let tension_bits = stretch_nm * 65_536 / 1_000_000;
+            Measurement {
+                tension: Kgf::from_bits(valid(i32::try_from(tension_bits))),
+                drive: DriveStatus { steps, ..DriveStatus::default() },
+                ..Measurement::default()
+            }
+        };
+        // The carriage runs at one Hall step per tick whatever the controller asks, through
+        // the braking and past its end.
+        let mut steps = 0;
+        let mut braked = false;
+        while steps < 4_000 {
+            let phase = controller.step(&measure(steps)).phase;
+            braked |= phase == PullPhase::Approach;
+            if braked && phase != PullPhase::Approach {
+                break;
+            }
+            assert!(!controller.hold_gain_pending, "pending before the braking ended");
+            steps += 1;
+        }
+        assert!(braked && steps < 4_000, "the braking never ended");
+        let braking = controller.braking_gain;
+        let hold = controller.hold_gain;
+        assert!(braking.is_some() && hold.is_some() && braking != hold);
+        for _ in 0..20 {
+            steps += 1;
+            let _ = controller.step(&measure(steps));
+            assert!(controller.hold_gain_pending, "the hold gain came while the carriage ran");
+            assert_eq!(controller.estimator.observer_gain(), braking);
+        }
+        // Stopped: the filtered speed falls below 5 mm/s within a few of its 4 ms.
+        let mut ticks = 0;
+        while controller.hold_gain_pending && ticks < 100 {
+            let _ = controller.step(&measure(steps));
+            ticks += 1;
+        }
+        assert!((5..=30).contains(&ticks), "hold gain after {ticks} ticks at rest");
+        assert_eq!(controller.estimator.observer_gain(), hold);
     }
 
     #[test]

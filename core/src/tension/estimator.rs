@@ -214,6 +214,12 @@ impl TensionEstimator {
         self.state.stiffness = stiffness.clamp(Q16::ZERO, STIFFNESS_MAX).to_bits();
     }
 
+    /// The observer's gain `α` now (`None`: no observer).
+    #[must_use]
+    pub fn observer_gain(&self) -> Option<Q16> {
+        self.alpha.map(Q16::from_bits)
+    }
+
     /// Changes the observer's gain `α` (clamped to `(0, 1]`); no effect without the
     /// observer.
     pub fn set_observer_gain(&mut self, alpha: Q16) {

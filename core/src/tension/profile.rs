@@ -97,7 +97,8 @@ pub struct ProfileConfig {
     pub adapt_plant: bool,
     /// The observer's gain in the braking (`None`: keep `observer_gain`).
     pub observer_gain_braking: Option<Q16>,
-    /// The observer's gain once the braking is over (`None`: keep the gain it had).
+    /// The observer's gain once the braking is over and the carriage has stopped
+    /// ([`crate::tension::controller::HOLD_GAIN_SPEED`]; `None`: keep the gain it had).
     pub observer_gain_hold: Option<Q16>,
     /// Friction-aware hold: damp the carriage's slips, seen in the motor current, with
     /// this many times the stall pull per unit of back-EMF duty (`None`: off).

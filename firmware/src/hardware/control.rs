@@ -97,7 +97,7 @@ impl Analog {
     /// Calibrates both ADCs (embassy-stm32 runs the G4's self-calibration and enables them),
     /// puts the three pins in analogue mode, and sets up the conversions: ADC1's injected
     /// current on TIM1 channel 4, ADC1's and ADC2's regular groups on TRGO2. The conversions
-    /// start with TIM1's triggers. Not inlined, so its frame is not part of the start-up task's.
+    /// start with TIM1's triggers. Not inlined, so its frame is not part of the start-up's.
     #[inline(never)]
     pub fn new(
         adc1: Peri<'static, ADC1>,
@@ -245,8 +245,9 @@ pub fn build_machine(record: Result<Record, StoreError>) -> &'static mut Machine
     MACHINE.init_with(|| Machine::from_stored(record))
 }
 
-/// Claims the tick's peripherals, takes the machine and programs TIM6 for 1 kHz. The interrupt stays masked until [`start`]. Not inlined into the start-up
-/// task (see [`build_machine`]).
+/// Claims the tick's peripherals, takes the machine and programs TIM6 for 1 kHz. The
+/// interrupt stays masked until [`start`]. Not inlined into the start-up (see
+/// [`build_machine`]).
 #[inline(never)]
 pub fn init(resources: Resources) {
     let Resources { analog, encoder, limits, keys, beeper, tick_timer, machine } = resources;

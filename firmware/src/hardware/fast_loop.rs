@@ -96,7 +96,7 @@ fn hall() -> HallCode {
 
 /// Installs the drive, claims the Hall pins for TIM2 and sets TIM2 up as the Hall-edge
 /// interrupt source; starts the cycle counter. Interrupts stay masked until [`start`].
-/// Not inlined, so its frame is not part of the start-up task's.
+/// Not inlined, so its frame is not part of the start-up's.
 #[inline(never)]
 pub fn init(
     timer: Peri<'static, TIM2>,

@@ -42,9 +42,11 @@ mod store;
 mod watchdog;
 
 use defmt_rtt as _;
-use embassy_executor::Spawner;
-use embassy_stm32::Config;
+use embassy_executor::{Executor, Spawner};
+use embassy_stm32::peripherals::{IWDG, PB5, PB9};
 use embassy_stm32::rcc::{Pll, PllMul, PllPreDiv, PllRDiv, PllSource, Sysclk, mux::Adcsel};
+use embassy_stm32::{Config, Peri};
+use static_cell::StaticCell;
 use taut_firmware::timing::PWM_TIMER_HZ;
 
 /// The system clock: HSI16 / 4 × 85 / 2 = 170 MHz. TIM1 and the DWT cycle counter both run
@@ -77,21 +79,36 @@ fn clocks() -> Config {
     config
 }
 
-/// The start-up task: everything happens in [`start_up`], which holds nothing across an
-/// `await`, so this task's static storage stays a few bytes.
-#[embassy_executor::main]
-async fn main(spawner: Spawner) {
-    start_up(spawner);
+/// The entry: [`start_up`] (synchronous, interrupts masked), then the executor in its static
+/// runs the two thread-mode tasks for good.
+///
+/// Not `#[embassy_executor::main]`: that macro keeps the executor on this function's stack
+/// and runs the start-up as a task, so the machine's construction (the deepest stack of the
+/// start-up, see `control::build_machine`) would sit under the executor's frame and the
+/// task's poll. Here it sits under this small frame only, and the executor's loop under the
+/// same frame once the start-up has returned.
+#[cortex_m_rt::entry]
+fn main() -> ! {
+    let loops = start_up();
+    static EXECUTOR: StaticCell<Executor> = StaticCell::new();
+    EXECUTOR.init(Executor::new()).run(move |spawner| run(spawner, loops))
+}
+
+/// What the start-up hands the executor: the thread-mode tasks' resources and the loops to
+/// start once they are spawned.
+struct Loops {
+    store: Option<&'static mut store::Store>,
+    display: (Peri<'static, PB5>, Peri<'static, PB9>),
+    watchdog: Peri<'static, IWDG>,
 }
 
 /// Start-up, synchronously, before any interrupt is unmasked: clocks, bridge off, the record
-/// from flash, the peripherals, the machine, the tasks, the watchdog, the loops.
+/// from flash, the machine, the peripherals.
 ///
-/// Nothing here is held across an `await` (the record is read with [`store::read`], which
-/// polls the async store to completion on the stack), so the start-up task's static storage
-/// stays a few bytes. Not inlined: the start-up task's poll frame stays small.
+/// The record is read with [`store::read`], which polls the async store to completion on the
+/// stack. Not inlined, so its frame is not under the executor's loop.
 #[inline(never)]
-fn start_up(spawner: Spawner) {
+fn start_up() -> Loops {
     let p = peripherals();
     taut_firmware::info!("taut-firmware: clocks up, binding peripherals");
 
@@ -115,20 +132,26 @@ fn start_up(spawner: Spawner) {
         tick_timer: p.TIM6,
         machine,
     });
+    Loops { store: settings, display: (p.PB5, p.PB9), watchdog: p.IWDG }
+}
 
+/// The executor's first call: the tasks, the watchdog, the loops.
+#[inline(never)]
+fn run(spawner: Spawner, loops: Loops) {
+    let Loops { store, display, watchdog } = loops;
     // Each task's pool holds one task and each is spawned once, so spawning cannot fail.
-    match store::writer(settings) {
+    match store::writer(store) {
         Ok(task) => spawner.spawn(task),
         Err(_) => taut_firmware::error!("settings writer not started"),
     }
-    match display::refresher(p.PB5, p.PB9) {
+    match display::refresher(display.0, display.1) {
         Ok(task) => spawner.spawn(task),
         Err(_) => taut_firmware::error!("panel refresher not started"),
     }
 
     // The watchdog resets the MCU if the control tick stops petting it; a reset returns the
     // bridge pins to inputs, which the gate drivers' input pulls hold off.
-    watchdog::start(p.IWDG);
+    watchdog::start(watchdog);
 
     // Start the loops: fast loop first (it owns the bridge), then the control tick.
     fast_loop::start();

@@ -627,6 +627,12 @@ fn taking_up(tension: Kgf, peak_target: Kgf) -> bool {
     tension < Kgf::from_bits(peak_target.to_bits().checked_div(2).unwrap_or(0))
 }
 
+/// The mean of `ticks` readings summing to `sum` (kgf bits), if any were taken.
+fn entry_average(sum: i64, ticks: u32) -> Option<Kgf> {
+    let mean = sum.checked_div(i64::from(ticks))?;
+    i32::try_from(mean).ok().map(Kgf::from_bits)
+}
+
 /// Whether a key event is a press of any key.
 const fn pressed(key: Option<KeyEvent>) -> bool {
     matches!(key, Some(KeyEvent::Press(_)))
@@ -862,7 +868,7 @@ impl Chart {
                     .clamp(i32::from(ENTRY_MIN), i32::from(ENTRY_MAX)),
             )
             .unwrap_or(ENTRY_MIN);
-            Some(State::calibration_entry(*point, entered))
+            Some(State::calibration_entry(*point, entered, 0, 0))
         } else if *elapsed >= PULL_TIMEOUT && *elapsed >= pull_timeout(self.pull_settings().speed())
         {
             Some(State::fault(FaultCode::PullTimeout, Recovery::Home, 0))
@@ -889,6 +895,13 @@ impl Chart {
 
     /// Holding point `point`: the operator keys in the reference gauge's reading (Up/Down,
     /// 0.01 kg, shown as `20.04`) and confirms with Start; Function or Preset abort.
+    ///
+    /// The reading paired with the gauge's is the averaged raw reading over the whole entry
+    /// (`sum` over `ticks`), not the one at the moment of Start: the gauge was read at some
+    /// moment of the entry, seconds before, and meanwhile the constant pull's stick-slip moves
+    /// the tension around the point's target by up to a cogging detent (0.07 kgf on a stiff
+    /// string). Against the entry's mean the gauge's moment is off by one sawtooth's deviation;
+    /// against the Start's moment by the difference of two.
     #[state(superstate = "tensioned")]
     fn calibration_entry(
         &mut self,
@@ -896,8 +909,12 @@ impl Chart {
         event: &Tick,
         point: &mut u8,
         entered: &mut u16,
+        sum: &mut i64,
+        ticks: &mut u32,
     ) -> Outcome<State> {
         let Tick(sample) = event;
+        *sum = sum.saturating_add(i64::from(sample.raw_average.to_bits()));
+        *ticks = ticks.saturating_add(1);
         let output = self.controller.step(&Self::measurement(sample, sample.raw));
         context.out.drive = output.command;
         context.out.display = panel::hundredths(i32::from(*entered));
@@ -910,7 +927,8 @@ impl Chart {
                 None
             }
             Some(KeyEvent::Press(Key::Start)) => {
-                Some(self.confirm_point(context, sample, *point, *entered))
+                let raw = entry_average(*sum, *ticks).unwrap_or(sample.raw_average);
+                Some(self.confirm_point(context, raw, *point, *entered))
             }
             Some(KeyEvent::Press(Key::Function | Key::Preset)) => {
                 context.out.drive = DriveCommand::Coast;
@@ -1203,13 +1221,13 @@ impl Chart {
     fn confirm_point(
         &mut self,
         context: &mut Context,
-        sample: &Sample,
+        raw: Kgf,
         point: u8,
         entered: u16,
     ) -> State {
         if let Some(slot) = self.calibration_points.get_mut(usize::from(point)) {
             *slot = CalibrationPoint {
-                raw: sample.raw_average,
+                raw,
                 reference: Kgf::from_hundredths(i32::from(entered.min(ENTRY_MAX))),
             };
         }
@@ -1456,7 +1474,7 @@ pub(crate) fn state_at(checkpoint: &Checkpoint) -> State {
         MachineState::CalibrationWindow => State::calibration_window(elapsed),
         MachineState::CalibrationPull { point } => State::calibration_pull(point, 0, elapsed),
         MachineState::CalibrationEntry { point } => {
-            State::calibration_entry(point, checkpoint.entered_hundredths)
+            State::calibration_entry(point, checkpoint.entered_hundredths, 0, 0)
         }
         MachineState::Ready => State::ready(checkpoint.view),
         MachineState::Pulling => State::pulling(elapsed),
@@ -1530,6 +1548,41 @@ mod tests {
             }
         }
         assert!(cases > 200_000, "{cases}");
+    }
+
+    /// REQ-CAL-10: a point pairs the gauge's reading with the raw reading averaged over the
+    /// whole entry, not with the reading at the Start that confirms it (here a slip in the
+    /// last third of the entry moved the reading 0.2 kgf).
+    #[test]
+    fn a_calibration_point_pairs_the_gauge_with_the_entry_mean() {
+        let mut chart = Chart::new(Record::default());
+        let (mut point, mut entered, mut sum, mut ticks) = (0_u8, 1_077_u16, 0_i64, 0_u32);
+        let mut tick = |chart: &mut Chart, raw: Kgf, key: Option<KeyEvent>| {
+            let sample = Sample { raw_average: raw, key, ..Sample::default() };
+            let mut context = Context::new(sample);
+            let _ = chart.calibration_entry(
+                &mut context,
+                &Tick(sample),
+                &mut point,
+                &mut entered,
+                &mut sum,
+                &mut ticks,
+            );
+            context.next
+        };
+        for n in 0..3_000 {
+            let raw = if n < 2_000 { Kgf::from_int(10) } else { Kgf::from_tenths(102) };
+            assert_eq!(tick(&mut chart, raw, None), None);
+        }
+        let next = tick(&mut chart, Kgf::from_tenths(102), Some(KeyEvent::Press(Key::Start)));
+        assert_eq!(next, Some(State::calibration_pull(1, 0, 0)));
+        // (2 000 × 10 + 1 001 × 10.2) / 3 001 = 10.0667 kgf.
+        let paired = chart.calibration_points.first().map(|p| (p.raw.to_milli(), p.reference));
+        assert_eq!(paired, Some((10_067, Kgf::from_hundredths(1_077))));
+        // No reading at all (a Start in the entry's first tick cannot happen, but the pairing
+        // is still defined): the reading of that tick.
+        assert_eq!(entry_average(0, 0), None);
+        assert_eq!(entry_average(-30, 3), Some(Kgf::from_bits(-10)));
     }
 
     #[test]

@@ -1218,13 +1218,7 @@ pub fn fault_persists(code: FaultCode, inputs: &Inputs) -> bool {
 
 impl Chart {
     /// Records calibration point `point` and proposes the next step.
-    fn confirm_point(
-        &mut self,
-        context: &mut Context,
-        raw: Kgf,
-        point: u8,
-        entered: u16,
-    ) -> State {
+    fn confirm_point(&mut self, context: &mut Context, raw: Kgf, point: u8, entered: u16) -> State {
         if let Some(slot) = self.calibration_points.get_mut(usize::from(point)) {
             *slot = CalibrationPoint {
                 raw,

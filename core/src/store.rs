@@ -103,16 +103,11 @@ const OFFSET_PRESETS: usize = OFFSET_SETTINGS + SETTINGS_LEN;
 const OFFSET_CALIBRATION: usize = OFFSET_PRESETS + SETTINGS_LEN * PRESET_COUNT;
 const OFFSET_CRC: usize = RECORD_LEN - 4;
 
-/// Where the fields after the presets lie in one format version: the one table of what
-/// each version holds, which the decoder reads ([`Layout::of`]) rather than testing version
-/// numbers itself.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+/// Where the fields after the presets lie in one format version.
+#[derive(Clone, Copy)]
 struct Layout {
     /// Calibration points stored.
     points: usize,
-    /// Whether the calibration block starts with a 0/1 flag (version 1) rather than the
-    /// point count.
-    calibration_flag: bool,
     /// Whether the version has the boot counter.
     boots: bool,
     /// Whether the version has the preferences byte.
@@ -120,32 +115,12 @@ struct Layout {
 }
 
 impl Layout {
-    /// Version 1: a 0/1 calibration flag, four points, no boot counter.
-    const V1: Self = Self { points: 4, calibration_flag: true, boots: false, preferences: false };
+    /// Version 1: four points, no boot counter.
+    const V1: Self = Self { points: 4, boots: false, preferences: false };
     /// Version 2: the boot counter, no preferences.
-    const V2: Self = Self {
-        points: CALIBRATION_POINTS,
-        calibration_flag: false,
-        boots: true,
-        preferences: false,
-    };
+    const V2: Self = Self { points: CALIBRATION_POINTS, boots: true, preferences: false };
     /// Today's version.
-    const CURRENT: Self = Self {
-        points: CALIBRATION_POINTS,
-        calibration_flag: false,
-        boots: true,
-        preferences: true,
-    };
-
-    /// The layout of format `version`, if this build reads it.
-    const fn of(version: u8) -> Option<Self> {
-        match version {
-            FORMAT_V1 => Some(Self::V1),
-            FORMAT_V2 => Some(Self::V2),
-            FORMAT_VERSION => Some(Self::CURRENT),
-            _ => None,
-        }
-    }
+    const CURRENT: Self = Self { points: CALIBRATION_POINTS, boots: true, preferences: true };
 
     /// Offset of the counters.
     const fn counters(self) -> usize {
@@ -174,7 +149,7 @@ const _: () = assert!(
 /// "another point count is one constant": five fit, six would not).
 #[must_use]
 pub const fn layout_fits(points: usize) -> bool {
-    Layout { points, ..Layout::CURRENT }.fits()
+    Layout { points, boots: true, preferences: true }.fits()
 }
 
 /// A unit's code in the record (0 kg, 1 lb).
@@ -318,7 +293,9 @@ impl Record {
             return Err(StoreError::NoRecord);
         }
         let version = r.u8();
-        let layout = Layout::of(version).ok_or(StoreError::UnknownVersion)?;
+        if version != FORMAT_V1 && version != FORMAT_V2 && version != FORMAT_VERSION {
+            return Err(StoreError::UnknownVersion);
+        }
         let body = bytes.first_chunk::<OFFSET_CRC>().ok_or(StoreError::TooShort)?;
         let stored = Reader { bytes, at: OFFSET_CRC }.u32();
         if checksum(body) != stored {
@@ -326,12 +303,10 @@ impl Record {
         }
         // Each version's reserved bytes from a constant offset (a model checker then reads
         // them at known places rather than at an offset that depends on the version byte).
-        let tail_is_zero = if layout == Layout::V1 {
-            zero_from::<{ Layout::V1.reserved() }>(bytes)
-        } else if layout == Layout::V2 {
-            zero_from::<{ Layout::V2.reserved() }>(bytes)
-        } else {
-            zero_from::<{ Layout::CURRENT.reserved() }>(bytes)
+        let tail_is_zero = match version {
+            FORMAT_V1 => zero_from::<{ Layout::V1.reserved() }>(bytes),
+            FORMAT_V2 => zero_from::<{ Layout::V2.reserved() }>(bytes),
+            _ => zero_from::<{ Layout::CURRENT.reserved() }>(bytes),
         };
         if r.u8() != 0 || !tail_is_zero {
             return Err(StoreError::ReservedNotZero);
@@ -341,17 +316,16 @@ impl Record {
         for preset in &mut presets {
             *preset = decode_settings(&mut r)?;
         }
-        let calibration = if layout.calibration_flag {
+        let calibration = if version == FORMAT_V1 {
             read_v1_calibration(&mut r)?
         } else {
             read_calibration(&mut r)?
         };
         let pulls = r.u32();
         let string_used_mm = r.u32();
-        let boots = if layout.boots { r.u32() } else { 0 };
+        let boots = if version == FORMAT_V1 { 0 } else { r.u32() };
         let counters = Counters { pulls, string_used_mm, boots };
-        // A version without the byte held zero here (reserved, checked above): the default
-        // preferences either way, so the byte is read whatever `layout.preferences` says.
+        // Version 2 held zero here (reserved, checked above): the default preferences.
         let preferences = Preferences::from_flags(r.u8()).ok_or(StoreError::ReservedNotZero)?;
         Ok((Self { settings, presets, calibration, counters, preferences }, version))
     }

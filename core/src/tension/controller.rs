@@ -783,17 +783,23 @@ mod tests {
         assert_eq!(controller.step(&Measurement::default()).command, DriveCommand::Coast);
     }
 
-    /// A taut controller settled in `phase` at a 25 kgf reference, the law primed by `ticks`
-    /// steps at `tension`; the last output.
-    fn held_at(phase: PullPhase, tension: Kgf, ticks: u16) -> ControlOutput {
+    /// A taut controller with a main pull to `target` kgf at full speed started.
+    fn started(target: i16) -> TensionController {
         let mut controller = TensionController::taut();
         let settings = valid(PullSettings::new(
-            Kgf::from_int(25),
+            Kgf::from_int(target),
             Speed::MAX,
             PreStretch::NONE,
             KnotBoost::NONE,
         ));
         controller.start(&settings, PullKind::Main);
+        controller
+    }
+
+    /// A taut controller settled in `phase` at a 25 kgf reference, the law primed by `ticks`
+    /// steps at `tension`; the last output.
+    fn held_at(phase: PullPhase, tension: Kgf, ticks: u16) -> ControlOutput {
+        let mut controller = started(25);
         let mut profile = controller.profile_state();
         profile.phase = phase;
         profile.reference = Q32::from_q16(Kgf::from_int(25).0);
@@ -906,14 +912,7 @@ mod tests {
     /// A carriage pulled at one Hall step per tick into a `stiffness_milli` kgf/mm string
     /// whose slack ends at `slack_steps` (an ideal plant: the controller only decides when).
     fn braking_onset(stiffness_milli: i64, target: i32) -> (i32, Kgf) {
-        let mut controller = TensionController::taut();
-        let settings = valid(PullSettings::new(
-            Kgf::from_int(valid(i16::try_from(target))),
-            Speed::MAX,
-            PreStretch::NONE,
-            KnotBoost::NONE,
-        ));
-        controller.start(&settings, PullKind::Main);
+        let mut controller = started(valid(i16::try_from(target)));
         let slack_steps = 100_i64;
         for tick in 0..4_000_i32 {
             let steps = i64::from(tick);
@@ -936,14 +935,7 @@ mod tests {
     /// carriage still runs on, and takes its hold gain once the carriage has stopped.
     #[test]
     fn the_hold_gain_waits_for_the_carriage_to_stop() {
-        let mut controller = TensionController::taut();
-        let settings = valid(PullSettings::new(
-            Kgf::from_int(25),
-            Speed::MAX,
-            PreStretch::NONE,
-            KnotBoost::NONE,
-        ));
-        controller.start(&settings, PullKind::Main);
+        let mut controller = started(25);
         let measure = |steps: i32| {
             // A 1 kgf/mm string whose slack ends at step 100.
             let stretch_nm = i64::from((steps - 100).max(0)) * 52_917;

@@ -628,7 +628,7 @@ impl TensionController {
         if advance.braking_ended {
             self.hold_gain_pending = true;
         }
-        if self.hold_gain_pending && speed.0.abs() <= HOLD_GAIN_SPEED.0 {
+        if self.hold_gain_pending && speed.0.saturating_abs() <= HOLD_GAIN_SPEED.0 {
             // From here the carriage moves by single Hall steps at most, and the observer
             // (still fusing them) takes its hold gain. Not at the parabola's end: a carriage
             // that braked short of its planned deceleration still runs on, and while it

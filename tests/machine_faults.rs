@@ -195,7 +195,7 @@ fn machine_fault_e09_stall_scripted() {
     run_to_ready(&mut machine, &mut inputs, &mut now);
     press(&mut machine, &mut inputs, &mut now, Key::Start);
     assert_eq!(machine.state(), MachineState::Pulling);
-    inputs.drive.quiet_for = taut_core::drive::PwmTicks::from_micros(600_000);
+    inputs.drive.quiet_for = taut_core::drive::DriveTime::from_micros(600_000);
     let mut latched = None;
     for _ in 0..2_000 {
         inputs.now_ms = now;
@@ -377,7 +377,7 @@ fn pull_timeout_after(speed: u8) -> u32 {
         ticks += 1;
         if ticks % 8 == 0 {
             inputs.drive.steps += 1;
-            inputs.drive.quiet_for = taut_core::drive::PwmTicks(0);
+            inputs.drive.quiet_for = taut_core::drive::DriveTime(0);
         }
         let out = machine.tick(&inputs);
         if machine.fault().is_some() {

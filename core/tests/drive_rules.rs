@@ -15,22 +15,31 @@
 )]
 
 use taut_core::drive::{
-    DEAD_TIME, DUTY_MAX, DeadTimeSequencer, Direction, Drive, DriveCommand, DriveOutput,
-    DriveSample, Duty, HallCode, HallFilter, HallState, LegState, PWM_PERIOD_TICKS, Phase,
-    PwmTicks, REVERSAL_QUIET, Sector, SwitchPattern, six_step,
+    DUTY_MAX, DeadTimeSequencer, Direction, Drive, DriveCommand, DriveConfig, DriveOutput,
+    DriveSample, DriveTime, Duty, HallCode, HallFilter, HallState, LegState, Phase, REVERSAL_QUIET,
+    Sector, SwitchPattern, six_step,
 };
 
 /// Off-times that straddle every comparison the sequencer makes.
+/// taut's board's dead time ([`DriveConfig::PAPER`]).
+const DEAD_TIME: DriveTime = DriveConfig::PAPER.dead_time();
+
+/// One 50 µs PWM period (20 kHz) in drive time.
+const PERIOD: u32 = 500;
+
+/// A 20 kHz period of a 170 MHz timer, in timer ticks (for the compare value).
+const PERIOD_TICKS: u16 = 8_500;
+
 const OFF_TIMES: [u32; 6] = [0, 1, DEAD_TIME.0 - 1, DEAD_TIME.0, DEAD_TIME.0 + 1, u32::MAX];
 
 /// Every valid sequencer state over `OFF_TIMES` (a leg that is on has been off for 0 ticks).
-fn sequencer_states() -> Vec<[(LegState, PwmTicks); 3]> {
+fn sequencer_states() -> Vec<[(LegState, DriveTime); 3]> {
     let mut legs = Vec::new();
     for state in LegState::ALL {
         if state.is_on() {
-            legs.push((state, PwmTicks(0)));
+            legs.push((state, DriveTime(0)));
         } else {
-            legs.extend(OFF_TIMES.map(|ticks| (state, PwmTicks(ticks))));
+            legs.extend(OFF_TIMES.map(|ticks| (state, DriveTime(ticks))));
         }
     }
     let mut out = Vec::new();
@@ -56,8 +65,9 @@ fn patterns() -> Vec<SwitchPattern> {
     out
 }
 
-fn sequencer(legs: [(LegState, PwmTicks); 3]) -> DeadTimeSequencer {
-    DeadTimeSequencer::from_parts(legs).unwrap_or_else(|| panic!("valid parts refused: {legs:?}"))
+fn sequencer(legs: [(LegState, DriveTime); 3]) -> DeadTimeSequencer {
+    DeadTimeSequencer::from_parts(legs, DEAD_TIME)
+        .unwrap_or_else(|| panic!("valid parts refused: {legs:?}"))
 }
 
 /// `ready_for(requested, elapsed)` says exactly whether `step(requested, elapsed)` puts
@@ -71,10 +81,10 @@ fn ready_for_is_true_exactly_when_the_step_emits_the_whole_request() {
             for elapsed in OFF_TIMES {
                 let before = sequencer(legs);
                 let mut after = before;
-                let emitted = after.step(requested, PwmTicks(elapsed));
+                let emitted = after.step(requested, DriveTime(elapsed));
                 let full = emitted == requested;
                 assert_eq!(
-                    before.ready_for(requested, PwmTicks(elapsed)),
+                    before.ready_for(requested, DriveTime(elapsed)),
                     full,
                     "{legs:?} asked {requested:?} after {elapsed} ticks emitted {emitted:?}"
                 );
@@ -93,22 +103,22 @@ fn ready_for_is_true_exactly_when_the_step_emits_the_whole_request() {
 #[test]
 fn all_off_turns_every_leg_off_now_and_restarts_their_dead_time() {
     let a_high_b_low = SwitchPattern { a: LegState::High, b: LegState::Low, c: LegState::Off };
-    let mut gates = DeadTimeSequencer::new();
-    gates.step(SwitchPattern::ALL_OFF, PwmTicks(40));
+    let mut gates = DeadTimeSequencer::new(DEAD_TIME);
+    gates.step(SwitchPattern::ALL_OFF, DriveTime(40));
     assert_eq!(gates.step(a_high_b_low, DEAD_TIME), a_high_b_low);
-    gates.step(a_high_b_low, PwmTicks(50));
+    gates.step(a_high_b_low, DriveTime(50));
     let c_off_for = gates.off_for(Phase::C);
-    assert_eq!(c_off_for, PwmTicks(40 + DEAD_TIME.0 + 50));
+    assert_eq!(c_off_for, DriveTime(40 + DEAD_TIME.0 + 50));
 
     gates.all_off();
     assert_eq!(gates.pattern(), SwitchPattern::ALL_OFF);
-    assert_eq!(gates.off_for(Phase::A), PwmTicks(0));
-    assert_eq!(gates.off_for(Phase::B), PwmTicks(0));
+    assert_eq!(gates.off_for(Phase::A), DriveTime(0));
+    assert_eq!(gates.off_for(Phase::B), DriveTime(0));
     assert_eq!(gates.off_for(Phase::C), c_off_for, "an off leg keeps its off-time");
     assert!(gates.is_valid());
     // The legs that were on wait the full dead time again.
-    assert_eq!(gates.step(a_high_b_low, PwmTicks(DEAD_TIME.0 - 1)), SwitchPattern::ALL_OFF);
-    assert_eq!(gates.step(a_high_b_low, PwmTicks(1)), a_high_b_low);
+    assert_eq!(gates.step(a_high_b_low, DriveTime(DEAD_TIME.0 - 1)), SwitchPattern::ALL_OFF);
+    assert_eq!(gates.step(a_high_b_low, DriveTime(1)), a_high_b_low);
 
     // From every valid state.
     for legs in sequencer_states() {
@@ -116,7 +126,7 @@ fn all_off_turns_every_leg_off_now_and_restarts_their_dead_time() {
         cleared.all_off();
         assert_eq!(cleared.pattern(), SwitchPattern::ALL_OFF, "{legs:?}");
         for (phase, (state, off_for)) in Phase::ALL.into_iter().zip(legs) {
-            let expected = if state.is_on() { PwmTicks(0) } else { off_for };
+            let expected = if state.is_on() { DriveTime(0) } else { off_for };
             assert_eq!(cleared.off_for(phase), expected, "{legs:?} {phase:?}");
         }
     }
@@ -137,19 +147,19 @@ fn sequencer_invariant_on_reachable_and_invalid_states() {
         for requested in patterns() {
             for elapsed in OFF_TIMES {
                 let mut next = sequencer;
-                next.step(requested, PwmTicks(elapsed));
+                next.step(requested, DriveTime(elapsed));
                 assert!(next.is_valid(), "{legs:?} {requested:?} {elapsed}");
             }
         }
     }
-    assert!(DeadTimeSequencer::new().is_valid());
+    assert!(DeadTimeSequencer::new(DEAD_TIME).is_valid());
     // A conducting leg with an off-time is not a state any run reaches, on any leg.
-    let off = (LegState::Off, PwmTicks(0));
+    let off = (LegState::Off, DriveTime(0));
     for state in [LegState::High, LegState::Low] {
         for ticks in [1, DEAD_TIME.0, u32::MAX] {
-            let bad = (state, PwmTicks(ticks));
+            let bad = (state, DriveTime(ticks));
             for legs in [[bad, off, off], [off, bad, off], [off, off, bad]] {
-                assert_eq!(DeadTimeSequencer::from_parts(legs), None, "{legs:?}");
+                assert_eq!(DeadTimeSequencer::from_parts(legs, DEAD_TIME), None, "{legs:?}");
             }
         }
     }
@@ -157,7 +167,7 @@ fn sequencer_invariant_on_reachable_and_invalid_states() {
 
 /// A sample reading `sector`'s Hall code, `elapsed` timer ticks after the previous call.
 fn sample(sector: Sector, elapsed: u32) -> DriveSample {
-    DriveSample { hall: sector.hall_code(), elapsed: PwmTicks(elapsed), ..DriveSample::default() }
+    DriveSample { hall: sector.hall_code(), elapsed: DriveTime(elapsed), ..DriveSample::default() }
 }
 
 /// A drive whose Hall filter has confirmed S0 with the rotor quiet (ready to engage).
@@ -179,17 +189,17 @@ fn engaging_puts_the_whole_table_entry_on_the_gates_in_the_same_call() {
     let mut drive = settled_in_s0();
     drive.set_command(pull);
     assert_eq!(
-        drive.step(sample(Sector::S0, 8_500)).pattern,
+        drive.step(sample(Sector::S0, PERIOD)).pattern,
         six_step(Sector::S0, Direction::Pull)
     );
-    drive.step(sample(Sector::S1, 8_500));
+    drive.step(sample(Sector::S1, PERIOD));
     assert_eq!(
-        drive.step(sample(Sector::S1, 8_500)).pattern,
+        drive.step(sample(Sector::S1, PERIOD)).pattern,
         six_step(Sector::S1, Direction::Pull)
     );
     // Coast: A and C (S1 = A+ C−) switch off now; B has been off for a while.
     drive.set_command(DriveCommand::Coast);
-    assert_eq!(drive.step(sample(Sector::S1, 8_500)), DriveOutput::OFF);
+    assert_eq!(drive.step(sample(Sector::S1, PERIOD)), DriveOutput::OFF);
     // Pull again a moment later. The rotor last turned forward, so it is ready at once, but
     // the entry's legs have been off for less than the dead time: nothing may come on.
     drive.set_command(pull);
@@ -216,20 +226,20 @@ fn an_entry_with_one_leg_still_in_dead_time_waits_whole() {
     drive.set_command(pull);
     // S0 = A+ B−: on.
     assert_eq!(
-        drive.step(sample(Sector::S0, 8_500)).pattern,
+        drive.step(sample(Sector::S0, PERIOD)).pattern,
         six_step(Sector::S0, Direction::Pull)
     );
     // Coast for a short moment: A, B off; C has been off since power-up.
     drive.set_command(DriveCommand::Coast);
-    drive.step(sample(Sector::S0, 8_500));
+    drive.step(sample(Sector::S0, PERIOD));
     // The rotor is pushed back one sector (string tension): S5 = C+ B−. C is ready, B is not.
     drive.set_command(pull);
     drive.step(sample(Sector::S5, 10));
     let partial = drive.step(sample(Sector::S5, 10));
     assert_eq!(partial, DriveOutput::OFF, "C+ alone, without B−, reached the gates");
     let mut out = partial;
-    for _ in 0..REVERSAL_QUIET.0 / u32::from(PWM_PERIOD_TICKS) + 2 {
-        out = drive.step(sample(Sector::S5, u32::from(PWM_PERIOD_TICKS)));
+    for _ in 0..REVERSAL_QUIET.0 / PERIOD + 2 {
+        out = drive.step(sample(Sector::S5, PERIOD));
         if !out.pattern.is_all_off() {
             break;
         }
@@ -287,7 +297,7 @@ fn hall_filter_confirms_on_the_second_read_from_any_count() {
 /// conducts exactly the duty asked for (to the timer's resolution) and never above 95 %.
 #[test]
 fn compare_ticks_is_the_duty_of_the_period() {
-    let period = PWM_PERIOD_TICKS;
+    let period = PERIOD_TICKS;
     for raw in 0..=u16::MAX {
         let duty = Duty::from_raw_clamped(raw);
         let expected = u32::from(period) * u32::from(duty.raw()) / 65_536;
@@ -351,17 +361,17 @@ fn a_direct_reversal_goes_through_all_off_and_re_engages_whole() {
     drive.set_command(DriveCommand::Drive { direction: Direction::Pull, duty });
     // S0 = A+ B−: on.
     assert_eq!(
-        drive.step(sample(Sector::S0, 8_500)).pattern,
+        drive.step(sample(Sector::S0, PERIOD)).pattern,
         six_step(Sector::S0, Direction::Pull)
     );
     // Release at once: all off in the same call, and no longer energised.
     drive.set_command(DriveCommand::Drive { direction: Direction::Release, duty });
-    assert_eq!(drive.step(sample(Sector::S0, 8_500)), DriveOutput::OFF);
+    assert_eq!(drive.step(sample(Sector::S0, PERIOD)), DriveOutput::OFF);
     assert_eq!(drive.status().energized, None);
     // The rotor steps back to S5, whose release entry is C− B+: C has been off since
     // power-up, B for a few ticks only. Nothing may come on until B has cleared the dead time.
     for _ in 0..2 {
-        let early = drive.step(sample(Sector::S5, 10));
+        let early = drive.step(sample(Sector::S5, 1));
         assert_eq!(early, DriveOutput::OFF, "a partial release entry reached the gates");
         assert_eq!(drive.status().energized, None);
     }

@@ -20,7 +20,9 @@
     reason = "a test: bookkeeping on small constants; a panic fails the test, as it should"
 )]
 
-use taut_core::drive::{Direction, DriveCommand, DriveFault, Duty, PWM_TIMER_HZ, PwmTicks};
+use taut_core::drive::{
+    Direction, DriveCommand, DriveFault, DriveTime, Duty, TIME_UNITS_PER_SECOND,
+};
 use taut_core::io::{Inputs, LimitSwitches};
 use taut_core::machine::FaultCode;
 use taut_core::machine::safety::{
@@ -373,7 +375,7 @@ fn stall_needs_the_duty_the_time_and_the_quiet_each_at_their_threshold() {
     let command = |duty: Duty| DriveCommand::Drive { direction: Direction::Pull, duty };
     let quiet = |ticks: u32| {
         let mut inputs = Inputs::default();
-        inputs.drive.quiet_for = PwmTicks(ticks);
+        inputs.drive.quiet_for = DriveTime(ticks);
         inputs
     };
     let duty = STALL_DUTY;
@@ -386,6 +388,6 @@ fn stall_needs_the_duty_the_time_and_the_quiet_each_at_their_threshold() {
     assert!(!stall(DriveCommand::Coast, &quiet(u32::MAX), u32::MAX));
     // The quiet time is the same 500 ms as the command time, in 170 MHz timer ticks.
     assert_eq!(STALL_QUIET_MS, 500);
-    assert_eq!(STALL_QUIET, PwmTicks(500 * (PWM_TIMER_HZ / 1_000)));
+    assert_eq!(STALL_QUIET, DriveTime(500 * (TIME_UNITS_PER_SECOND / 1_000)));
     assert!(stall(command(Duty::from_raw_clamped(u16::MAX)), &quiet(u32::MAX), u32::MAX));
 }

@@ -44,9 +44,10 @@
 //!
 //! # Dead time
 //!
-//! The hardware dead-time generator is programmed from [`DEAD_TIME`], the same constant the
-//! core's dead-time sequencer enforces in software ([`dead_time_register`]): 170 timer clocks
-//! = 1.0 µs encodes exactly as `DTG = 0x95`.
+//! The hardware dead-time generator is programmed from [`DEAD_TIME_TICKS`], the same time the
+//! core's dead-time sequencer enforces in software ([`crate::timing::DEAD_TIME`], handed to it
+//! in the drive's configuration; [`dead_time_register`]): 170 timer clocks = 1.0 µs encodes
+//! exactly as `DTG = 0x95`.
 //!
 //! # Break
 //!
@@ -57,15 +58,14 @@
 //! core reports no latched fault ([`main_output_enabled`]).
 
 use crate::timing::{
-    CR2_TRGO2_IS_OC5REF, DEAD_TIME, PWM_FREQUENCY_HZ, PWM_PERIOD_TICKS, PWM_TIMER_HZ,
+    CR2_TRGO2_IS_OC5REF, DEAD_TIME_TICKS, PWM_FREQUENCY_HZ, PWM_PERIOD_TICKS, PWM_TIMER_HZ,
 };
-use taut_core::drive::{DriveOutput, Duty, LegState, PwmTicks, SwitchPattern};
+use taut_core::drive::{DriveOutput, Duty, LegState, SwitchPattern};
 
 /// The low-side gate inputs are active low (L6398 `LIN`).
 pub const LOW_SIDE_ACTIVE_LOW: bool = true;
 
-/// TIM1 prescaler: none, so the counter runs at [`PWM_TIMER_HZ`] and one tick is one
-/// [`PwmTicks`].
+/// TIM1 prescaler: none, so the counter runs at [`PWM_TIMER_HZ`].
 pub const PRESCALER: u16 = 0;
 
 /// TIM1 auto-reload value for edge-aligned up-counting: the period is `ARR + 1` ticks.
@@ -74,7 +74,7 @@ pub const AUTO_RELOAD: u16 = PWM_PERIOD_TICKS.saturating_sub(1);
 #[allow(clippy::cast_lossless, reason = "`u32::from` is not callable in a const item")]
 const _: () = assert!(
     PWM_TIMER_HZ / PWM_FREQUENCY_HZ == PWM_PERIOD_TICKS as u32,
-    "the core's PWM constants must describe the timer this module programs"
+    "the board's PWM constants must describe the timer this module programs"
 );
 
 /// `OCxM` = force inactive (`OCxREF = 0`).
@@ -216,16 +216,15 @@ pub const fn dead_time_ticks(register: u8) -> u32 {
     }
 }
 
-/// The `BDTR.DTG` value for the shortest dead time that is at least `dead_time`: the
+/// The `BDTR.DTG` value for the shortest dead time that is at least `ticks` timer clocks: the
 /// hardware never inserts less than asked.
 ///
 /// # Errors
 /// [`DeadTimeError::TooLong`] beyond [`DEAD_TIME_MAX_TICKS`].
-pub const fn dead_time_register(dead_time: PwmTicks) -> Result<u8, DeadTimeError> {
+pub const fn dead_time_register(ticks: u32) -> Result<u8, DeadTimeError> {
     // Every encoding grows with its field, so the smallest sufficient value in the finest
     // range that reaches `dead_time` is the answer. Ranges: 0..=127 step 1, 128..=254 step 2,
     // 256..=504 step 8, 512..=1008 step 16.
-    let ticks = dead_time.0;
     let encoded = if ticks <= 127 {
         ticks
     } else if ticks <= 254 {
@@ -242,15 +241,15 @@ pub const fn dead_time_register(dead_time: PwmTicks) -> Result<u8, DeadTimeError
     Ok(encoded as u8)
 }
 
-/// The `DTG` value for the core's [`DEAD_TIME`], checked when the crate is compiled.
-pub const DEAD_TIME_REGISTER: u8 = match dead_time_register(DEAD_TIME) {
+/// The `DTG` value for the board's [`DEAD_TIME_TICKS`], checked when the crate is compiled.
+pub const DEAD_TIME_REGISTER: u8 = match dead_time_register(DEAD_TIME_TICKS) {
     Ok(register) => register,
     Err(DeadTimeError::TooLong) => 0xFF,
 };
 
 const _: () = assert!(
-    dead_time_ticks(DEAD_TIME_REGISTER) == DEAD_TIME.0,
-    "the hardware dead time must equal the core's DEAD_TIME exactly"
+    dead_time_ticks(DEAD_TIME_REGISTER) == DEAD_TIME_TICKS,
+    "the hardware dead time must equal the one core is given exactly"
 );
 
 #[cfg(test)]
@@ -361,7 +360,7 @@ mod tests {
     fn dead_time_register_is_the_shortest_sufficient_encoding() {
         let mut cases = 0u32;
         for ticks in 0..=DEAD_TIME_MAX_TICKS {
-            let register = dead_time_register(PwmTicks(ticks)).unwrap();
+            let register = dead_time_register(ticks).unwrap();
             let programmed = dead_time_ticks(register);
             assert!(programmed >= ticks, "{ticks}: {programmed}");
             for other in 0..=u8::MAX {
@@ -370,17 +369,14 @@ mod tests {
             }
             cases += 1;
         }
-        assert_eq!(
-            dead_time_register(PwmTicks(DEAD_TIME_MAX_TICKS + 1)),
-            Err(DeadTimeError::TooLong)
-        );
+        assert_eq!(dead_time_register(DEAD_TIME_MAX_TICKS + 1), Err(DeadTimeError::TooLong));
         println!("dead-time encoding: {cases} durations checked against all 256 register values");
     }
 
     #[test]
     fn the_core_dead_time_is_programmed_exactly() {
         assert_eq!(DEAD_TIME_REGISTER, 0x95);
-        assert_eq!(dead_time_ticks(DEAD_TIME_REGISTER), DEAD_TIME.0);
+        assert_eq!(dead_time_ticks(DEAD_TIME_REGISTER), DEAD_TIME_TICKS);
         assert_eq!(bdtr(DEAD_TIME_REGISTER) & 0xFF, 0x95);
         assert_eq!(bdtr(DEAD_TIME_REGISTER) & MOE, 0, "outputs start disabled");
     }

@@ -16,7 +16,9 @@
 //!   from it and checked against it).
 //! - [`bridge`]: the TIM1 register images that put a [`taut_core::drive::SwitchPattern`] and
 //!   a [`taut_core::drive::Duty`] on the bridge, and the hardware dead-time encoding of
-//!   [`taut_core::drive::DEAD_TIME`].
+//!   [`timing::DEAD_TIME_TICKS`].
+//! - [`timing`]: the board's timer clock, PWM period and dead time, and how they reach core
+//!   (the dead time in the drive's configuration, elapsed time as [`taut_core::drive::DriveTime`]).
 //! - [`flash_layout`] and [`settings`]: where the persisted record lives in internal flash and
 //!   the power-safe store (sequential-storage) that keeps it there.
 //! - [`panel`]: the TM1637 7-segment driver that shifts the core's

@@ -1,12 +1,14 @@
-//! The board's timing in one place: the PWM period and dead time the core's drive assumes, and
-//! where in that period the ADCs sample.
+//! The board's timing in one place: the timer clock, the PWM period and the dead time — facts of
+//! this board that core does not know — how they are handed to core (the dead time in the
+//! drive's configuration, the dead-time duty in the controller's, every elapsed time in the
+//! drive's board-independent [`DriveTime`]), and where in the period the ADCs sample.
 //!
 //! # Theory of operation
 //!
 //! TIM1 counts up from 0 to [`PWM_PERIOD_TICKS`] − 1 at [`PWM_TIMER_HZ`] (edge-aligned, one
 //! update per period). On the switched leg the low side turns off at the update and the high
-//! side on [`DEAD_TIME`] later; the high side turns off at the compare value
-//! `CCR = duty × period` and the low side on [`DEAD_TIME`] after that. Every other leg is
+//! side on [`DEAD_TIME_TICKS`] later; the high side turns off at the compare value
+//! `CCR = duty × period` and the low side on [`DEAD_TIME_TICKS`] after that. Every other leg is
 //! static within the period. The duty never exceeds [`DUTY_MAX`] (95 %), so **every period
 //! ends with a quiet window** — from [`LAST_EDGE_TICKS`] (the latest possible low-side turn-on)
 //! to the next update — in which no switch of any leg moves, whatever the duty:
@@ -34,15 +36,57 @@
 //!   register holds the 12-bit mean of 16 samples, each taken at the same quiet instant. The
 //!   1 ms tick reads the two data registers: finished results, no conversion started, no wait.
 //!
-//! Every figure above is derived from the core's PWM constants below, and the checks at the
-//! end of this file fail the build if a change (a longer dead time, a higher duty cap, a
-//! shorter period) would put a sample on a switching edge.
+//! Every figure above is derived from the board constants below, and the checks at the end of
+//! this file fail the build if a change (a longer dead time, a higher duty cap, a shorter
+//! period) would put a sample on a switching edge, or would give core a dead time or a
+//! dead-time duty other than the timer's.
 //!
-//! The four core constants are re-exported from here and the rest of the firmware takes them
-//! from here, so moving them into a board configuration touches this file only.
+//! # Handing the timing to core
+//!
+//! Core's drive counts time in [`DriveTime`] (100 ns) and never sees a clock: the fast loop
+//! converts the cycle counter's counts with [`drive_time`], carrying the remainder so no time
+//! is lost between calls; the dead time goes into the drive's configuration as [`DEAD_TIME`]
+//! (exactly [`DEAD_TIME_TICKS`] of the timer); the controller's dead-time duty
+//! ([`taut_core::tension::controller::TAUT_DEAD_TIME_DUTY`]) is checked against this period
+//! and dead time below. Porting to another MCU or PWM frequency is a change of this file.
 
-pub use taut_core::drive::{DEAD_TIME, PWM_FREQUENCY_HZ, PWM_PERIOD_TICKS, PWM_TIMER_HZ};
-use taut_core::drive::{DUTY_MAX, duty::DUTY_ONE};
+use taut_core::drive::{DUTY_MAX, DriveTime, TIME_UNITS_PER_SECOND, duty::DUTY_ONE};
+
+/// Clock of the PWM timer: the STM32G431's TIM1 at the 170 MHz system clock.
+pub const PWM_TIMER_HZ: u32 = 170_000_000;
+
+/// PWM frequency: 20 kHz, above hearing and ≈ 24 periods per sector at full speed.
+pub const PWM_FREQUENCY_HZ: u32 = 20_000;
+
+/// Timer ticks in one PWM period (edge-aligned): 170 MHz / 20 kHz = 8 500.
+pub const PWM_PERIOD_TICKS: u16 = 8_500;
+
+/// Minimum both-off time of a leg before either of its switches turns on: 170 ticks = 1.0 µs.
+/// The IRF2807 turns off in ≈100 ns, and the paper's FAN7888 gate driver (or the L6398
+/// drivers of the X-NUCLEO-IHM08M1 power board) add a few hundred ns of propagation mismatch;
+/// 1 µs keeps a 2× margin and costs 2 % of a 20 kHz period. The hardware dead-time generator
+/// is programmed with it ([`crate::bridge::DEAD_TIME_REGISTER`]) and core's sequencer enforces
+/// the same time ([`DEAD_TIME`]).
+pub const DEAD_TIME_TICKS: u32 = 170;
+
+/// Timer ticks (and DWT cycles: the same clock) per [`DriveTime`] unit: 17.
+pub const TICKS_PER_DRIVE_TIME: u32 = PWM_TIMER_HZ / TIME_UNITS_PER_SECOND;
+
+/// The dead time in core's unit, for the drive's configuration: 10 (1.0 µs).
+pub const DEAD_TIME: DriveTime = DriveTime(DEAD_TIME_TICKS / TICKS_PER_DRIVE_TIME);
+
+/// The dead-time duty the controller's slip damper assumes: the dead time over the period,
+/// Q0.16, rounded (170 / 8 500 × 65 536 = 1 311).
+#[allow(clippy::cast_lossless, reason = "`u32::from` is not callable in a const item")]
+pub const DEAD_TIME_DUTY_RAW: u32 =
+    (DEAD_TIME_TICKS * DUTY_ONE + PWM_PERIOD_TICKS as u32 / 2) / PWM_PERIOD_TICKS as u32;
+
+/// `cycles` of the 170 MHz cycle counter as drive time, and the cycles left over (under one
+/// unit), which the caller counts into the next call so no time is lost.
+#[must_use]
+pub const fn drive_time(cycles: u32) -> (DriveTime, u32) {
+    (DriveTime(cycles / TICKS_PER_DRIVE_TIME), cycles % TICKS_PER_DRIVE_TIME)
+}
 
 /// Timer ticks per ADC clock: TIM1 and the ADC kernel clock both run from the 170 MHz system
 /// clock, and the ADC12 common prescaler divides it by 4 (42.5 MHz, below the G4's 60 MHz).
@@ -72,7 +116,7 @@ pub const MAX_COMPARE_TICKS: u32 = PWM_PERIOD_TICKS as u32 * DUTY_MAX.raw() as u
 
 /// The latest switching edge in any period: the switched leg's low side turning on a dead time
 /// after the high side turned off at the largest compare value.
-pub const LAST_EDGE_TICKS: u32 = MAX_COMPARE_TICKS + DEAD_TIME.0;
+pub const LAST_EDGE_TICKS: u32 = MAX_COMPARE_TICKS + DEAD_TIME_TICKS;
 
 /// How long the switch node rings after an edge before a sample is clean: 0.5 µs.
 pub const SETTLE_TICKS: u32 = PWM_TIMER_HZ / 2_000_000;
@@ -93,14 +137,29 @@ pub const CR2_TRGO2_IS_OC5REF: u32 = 0b1000 << 20;
 /// of the period, so it rises at `CCR5`), no preload (`CCR5` is written once).
 pub const CCMR3: u32 = 0b0111 << 4;
 
-// The compile-time checks: a change of the core's PWM constants that would move a sample onto
-// a switching edge, or past the period, stops the build here.
+// The compile-time checks: a change of the board's timing that would move a sample onto a
+// switching edge, or past the period, or hand core a dead time other than the timer's, stops
+// the build here.
 #[allow(clippy::cast_lossless, reason = "`u32::from` is not callable in a const item")]
 const _: () = {
     let period = PWM_PERIOD_TICKS as u32;
+    assert!(PWM_TIMER_HZ / PWM_FREQUENCY_HZ == period, "the PWM constants must describe one timer");
     assert!(
-        PWM_TIMER_HZ / PWM_FREQUENCY_HZ == period,
-        "the core's PWM constants must describe one timer"
+        PWM_TIMER_HZ.is_multiple_of(TIME_UNITS_PER_SECOND) && TICKS_PER_DRIVE_TIME > 0,
+        "the timer clock must be a whole number of ticks per 100 ns"
+    );
+    assert!(
+        DEAD_TIME_TICKS.is_multiple_of(TICKS_PER_DRIVE_TIME),
+        "core's dead time must be the timer's exactly"
+    );
+    assert!(
+        DEAD_TIME.0 >= taut_core::drive::DEAD_TIME_MIN.0
+            && DEAD_TIME.0 <= taut_core::drive::DEAD_TIME_MAX.0,
+        "the dead time must be one the drive's configuration accepts"
+    );
+    assert!(
+        DEAD_TIME_DUTY_RAW == taut_core::tension::controller::TAUT_DEAD_TIME_DUTY.raw() as u32,
+        "the controller's dead-time duty must be this board's dead time over its period"
     );
     assert!(
         LAST_EDGE_TICKS + SETTLE_TICKS + CONVERSION_TICKS <= period,
@@ -125,7 +184,7 @@ mod tests {
     /// Every switching edge of the switched leg in a period, for one duty.
     fn edges(duty: Duty) -> [u32; 4] {
         let compare = u32::from(duty.compare_ticks(PWM_PERIOD_TICKS));
-        [0, DEAD_TIME.0, compare, compare + DEAD_TIME.0]
+        [0, DEAD_TIME_TICKS, compare, compare + DEAD_TIME_TICKS]
     }
 
     #[test]
@@ -147,5 +206,26 @@ mod tests {
         assert_eq!(SLOW_SAMPLE_TICKS, 8_329);
         assert_eq!(CONVERSION_TICKS, 164);
         assert_eq!(MAX_COMPARE_TICKS, u32::from(DUTY_MAX.compare_ticks(PWM_PERIOD_TICKS)));
+        assert_eq!(DEAD_TIME, DriveTime::from_micros(1));
+        assert_eq!(DEAD_TIME_DUTY_RAW, 1_311);
+    }
+
+    /// The cycle counter's counts become drive time with nothing lost: summed over calls of
+    /// any lengths, the units plus the last remainder are the cycles exactly.
+    #[test]
+    fn cycles_become_drive_time_with_the_remainder_carried() {
+        assert_eq!(drive_time(8_500), (DriveTime(500), 0), "one PWM period is 50 µs");
+        assert_eq!(drive_time(16), (DriveTime(0), 16));
+        assert_eq!(drive_time(u32::MAX), (DriveTime(u32::MAX / 17), u32::MAX % 17));
+        let (mut units, mut carry, mut cycles) = (0u64, 0u32, 0u64);
+        for call in 1..=10_000u32 {
+            let gap = call.wrapping_mul(2_654_435_761) % 9_000;
+            cycles += u64::from(gap);
+            let (time, left) = drive_time(gap + carry);
+            units += u64::from(time.0);
+            carry = left;
+            assert!(carry < TICKS_PER_DRIVE_TIME);
+        }
+        assert_eq!(units * u64::from(TICKS_PER_DRIVE_TIME) + u64::from(carry), cycles);
     }
 }

@@ -33,9 +33,9 @@
 //! direction".
 
 use taut_core::drive::{
-    ClearRefused, DEAD_TIME, DUTY_MAX, Direction, Drive, DriveCommand, DriveOutput, DriveSample,
-    Duty, HALL_CONFIRM_READS, HallCode, HallState, LegState, OVERCURRENT_LIMIT, Phase, PwmTicks,
-    Sector, SectorStep, SwitchPattern, six_step,
+    ClearRefused, DUTY_MAX, Direction, Drive, DriveCommand, DriveOutput, DriveSample, DriveTime,
+    Duty, HALL_CONFIRM_READS, HallCode, HallState, LegState, OVERCURRENT_LIMIT, Phase, Sector,
+    SectorStep, SwitchPattern, six_step,
 };
 use taut_core::io::LimitSwitches;
 use taut_core::sense::current;
@@ -91,7 +91,7 @@ pub struct StepInput {
     pub home: bool,
     /// End limit switch.
     pub end: bool,
-    /// PWM-timer ticks since the previous call.
+    /// Time since the previous call, [`DriveTime`] units (100 ns).
     pub elapsed: u32,
     /// Raw bus-voltage code (saturated to 12 bits).
     pub bus: u16,
@@ -107,7 +107,7 @@ impl StepInput {
             overcurrent_trip: self.trip,
             bus_voltage: AdcCode::new(self.bus.min(4_095)),
             limits: LimitSwitches { home: self.home, end: self.end },
-            elapsed: PwmTicks(self.elapsed),
+            elapsed: DriveTime(self.elapsed),
         }
     }
 }
@@ -335,7 +335,7 @@ fn last_on_or(was: LegState, last_on: LegState) -> LegState {
 }
 
 /// REQ-DRV-03, dead time: no leg changes between high and low — directly, or through an
-/// off spell — unless it has been off for at least [`DEAD_TIME`] ticks in between.
+/// off spell — unless it has been off for at least the board's dead time in between.
 pub fn dead_time_respected(observer: &Observer, record: &StepRecord) {
     let elapsed = record.input.elapsed;
     for (&(last_on, off_for), phase) in observer.legs.iter().zip(Phase::ALL) {
@@ -349,8 +349,8 @@ pub fn dead_time_respected(observer: &Observer, record: &StepRecord) {
         } else if last_on.is_on() && last_on != now {
             let off = off_for.saturating_add(elapsed);
             assert!(
-                off >= DEAD_TIME.0,
-                "REQ-DRV-03: leg {phase:?} {last_on:?}→{now:?} after only {off} ticks off"
+                off >= record.before.config().dead_time().0,
+                "REQ-DRV-03: leg {phase:?} {last_on:?}→{now:?} after only {off} units off"
             );
         }
     }
@@ -521,7 +521,7 @@ pub fn safe_reversal(observer: &Observer, record: &StepRecord) {
 fn emf_toward(observer: &Observer, record: &StepRecord, direction: Direction) -> i64 {
     let (quiet_for, rotation, interval) = rotor_after(observer, record);
     // u32 throughout (a 32-bit divider is what the drive uses, and is cheap for CBMC).
-    let k = record.before.config().limit().emf_mv_ticks;
+    let k = record.before.config().limit().emf_mv_time;
     let Some(rotation) = rotation else {
         return -i64::from((k / quiet_for.max(1)).min(60_000));
     };
@@ -623,15 +623,17 @@ pub fn check_all(observer: &Observer, record: &StepRecord) {
     duty_within_window(observer, record);
 }
 
-/// REQ-DRV-03, inductively: from *any* valid sequencer state (any legs, any off-times), one
-/// call with any request never swaps a leg's side directly and never turns a leg on before it
-/// has been off for [`DEAD_TIME`].
+/// REQ-DRV-03, inductively: from *any* valid sequencer state (any legs, any off-times, any
+/// dead time a configuration accepts), one call with any request never swaps a leg's side
+/// directly and never turns a leg on before it has been off for the dead time.
 pub fn sequencer_step_is_safe(
-    legs: [(LegState, PwmTicks); 3],
+    legs: [(LegState, DriveTime); 3],
+    dead_time: DriveTime,
     requested: SwitchPattern,
-    elapsed: PwmTicks,
+    elapsed: DriveTime,
 ) {
-    let Some(mut sequencer) = taut_core::drive::DeadTimeSequencer::from_parts(legs) else {
+    let Some(mut sequencer) = taut_core::drive::DeadTimeSequencer::from_parts(legs, dead_time)
+    else {
         return;
     };
     let before = sequencer.pattern();
@@ -644,8 +646,8 @@ pub fn sequencer_step_is_safe(
         if now.is_on() && was != now {
             assert!(!was.is_on(), "REQ-DRV-03: leg {phase:?} swapped {was:?}→{now:?} directly");
             assert!(
-                off_for.0.saturating_add(elapsed.0) >= DEAD_TIME.0,
-                "REQ-DRV-03: leg {phase:?} on after {} ticks off",
+                off_for.0.saturating_add(elapsed.0) >= dead_time.0,
+                "REQ-DRV-03: leg {phase:?} on after {} units off",
                 off_for.0.saturating_add(elapsed.0)
             );
         }
@@ -654,6 +656,7 @@ pub fn sequencer_step_is_safe(
         }
     }
     assert!(sequencer.is_valid(), "sequencer invariant broken");
+    assert_eq!(sequencer.dead_time(), dead_time, "the dead time is the configured one");
 }
 
 fn pattern_is_safe_per_leg(pattern: &SwitchPattern) {
@@ -727,16 +730,21 @@ mod verification {
     #[kani::proof]
     #[kani::unwind(8)]
     fn verify_dead_time_inductive() {
-        let leg = || -> (LegState, PwmTicks) {
+        let leg = || -> (LegState, DriveTime) {
             let state = match kani::any::<u8>() % 3 {
                 0 => LegState::Off,
                 1 => LegState::High,
                 _ => LegState::Low,
             };
-            (state, PwmTicks(kani::any()))
+            (state, DriveTime(kani::any()))
         };
         let requested = SwitchPattern { a: leg().0, b: leg().0, c: leg().0 };
-        sequencer_step_is_safe([leg(), leg(), leg()], requested, PwmTicks(kani::any()));
+        sequencer_step_is_safe(
+            [leg(), leg(), leg()],
+            DriveTime(kani::any()),
+            requested,
+            DriveTime(kani::any()),
+        );
     }
 
     #[kani::proof]
@@ -879,6 +887,7 @@ pub fn motoring_evidence(code: u16, zero: u16, duty: u16) {
         taut_core::drive::BusSense::PAPER,
         CurrentLimit::PAPER,
         12_000,
+        taut_core::drive::DriveConfig::PAPER.dead_time(),
     ) else {
         panic!("the link-average board is a valid configuration");
     };

@@ -42,7 +42,7 @@
 //! never faults the machine.
 
 use taut_core::drive::limit::CurrentSense;
-use taut_core::drive::{DUTY_MAX, Direction, DriveCommand, DriveFault, DriveStatus, PwmTicks};
+use taut_core::drive::{DUTY_MAX, Direction, DriveCommand, DriveFault, DriveStatus, DriveTime};
 use taut_core::io::{Inputs, Keys, LimitSwitches, Outputs};
 use taut_core::machine::{
     AfterRelease, Checkpoint, FaultCode, KeyPad, Machine, MachineState, Recovery, View,
@@ -103,7 +103,7 @@ impl TickInput {
                 fault,
                 steps: self.steps,
                 rotation: None,
-                quiet_for: PwmTicks::from_micros(u32::from(self.quiet_ms).saturating_mul(1_000)),
+                quiet_for: DriveTime::from_micros(u32::from(self.quiet_ms).saturating_mul(1_000)),
                 energized: None,
                 // Any code of the paper's board, as the drive reports it (what the tick's
                 // motor-current input used to be converted with).

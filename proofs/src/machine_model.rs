@@ -52,7 +52,7 @@
 use std::collections::{HashMap, HashSet, VecDeque};
 
 use taut_core::drive::limit::CurrentSense;
-use taut_core::drive::{Direction, DriveCommand, DriveFault, DriveStatus, PwmTicks};
+use taut_core::drive::{Direction, DriveCommand, DriveFault, DriveStatus, DriveTime};
 use taut_core::io::{Inputs, Key as PanelKey, Keys, LimitSwitches, Outputs};
 use taut_core::machine::{MachineState, View, safety};
 use taut_core::sense::calibration::CALIBRATION_TARGETS;
@@ -318,7 +318,7 @@ impl World {
                 fault: self.drive_fault.then_some(DriveFault::HallInvalid),
                 steps: self.steps,
                 rotation: None,
-                quiet_for: PwmTicks::from_micros(self.quiet_ms.saturating_mul(1_000)),
+                quiet_for: DriveTime::from_micros(self.quiet_ms.saturating_mul(1_000)),
                 energized: None,
                 current: CurrentSense::PAPER.amps(motor_current, AdcCode::MIN),
                 bus: Volts::ZERO,

@@ -338,6 +338,7 @@ pub fn slip_damper_bounded(case: &SlipCase) {
         SLIP_DEAD_ZONE,
         SLIP_LEARNING_RATE,
         SLIP_INITIAL_DUTY_PER_AMP,
+        taut_core::tension::controller::TAUT_DEAD_TIME_DUTY,
     );
     damper.set_state(SlipState {
         duty_per_amp: case.duty_per_amp.max(0),

@@ -15,8 +15,8 @@ use std::collections::HashSet;
 
 use proptest::prelude::*;
 use taut_core::drive::{
-    DEAD_TIME, DUTY_MAX, Direction, Drive, LegState, OVERCURRENT_LIMIT, PwmTicks, REVERSAL_QUIET,
-    Sector, SwitchPattern,
+    DEAD_TIME_MAX, DEAD_TIME_MIN, DUTY_MAX, Direction, Drive, DriveConfig, DriveTime, LegState,
+    OVERCURRENT_LIMIT, REVERSAL_QUIET, Sector, SwitchPattern,
 };
 use taut_core::sense::current;
 use taut_proofs::drive::{
@@ -36,10 +36,11 @@ fn first_overcurrent_code() -> u16 {
 
 /// One representative of every behaviour class of a call's inputs: the drive's decisions
 /// depend on the current only through `current ≥ limit`, on the elapsed ticks only through
-/// comparisons with `DEAD_TIME` and `REVERSAL_QUIET` (and saturation, exercised by
+/// comparisons with the dead time and `REVERSAL_QUIET` (and saturation, exercised by
 /// proptest), and on the duty only by passing it through (every duty value is checked by
 /// `bounded_duty_every_duty_value`).
 fn alphabet() -> Vec<StepInput> {
+    let dead_time = DriveConfig::PAPER.dead_time().0;
     let over = first_overcurrent_code();
     let mut inputs = Vec::new();
     for hall in 0..8u8 {
@@ -47,7 +48,7 @@ fn alphabet() -> Vec<StepInput> {
         {
             for (current, trip) in [(0, false), (over - 1, false), (over, false), (0, true)] {
                 for (home, end) in [(false, false), (true, false), (false, true), (true, true)] {
-                    for elapsed in [0, DEAD_TIME.0 - 1, DEAD_TIME.0, REVERSAL_QUIET.0] {
+                    for elapsed in [0, dead_time - 1, dead_time, REVERSAL_QUIET.0] {
                         for (clear, bus) in [(false, 1_638), (true, 1_638), (false, 2_731)] {
                             inputs.push(StepInput {
                                 hall,
@@ -227,26 +228,35 @@ fn six_step_table_exhaustive() {
 }
 
 /// REQ-DRV-03 inductively: every sequencer state (27 leg combinations × off-times on both
-/// sides of DEAD_TIME), every request (27), every elapsed class.
+/// sides of the dead time), every request (27), every elapsed class, for the shortest, taut's
+/// and the longest dead time a configuration accepts.
 #[test]
 fn dead_time_inductive_exhaustive() {
-    let off_times = [0, 1, DEAD_TIME.0 - 1, DEAD_TIME.0, u32::MAX];
-    let elapsed = [0, 1, DEAD_TIME.0 - 1, DEAD_TIME.0, u32::MAX];
     let mut cases = 0u64;
-    let legs: Vec<(LegState, PwmTicks)> = LegState::ALL
-        .into_iter()
-        .flat_map(|state| off_times.map(move |off| (state, PwmTicks(off))))
-        .collect();
-    for &a in &legs {
-        for &b in &legs {
-            for &c in &legs {
-                for ra in LegState::ALL {
-                    for rb in LegState::ALL {
-                        for rc in LegState::ALL {
-                            for e in elapsed {
-                                let requested = SwitchPattern { a: ra, b: rb, c: rc };
-                                sequencer_step_is_safe([a, b, c], requested, PwmTicks(e));
-                                cases += 1;
+    for dead_time in [DEAD_TIME_MIN, DriveConfig::PAPER.dead_time(), DEAD_TIME_MAX] {
+        let d = dead_time.0;
+        let off_times = [0, 1, d - 1, d, u32::MAX];
+        let elapsed = [0, 1, d - 1, d, u32::MAX];
+        let legs: Vec<(LegState, DriveTime)> = LegState::ALL
+            .into_iter()
+            .flat_map(|state| off_times.map(move |off| (state, DriveTime(off))))
+            .collect();
+        for &a in &legs {
+            for &b in &legs {
+                for &c in &legs {
+                    for ra in LegState::ALL {
+                        for rb in LegState::ALL {
+                            for rc in LegState::ALL {
+                                for e in elapsed {
+                                    let requested = SwitchPattern { a: ra, b: rb, c: rc };
+                                    sequencer_step_is_safe(
+                                        [a, b, c],
+                                        dead_time,
+                                        requested,
+                                        DriveTime(e),
+                                    );
+                                    cases += 1;
+                                }
                             }
                         }
                     }
@@ -255,7 +265,8 @@ fn dead_time_inductive_exhaustive() {
         }
     }
     println!(
-        "dead_time_inductive_exhaustive: {cases} cases (15³ leg states × 27 requests × 5 elapsed)"
+        "dead_time_inductive_exhaustive: {cases} cases (3 dead times × 15³ leg states × 27 \
+         requests × 5 elapsed)"
     );
 }
 
@@ -266,8 +277,9 @@ fn step_input() -> impl Strategy<Value = StepInput> {
         any::<u16>().prop_map(CommandInput::Release),
     ];
     // Hall codes mostly walk like a real rotor (small moves), sometimes jump anywhere.
+    let dead_time = DriveConfig::PAPER.dead_time().0;
     let elapsed =
-        prop_oneof![0..=2 * DEAD_TIME.0, Just(8_500u32), 0..=2 * REVERSAL_QUIET.0, any::<u32>(),];
+        prop_oneof![0..=2 * dead_time, Just(500u32), 0..=2 * REVERSAL_QUIET.0, any::<u32>(),];
     (
         any::<u8>(),
         command,

@@ -76,7 +76,7 @@
 //! 24 V supply (paper). Six-step drive with the sector's low side on and the switched leg
 //! **complementary** (high side for the duty, its own low side for the rest of the period),
 //! as `taut_core::drive::commutation` specifies and the firmware programs TIM1's CHx/CHxN
-//! pairs, with the timer's **1 µs dead time** (`taut_core::drive::DEAD_TIME`) at every
+//! pairs, with the board's **1 µs dead time** (`params::BOARD_DEAD_TIME`, handed to the drive's configuration as the firmware hands it its own) at every
 //! rising gate edge, during which the leg's body diodes (0.8 V) carry the current. So the
 //! winding sees `duty·V_bus` (less ≈ ±0.5 V of dead-time distortion, signed with the
 //! current) in either current direction: a duty below the back-EMF ratio **brakes** and

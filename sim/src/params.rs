@@ -15,6 +15,11 @@ use core::fmt;
 use core::str::FromStr;
 
 use crate::rng::SimRng;
+use taut_core::drive::{DriveTime, TIME_UNITS_PER_SECOND};
+
+/// The twin's board's dead time: 1 µs, as taut's (`firmware/src/timing.rs`). The bridge's
+/// physics ([`BridgeParams::dead_time_s`]) and the drive's configuration both take it.
+pub const BOARD_DEAD_TIME: DriveTime = DriveTime::from_micros(1);
 
 /// Standard gravity, N per kgf.
 pub const NEWTONS_PER_KGF: f64 = 9.806_65;
@@ -704,12 +709,11 @@ impl BridgeParams {
     #[must_use]
     #[allow(clippy::cast_lossless, reason = "`f64::from` is not callable in a const fn")]
     pub const fn nominal() -> Self {
-        use taut_core::drive::{DEAD_TIME, PWM_TIMER_HZ};
         Self {
             bus_volts: 24.0,
             diode_drop_v: 0.8,
             comparator_amps: 15.0,
-            dead_time_s: DEAD_TIME.0 as f64 / PWM_TIMER_HZ as f64,
+            dead_time_s: BOARD_DEAD_TIME.0 as f64 / TIME_UNITS_PER_SECOND as f64,
             supply_ohm: 0.05,
             bus_capacitance_f: 1000e-6,
             aux_load_amps: 0.1,
@@ -883,8 +887,14 @@ impl CurrentSenseParams {
             na_per_code,
             zero_tolerance,
         };
-        taut_core::drive::DriveConfig::new(sense, BusSense::PAPER, CurrentLimit::PAPER, 12_000)
-            .unwrap_or(taut_core::drive::DriveConfig::PAPER)
+        taut_core::drive::DriveConfig::new(
+            sense,
+            BusSense::PAPER,
+            CurrentLimit::PAPER,
+            12_000,
+            BOARD_DEAD_TIME,
+        )
+        .unwrap_or(taut_core::drive::DriveConfig::PAPER)
     }
 
     /// Whether the amplifier is biased at mid-rail (reads negative currents).

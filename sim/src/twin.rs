@@ -99,17 +99,23 @@
 
 use taut_core::drive::duty::DUTY_ONE;
 use taut_core::drive::{
-    Drive, DriveCommand, DriveFault, DriveSample, HallCode, LegState, PWM_FREQUENCY_HZ,
-    PWM_PERIOD_TICKS, Phase, PwmTicks, SwitchPattern, hall,
+    Drive, DriveCommand, DriveFault, DriveSample, DriveTime, HallCode, LegState, Phase,
+    SwitchPattern, TIME_UNITS_PER_SECOND, hall,
 };
 use taut_core::io::{Inputs, Keys, LimitSwitches, Outputs};
 use taut_core::units::AdcCode;
 
 use crate::motor::{Circuit, emf_shape, hall_code_placed, sector_shape_factor};
-use crate::params::{NEWTONS_PER_KGF, StringParams, TwinConfig};
+use crate::params::{BOARD_DEAD_TIME, NEWTONS_PER_KGF, StringParams, TwinConfig};
 use crate::rng::SimRng;
 use crate::sensors::{BusVoltageSense, CurrentSense, LoadCell, LoadCellFault};
 use crate::string::{StringModel, StringState};
+
+/// The twin's board's PWM frequency: 20 kHz, as taut's (`firmware/src/timing.rs`).
+pub const PWM_FREQUENCY_HZ: u32 = 20_000;
+
+/// One PWM period in the drive's time: 50 µs.
+pub const PWM_PERIOD: DriveTime = DriveTime(TIME_UNITS_PER_SECOND / PWM_FREQUENCY_HZ);
 
 /// PWM periods per 1 ms tick: 20 kHz / 1 kHz.
 pub const PERIODS_PER_TICK: u32 = PWM_FREQUENCY_HZ / 1_000;
@@ -412,7 +418,9 @@ impl Twin {
         // No bus rule and no zero check either: the physics under test must not be cut short.
         let bus = BusSense { regen_mv: 59_000, max_mv: 59_900, ..BusSense::PAPER };
         let sense = taut_core::drive::limit::CurrentSense { zero_tolerance: 4_095, ..sense };
-        if let Ok(config) = taut_core::drive::DriveConfig::new(sense, bus, open, 12_000) {
+        if let Ok(config) =
+            taut_core::drive::DriveConfig::new(sense, bus, open, 12_000, BOARD_DEAD_TIME)
+        {
             self.drive = Drive::with_config(config);
         }
         self
@@ -838,7 +846,7 @@ impl Twin {
             overcurrent_trip: self.comparator_flag,
             bus_voltage: self.bus_sense.register(),
             limits: self.wired_limits(),
-            elapsed: PwmTicks(u32::from(PWM_PERIOD_TICKS)),
+            elapsed: PWM_PERIOD,
         };
         let out = self.drive.step(sample);
         let duty = f64::from(out.duty.raw()) / f64::from(DUTY_ONE);

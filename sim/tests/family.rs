@@ -278,7 +278,7 @@ fn no_load_rpm_at_24_volts(mut config: TwinConfig) -> f64 {
     let rpm = mean(&|row| row.truth.motor_rpm);
     let bus = mean(&|row| row.truth.bus_volts);
     let duty = f64::from(DUTY_MAX.raw()) / 65_536.0;
-    let dead = config.bridge.dead_time_s * f64::from(taut_core::drive::PWM_FREQUENCY_HZ);
+    let dead = config.bridge.dead_time_s * f64::from(taut_sim::twin::PWM_FREQUENCY_HZ);
     let applied = (duty - dead) * bus - 2.0 * dead * config.bridge.diode_drop_v;
     let r = 2.0 * m.phase_resistance_ohm;
     let ke = m.ke_volts_per_rad_s;

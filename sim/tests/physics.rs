@@ -56,7 +56,7 @@ fn quiet(kind: StringKind) -> TwinConfig {
 /// low body diode for the two dead times, the low side for the rest.
 fn line_volts(config: &TwinConfig, duty: f64, bus: f64) -> f64 {
     let b = config.bridge;
-    let dead = b.dead_time_s * f64::from(taut_core::drive::PWM_FREQUENCY_HZ);
+    let dead = b.dead_time_s * f64::from(taut_sim::twin::PWM_FREQUENCY_HZ);
     (duty - dead) * bus - 2.0 * dead * b.diode_drop_v
 }
 

@@ -31,11 +31,11 @@
 //!
 //! Everything here is additions, shifts and comparisons: no division in the fast loop.
 
-use super::PwmTicks;
+use super::DriveTime;
 use super::hall::Sector;
 
-/// The longest revolution judged: 10 ms of PWM-timer ticks (at 170 MHz).
-pub const REVOLUTION_MAX: PwmTicks = PwmTicks(1_700_000);
+/// The longest revolution judged: 10 ms.
+pub const REVOLUTION_MAX: DriveTime = DriveTime::from_micros(10_000);
 
 /// Net strikes that latch an overcurrent: 20 fast revolutions (20–200 ms at speed).
 pub const IMBALANCE_STRIKES: u8 = 20;
@@ -47,8 +47,8 @@ pub struct WindingBalance {
     means: [i32; 3],
     /// Sectors visited in this revolution (bit per sector index).
     seen: u8,
-    /// Ticks since this revolution began (saturating).
-    ticks: PwmTicks,
+    /// Time since this revolution began (saturating).
+    ticks: DriveTime,
     /// Net strikes.
     strikes: u8,
 }
@@ -57,7 +57,7 @@ impl WindingBalance {
     /// Nothing seen yet.
     #[must_use]
     pub const fn new() -> Self {
-        Self { means: [0; 3], seen: 0, ticks: PwmTicks(0), strikes: 0 }
+        Self { means: [0; 3], seen: 0, ticks: DriveTime(0), strikes: 0 }
     }
 
     /// Net strikes so far.
@@ -77,15 +77,15 @@ impl WindingBalance {
         now: Option<Sector>,
         conducted: bool,
         reading: i32,
-        elapsed: PwmTicks,
+        elapsed: DriveTime,
         limit: u16,
     ) -> bool {
         let Some(sector) = before else {
             self.seen = 0;
-            self.ticks = PwmTicks(0);
+            self.ticks = DriveTime(0);
             return false;
         };
-        self.ticks = PwmTicks(self.ticks.0.saturating_add(elapsed.0));
+        self.ticks = DriveTime(self.ticks.0.saturating_add(elapsed.0));
         self.seen |= 1_u8 << sector.index();
         if conducted {
             let pair = sector_pair(sector);
@@ -101,7 +101,7 @@ impl WindingBalance {
             self.judge(limit);
         }
         self.seen = 0;
-        self.ticks = PwmTicks(0);
+        self.ticks = DriveTime(0);
         self.strikes >= IMBALANCE_STRIKES
     }
 
@@ -144,6 +144,9 @@ fn set_pair_mean(means: &mut [i32; 3], pair: usize, value: i32) {
 mod tests {
     use super::*;
 
+    /// One 50 µs PWM period.
+    const PERIOD: DriveTime = DriveTime::from_micros(50);
+
     /// The window's limit on taut's own board: 8 A = 1 311 codes.
     const LIMIT: u16 = 1_311;
 
@@ -157,8 +160,7 @@ mod tests {
             let codes = ma[k % 3] * i32::from(LIMIT) / 8_000;
             for call in 0..periods_per_sector {
                 let now = if call + 1 == periods_per_sector { next } else { *sector };
-                latched |=
-                    balance.update(Some(*sector), Some(now), true, codes, PwmTicks(8_500), LIMIT);
+                latched |= balance.update(Some(*sector), Some(now), true, codes, PERIOD, LIMIT);
             }
         }
         latched
@@ -259,18 +261,18 @@ mod tests {
         let mut balance = WindingBalance {
             means: [9_000 * 16, 9_000 * 16, 0],
             seen: 0b11_1111,
-            ticks: PwmTicks(REVOLUTION_MAX.0 - 8_500),
+            ticks: DriveTime(REVOLUTION_MAX.0 - PERIOD.0),
             strikes: 0,
         };
-        balance.update(Some(Sector::S5), Some(Sector::S0), false, 0, PwmTicks(8_500), LIMIT);
+        balance.update(Some(Sector::S5), Some(Sector::S0), false, 0, PERIOD, LIMIT);
         assert_eq!(balance.strikes(), 1);
         let mut longer = WindingBalance {
             means: [9_000 * 16, 9_000 * 16, 0],
             seen: 0b11_1111,
-            ticks: PwmTicks(REVOLUTION_MAX.0 - 8_499),
+            ticks: DriveTime(REVOLUTION_MAX.0 - PERIOD.0 + 1),
             strikes: 0,
         };
-        longer.update(Some(Sector::S5), Some(Sector::S0), false, 0, PwmTicks(8_500), LIMIT);
+        longer.update(Some(Sector::S5), Some(Sector::S0), false, 0, PERIOD, LIMIT);
         assert_eq!(longer.strikes(), 0);
     }
 
@@ -294,13 +296,13 @@ mod tests {
         assert_eq!(balance.strikes(), 1);
         // Half a revolution, the sensors lost, then S0 again: not a whole revolution.
         for sector in [Sector::S0, Sector::S1, Sector::S2] {
-            balance.update(Some(sector), Some(sector), true, 1_000, PwmTicks(8_500), LIMIT);
+            balance.update(Some(sector), Some(sector), true, 1_000, PERIOD, LIMIT);
         }
-        balance.update(None, None, false, 0, PwmTicks(8_500), LIMIT);
+        balance.update(None, None, false, 0, PERIOD, LIMIT);
         for sector in [Sector::S3, Sector::S4, Sector::S5] {
-            balance.update(Some(sector), Some(sector), true, 1_000, PwmTicks(8_500), LIMIT);
+            balance.update(Some(sector), Some(sector), true, 1_000, PERIOD, LIMIT);
         }
-        balance.update(Some(Sector::S5), Some(Sector::S0), true, 1_000, PwmTicks(8_500), LIMIT);
+        balance.update(Some(Sector::S5), Some(Sector::S0), true, 1_000, PERIOD, LIMIT);
         assert_eq!(balance.strikes(), 1);
     }
 }

@@ -64,8 +64,8 @@
 //! the high side's bootstrap capacitor every period.
 //!
 //! The two switches of the switched leg never conduct together: the timer's complementary
-//! output inserts [`super::DEAD_TIME`] at every edge, in hardware, within the period. The
-//! core's guarantees are one level up, between periods: a leg's *state* never changes between
+//! output inserts the board's dead time ([`super::DriveConfig::dead_time`]) at every edge, in
+//! hardware, within the period. The core's guarantees are one level up, between periods: a leg's *state* never changes between
 //! [`LegState::High`] and [`LegState::Low`] without the sequencer's own dead time of both-off
 //! ([`super::dead_time`]).
 

@@ -35,8 +35,9 @@
 //!   *narrows* the window's lower edge and *widens* its upper edge, so the floor is where the
 //!   board's undervoltage lockout holds the bus; below it the gate drivers are off anyway).
 //! - `e` from the Hall timing: one Hall step is 1/24 motor turn, so
-//!   `e = K / ticks_per_step` with `K = Ke · (2π/24) · f_timer` ([`CurrentLimit::emf_mv_ticks`]).
-//!   The drive uses `ticks_per_step = max(last step interval, time since the last step)`:
+//!   `e = K / t_step` with `K = Ke · (2π/24) · 10⁷ s⁻¹` (`t_step` in [`DriveTime`]'s 100 ns;
+//!   [`CurrentLimit::emf_mv_time`]).
+//!   The drive uses `t_step = max(last step interval, time since the last step)`:
 //!   exact at constant speed and an *upper* bound of the speed while the rotor slows (a slowing
 //!   rotor moved less than one step since its last edge), which is what coasting, braking and
 //!   the moment before a reversal are. (While the rotor speeds up the estimate lags by one step
@@ -66,8 +67,9 @@
 //! divisions done in `u32`; the conversions are precomputed by [`DriveConfig::new`], which
 //! refuses a configuration whose arithmetic could overflow.
 
+use crate::drive::DriveTime;
+use crate::drive::dead_time::{DEAD_TIME_MAX, DEAD_TIME_MIN};
 use crate::drive::duty::{DUTY_MAX, DUTY_ONE, Duty};
-use crate::drive::{PWM_TIMER_HZ, PwmTicks};
 use crate::units::{AdcCode, Amps, Volts};
 
 /// The converter's full-scale code count (12 bit).
@@ -75,7 +77,7 @@ const ADC_COUNTS: u32 = 4_096;
 
 /// How long the bridge must have been all-off before the current sense is tared: 5 ms
 /// (the winding current decays with `L/R` ≈ 1.4 ms; after 3.5 time constants it is < 3 %).
-pub const TARE_SETTLE: PwmTicks = PwmTicks::from_micros(5_000);
+pub const TARE_SETTLE: DriveTime = DriveTime::from_micros(5_000);
 
 /// What the current converter code stands for.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
@@ -199,9 +201,9 @@ pub struct CurrentLimit {
     /// The lowest resistance of the conducting pair (windings + two MOSFETs), mΩ: the
     /// nameplate's 0.846 Ω less 17 % for cold copper and tolerance.
     pub resistance_mohm: u32,
-    /// Back-EMF × PWM-timer ticks per Hall step, mV·ticks: `Ke·(2π/24)·f_timer` =
-    /// 60.1 mV·s/rad × 0.2618 rad × 170 MHz = 2.675 × 10⁹.
-    pub emf_mv_ticks: u32,
+    /// Back-EMF × time per Hall step, mV·(0.1 µs): `Ke·(2π/24)·10⁷ s⁻¹` =
+    /// 60.1 mV·s/rad × 0.2618 rad × 10⁷ = 1.5735 × 10⁸.
+    pub emf_mv_time: u32,
     /// The per-period fold-back threshold on the sampled winding current, mA (9.5 A).
     pub fold_back_ma: u32,
 }
@@ -211,7 +213,7 @@ impl CurrentLimit {
     pub const PAPER: Self = Self {
         limit_ma: 8_000,
         resistance_mohm: 700,
-        emf_mv_ticks: 2_675_000_000,
+        emf_mv_time: 157_350_000,
         fold_back_ma: 9_500,
     };
 }
@@ -226,6 +228,8 @@ pub enum DriveConfigError {
     Bus,
     /// The current limit is zero, at or above the trip, or `I·R` would overflow.
     Limit,
+    /// The dead time is outside [`DEAD_TIME_MIN`]..=[`DEAD_TIME_MAX`].
+    DeadTime,
 }
 
 /// A duty range the drive may apply: `low ≤ duty ≤ high`.
@@ -264,6 +268,8 @@ pub struct DriveConfig {
     regen_code: u16,
     /// Bus code at or above which the drive faults.
     over_code: u16,
+    /// The bridge's dead time (the board's gate drivers and MOSFETs).
+    dead_time: DriveTime,
 }
 
 /// A link-average reading's allowance over `D × I_lim` before it counts as over the limit:
@@ -291,9 +297,12 @@ impl DriveConfig {
         limit_codes: 1_311,
         regen_code: 2_595,
         over_code: 2_731,
+        dead_time: DriveTime::from_micros(1),
     };
 
-    /// A configuration for `sense`, `bus` and `limit` with the trip at `trip_ma`.
+    /// A configuration for `sense`, `bus` and `limit` with the trip at `trip_ma` and the
+    /// bridge's `dead_time` (the same value the board programs into its timer's dead-time
+    /// generator).
     ///
     /// # Errors
     /// [`DriveConfigError`] names the part that is zero, out of order or out of range.
@@ -302,7 +311,11 @@ impl DriveConfig {
         bus: BusSense,
         limit: CurrentLimit,
         trip_ma: u32,
+        dead_time: DriveTime,
     ) -> Result<Self, DriveConfigError> {
+        if !(DEAD_TIME_MIN..=DEAD_TIME_MAX).contains(&dead_time) {
+            return Err(DriveConfigError::DeadTime);
+        }
         if sense.na_per_code == 0 || sense.design_zero > AdcCode::MAX {
             return Err(DriveConfigError::CurrentSense);
         }
@@ -332,7 +345,7 @@ impl DriveConfig {
         if limit.limit_ma >= trip_ma
             || limit.fold_back_ma < limit.limit_ma
             || limit.fold_back_ma >= trip_ma
-            || limit.emf_mv_ticks == 0
+            || limit.emf_mv_time == 0
         {
             return Err(DriveConfigError::Limit);
         }
@@ -346,7 +359,14 @@ impl DriveConfig {
             limit_codes,
             regen_code,
             over_code,
+            dead_time,
         })
+    }
+
+    /// The bridge's dead time.
+    #[must_use]
+    pub const fn dead_time(&self) -> DriveTime {
+        self.dead_time
     }
 
     /// The current sense.
@@ -391,12 +411,12 @@ impl DriveConfig {
         code.get() >= self.over_code
     }
 
-    /// The back-EMF, mV, of a rotor making one Hall step every `ticks_per_step` ticks
-    /// (zero for a rotor at rest, `ticks_per_step = 0` meaning "no step seen"), at most
+    /// The back-EMF, mV, of a rotor making one Hall step every `per_step` ([`DriveTime`]
+    /// units; zero for a rotor at rest, `per_step = 0` meaning "no step seen"), at most
     /// [`EMF_MAX_MV`].
     #[must_use]
-    pub fn emf_mv(&self, ticks_per_step: u32) -> u32 {
-        self.limit.emf_mv_ticks.checked_div(ticks_per_step).unwrap_or(0).min(EMF_MAX_MV)
+    pub fn emf_mv(&self, per_step: u32) -> u32 {
+        self.limit.emf_mv_time.checked_div(per_step).unwrap_or(0).min(EMF_MAX_MV)
     }
 
     /// The duty window for a bus code and a back-EMF `emf_mv` that is positive when the rotor
@@ -453,7 +473,7 @@ impl DriveConfig {
     /// - A **link-average** reading is `≈ D·I` (the bus carries the winding current only while
     ///   the high side is on): it is compared with `D_hold × I_lim × 1.3`, where `D_hold` is
     ///   the largest duty applied lately (`duty_hold`, which falls no faster than the slowest
-    ///   RC filter forgets, see [`crate::drive::DUTY_HOLD_DECAY_PER_PERIOD`]) and at least
+    ///   RC filter forgets, see [`crate::drive::DUTY_HOLD_DECAY_PER_MS`]) and at least
     ///   [`LINK_DUTY_FLOOR`]. The 1.3 covers the filter's ripple at its sampling instant: an
     ///   RC of `τ ≥ 2` PWM periods fed `I` for `D` of each period reads at most
     ///   `(1 − e^(−D·T/τ)) / (1 − e^(−T/τ)) · I ≤ 1.27·D·I`. A healthy motor (at most the
@@ -534,17 +554,24 @@ fn duty_of(mv: u32, bus_mv: u32, round_up: bool) -> Duty {
     Duty::from_raw_clamped(u16::try_from(raw).unwrap_or(DUTY_MAX.raw()))
 }
 
-/// PWM-timer ticks in one second, for the back-EMF constant's derivation.
-pub const TICKS_PER_SECOND: u32 = PWM_TIMER_HZ;
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    use crate::drive::TIME_UNITS_PER_SECOND;
+
+    /// taut's board's dead time.
+    const DEAD_TIME: DriveTime = DriveTime::from_micros(1);
+
     #[test]
     fn the_paper_constants_are_what_new_computes() {
-        let built =
-            DriveConfig::new(CurrentSense::PAPER, BusSense::PAPER, CurrentLimit::PAPER, 12_000);
+        let built = DriveConfig::new(
+            CurrentSense::PAPER,
+            BusSense::PAPER,
+            CurrentLimit::PAPER,
+            12_000,
+            DEAD_TIME,
+        );
         assert_eq!(built, Ok(DriveConfig::PAPER));
     }
 
@@ -574,7 +601,8 @@ mod tests {
     fn a_three_volt_three_referred_bus_divider_is_accepted() {
         // The firmware's X-NUCLEO-IHM08M1: gain 0.0522 on a 3.3 V converter, 63.2 V full scale.
         let bus = BusSense { full_scale_mv: 63_218, ..BusSense::PAPER };
-        let config = DriveConfig::new(CurrentSense::PAPER, bus, CurrentLimit::PAPER, 12_000);
+        let config =
+            DriveConfig::new(CurrentSense::PAPER, bus, CurrentLimit::PAPER, 12_000, DEAD_TIME);
         let Ok(config) = config else { panic!("{config:?}") };
         // Code 1 555 of that divider is 24.0 V, to the mV below (the paper's 1:12 would call it 22.8 V).
         assert_eq!(config.bus().volts(AdcCode::new(1_555)), Volts::from_milli(23_999));
@@ -601,6 +629,7 @@ mod tests {
             BusSense::PAPER,
             CurrentLimit::PAPER,
             12_000,
+            DEAD_TIME,
         ) else {
             panic!("the link-average board is a valid configuration");
         };
@@ -625,6 +654,7 @@ mod tests {
             BusSense::PAPER,
             CurrentLimit::PAPER,
             12_000,
+            DEAD_TIME,
         ) else {
             panic!("the per-phase board is a valid configuration");
         };
@@ -689,13 +719,13 @@ mod tests {
     }
 
     #[test]
-    fn the_back_emf_constant_is_ke_times_a_step_angle_times_the_timer() {
-        // Ke = 60.1 mV·s/rad, 2π/24 rad per step, 170 MHz.
-        let k = 60.1 * (2.0 * core::f64::consts::PI / 24.0) * f64::from(TICKS_PER_SECOND);
-        let relative = (f64::from(CurrentLimit::PAPER.emf_mv_ticks) - k).abs() / k;
+    fn the_back_emf_constant_is_ke_times_a_step_angle_times_the_time_unit() {
+        // Ke = 60.1 mV·s/rad, 2π/24 rad per step, 10⁷ time units per second.
+        let k = 60.1 * (2.0 * core::f64::consts::PI / 24.0) * f64::from(TIME_UNITS_PER_SECOND);
+        let relative = (f64::from(CurrentLimit::PAPER.emf_mv_time) - k).abs() / k;
         assert!(relative < 0.001, "{k}");
-        // 3 700 rpm = 1 480 steps/s: one step per 114 865 ticks reads ≈ 23.3 V.
-        let e = DriveConfig::PAPER.emf_mv(114_865);
+        // 3 700 rpm = 1 480 steps/s: one step per 675.7 µs reads ≈ 23.3 V.
+        let e = DriveConfig::PAPER.emf_mv(6_757);
         assert!((23_000..23_500).contains(&e), "{e}");
         assert_eq!(DriveConfig::PAPER.emf_mv(0), 0);
     }
@@ -775,7 +805,8 @@ mod tests {
             CurrentSense::PER_PHASE_BIDIRECTIONAL,
             CurrentSense::LINK_AVERAGE_BIDIRECTIONAL,
         ] {
-            let config = DriveConfig::new(sense, BusSense::PAPER, CurrentLimit::PAPER, 12_000);
+            let config =
+                DriveConfig::new(sense, BusSense::PAPER, CurrentLimit::PAPER, 12_000, DEAD_TIME);
             let Ok(config) = config else { panic!("{sense:?}") };
             let zero = sense.design_zero;
             let amps = |code: u16| {
@@ -804,21 +835,38 @@ mod tests {
         let b = BusSense::PAPER;
         let l = CurrentLimit::PAPER;
         assert_eq!(
-            DriveConfig::new(CurrentSense { na_per_code: 0, ..s }, b, l, 12_000),
+            DriveConfig::new(CurrentSense { na_per_code: 0, ..s }, b, l, 12_000, DEAD_TIME),
             Err(DriveConfigError::CurrentSense)
         );
-        assert_eq!(DriveConfig::new(s, b, l, 30_000), Err(DriveConfigError::CurrentSense));
         assert_eq!(
-            DriveConfig::new(s, BusSense { regen_mv: 45_000, ..b }, l, 12_000),
+            DriveConfig::new(s, b, l, 30_000, DEAD_TIME),
+            Err(DriveConfigError::CurrentSense)
+        );
+        assert_eq!(
+            DriveConfig::new(s, BusSense { regen_mv: 45_000, ..b }, l, 12_000, DEAD_TIME),
             Err(DriveConfigError::Bus)
         );
         assert_eq!(
-            DriveConfig::new(s, b, CurrentLimit { limit_ma: 12_000, ..l }, 12_000),
+            DriveConfig::new(s, b, CurrentLimit { limit_ma: 12_000, ..l }, 12_000, DEAD_TIME),
             Err(DriveConfigError::Limit)
         );
         assert_eq!(
-            DriveConfig::new(s, b, CurrentLimit { emf_mv_ticks: 0, ..l }, 12_000),
+            DriveConfig::new(s, b, CurrentLimit { emf_mv_time: 0, ..l }, 12_000, DEAD_TIME),
             Err(DriveConfigError::Limit)
         );
+        // The dead time: a zero one (no both-off time at all) and one beyond 5 µs are refused,
+        // the bounds themselves accepted and kept.
+        for (dead_time, accepted) in [
+            (DriveTime(0), false),
+            (DEAD_TIME_MIN, true),
+            (DEAD_TIME_MAX, true),
+            (DriveTime(DEAD_TIME_MAX.0 + 1), false),
+        ] {
+            let config = DriveConfig::new(s, b, l, 12_000, dead_time);
+            assert_eq!(
+                config.map(|c| c.dead_time()),
+                if accepted { Ok(dead_time) } else { Err(DriveConfigError::DeadTime) }
+            );
+        }
     }
 }

@@ -5,7 +5,7 @@
 //!
 //! [`Drive::step`] runs on every PWM period (and on Hall edges): it is handed one
 //! [`DriveSample`] — the voted Hall code, the bus-current code, the overcurrent comparator's
-//! flag, the limit switches and the timer ticks since the previous call — and returns the
+//! flag, the limit switches and the time since the previous call ([`DriveTime`]) — and returns the
 //! [`DriveOutput`] to put on the bridge: a [`SwitchPattern`] and a [`Duty`] for its high side.
 //! The 1 kHz control tick talks to the drive only through [`Drive::set_command`] (direction
 //! and duty, or coast) and [`Drive::clear_fault`], and reads back [`Drive::status`].
@@ -33,10 +33,10 @@
 //!    controller therefore holds the direction with a low or zero duty rather than coasting:
 //!    a coast would make a string-back-driven rotor wait to be quiet before pulling again.)
 //! 5. **Dead time.** The request goes through the [`DeadTimeSequencer`], which keeps any leg
-//!    that must change sides off for [`DEAD_TIME`].
+//!    that must change sides off for the board's dead time ([`DriveConfig::dead_time`]).
 //! 6. **Duty.** Emitted only while some high side is on (otherwise zero): the held command's
 //!    duty (bounded by [`DUTY_MAX`] by its type), slewed by at most
-//!    [`DUTY_SLEW_PER_PERIOD`] per PWM period from the last applied duty, folded back halfway
+//!    [`DUTY_SLEW_PER_MS`] (pro rata of the time since the last call) from the last applied duty, folded back halfway
 //!    to the zero-current duty in a period whose sampled winding current is at the fold-back
 //!    threshold, and always clamped into the **duty window** — so the winding current stays
 //!    within the limit whatever the command, the rotor speed or the bus voltage (`limit`).
@@ -66,7 +66,7 @@ pub mod limit;
 
 pub use balance::{IMBALANCE_STRIKES, WindingBalance};
 pub use commutation::{Gates, LegState, Phase, SwitchPattern, six_step};
-pub use dead_time::{DEAD_TIME, DeadTimeSequencer};
+pub use dead_time::{DEAD_TIME_MAX, DEAD_TIME_MIN, DeadTimeSequencer};
 pub use duty::{DUTY_MAX, Duty};
 pub use hall::{HALL_CONFIRM_READS, HallCode, HallFilter, HallState, Sector, SectorStep};
 pub use limit::{BusSense, DriveConfig, DutyWindow, TARE_SETTLE};
@@ -75,36 +75,39 @@ use crate::io::LimitSwitches;
 use crate::units::{AdcCode, Amps, Volts};
 use duty::DUTY_ONE;
 
-/// Clock of the PWM timer: the STM32G431's TIM1 at 170 MHz.
-pub const PWM_TIMER_HZ: u32 = 170_000_000;
-
-/// PWM frequency: 20 kHz, above hearing and ≈ 24 periods per sector at full speed.
-pub const PWM_FREQUENCY_HZ: u32 = 20_000;
-
-/// Timer ticks in one PWM period (edge-aligned): 170 MHz / 20 kHz = 8 500.
-pub const PWM_PERIOD_TICKS: u16 = 8_500;
-
-/// A duration in ticks of the PWM timer ([`PWM_TIMER_HZ`]).
+/// A duration in tenths of a microsecond (100 ns), the drive's board-independent unit of time.
+///
+/// The drive never sees a clock frequency: the firmware converts its timer's counts
+/// (`firmware/src/timing.rs`), the twin its simulation step, each into this unit, and every
+/// duration the drive and the machine compare against is written in microseconds. 100 ns
+/// resolves the dead time (1 µs = 10) and a Hall step at full speed (≈ 675 µs = 6 750) to
+/// well under a percent, and a `u32` spans 429 s.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Debug, Default)]
-pub struct PwmTicks(pub u32);
+pub struct DriveTime(pub u32);
 
-impl PwmTicks {
-    /// Ticks in `micros` microseconds, saturating.
+/// [`DriveTime`] units in one microsecond.
+pub const TIME_UNITS_PER_MICRO: u32 = 10;
+
+/// [`DriveTime`] units in one second.
+pub const TIME_UNITS_PER_SECOND: u32 = 10_000_000;
+
+impl DriveTime {
+    /// `micros` microseconds, saturating.
     #[must_use]
     pub const fn from_micros(micros: u32) -> Self {
-        Self(micros.saturating_mul(PWM_TIMER_HZ / 1_000_000))
+        Self(micros.saturating_mul(TIME_UNITS_PER_MICRO))
     }
 }
 
 /// Time without a Hall step after which the drive counts the rotor as at rest and tares the
 /// current sense once the bridge is off: 20 ms (a speed below 125 rpm, a back-EMF below
 /// 0.8 V). Reversal no longer waits for it: see [`limit`].
-pub const REVERSAL_QUIET: PwmTicks = PwmTicks::from_micros(20_000);
+pub const REVERSAL_QUIET: DriveTime = DriveTime::from_micros(20_000);
 
-/// The largest change of the applied duty per PWM period (8 500 ticks): 5 % of the period,
-/// so the duty goes from zero to [`DUTY_MAX`] in 1 ms — one control tick — and a step in the
-/// command cannot outrun the Hall-based back-EMF estimate.
-pub const DUTY_SLEW_PER_PERIOD: u16 = 3_277;
+/// The largest change of the applied duty per millisecond: full scale (65 540 raw units), so
+/// the duty goes from zero to [`DUTY_MAX`] in under 1 ms — one control tick — and a step in the
+/// command cannot outrun the Hall-based back-EMF estimate (3 277 per 50 µs PWM period).
+pub const DUTY_SLEW_PER_MS: u32 = 65_540;
 
 /// The over-limit count's rise per PWM period whose sampled winding current is above the
 /// limit the duty window keeps to ([`limit::DriveConfig::over_limit`], 8 A); it falls by one
@@ -112,11 +115,11 @@ pub const DUTY_SLEW_PER_PERIOD: u16 = 3_277;
 pub const FOLD_BACK_RISE: u16 = 8;
 
 /// How fast the duty a link-average current reading is judged by ([`Drive::step`]'s
-/// `duty_hold`: the largest duty applied lately) falls, duty raw units per PWM period: 164,
-/// 1/400 of full scale, so from [`DUTY_MAX`] to zero in ≈ 19 ms. An RC-filtered link reading
-/// forgets an earlier, higher duty with its time constant (at most ≈ 1 ms, 20 periods), so
-/// the held duty never falls below the duty the reading still reflects.
-pub const DUTY_HOLD_DECAY_PER_PERIOD: u16 = 164;
+/// `duty_hold`: the largest duty applied lately) falls, duty raw units per millisecond: 3 280
+/// (164 per 50 µs PWM period), 1/20 of full scale, so from [`DUTY_MAX`] to zero in ≈ 19 ms. An
+/// RC-filtered link reading forgets an earlier, higher duty with its time constant (at most
+/// ≈ 1 ms), so the held duty never falls below the duty the reading still reflects.
+pub const DUTY_HOLD_DECAY_PER_MS: u32 = 3_280;
 
 /// The over-limit count at which the drive latches an overcurrent: 320 — 40 consecutive
 /// periods (2 ms) above the limit, or more than one period in nine kept up (an inter-turn
@@ -133,8 +136,8 @@ pub const FOLD_BACK_TRIP: u16 = 320;
 pub const FOLD_BACK_TRIP_PERIODS: u16 = FOLD_BACK_TRIP / FOLD_BACK_RISE;
 
 /// How long the window's lower edge may hold the duty above the command before the drive
-/// latches an overcurrent: 500 ms of PWM-timer ticks (net: a lifted period adds its ticks,
-/// any other call takes its ticks off). The lower edge lifts the duty only to bound the
+/// latches an overcurrent: 500 ms, net (a lifted period adds its time,
+/// any other call takes its time off). The lower edge lifts the duty only to bound the
 /// braking current while the rotor turns faster than the command would drive it; a healthy
 /// rotor braked at the window's limit (≈ 8 A, ≈ 0.5 N·m) stops from full speed in tens of
 /// milliseconds (≈ 35 ms at twice the nominal inertia), and coasting from full speed on a
@@ -144,12 +147,12 @@ pub const FOLD_BACK_TRIP_PERIODS: u16 = FOLD_BACK_TRIP / FOLD_BACK_RISE;
 /// phase's turns), so the lower edge itself drives motoring current past the limit — on a
 /// link-average board, where no sample need show it. The current cannot be held by the
 /// window, which is what [`DriveFault::Overcurrent`] means.
-pub const LIFT_LIMIT: PwmTicks = PwmTicks::from_micros(500_000);
+pub const LIFT_LIMIT: DriveTime = DriveTime::from_micros(500_000);
 
 /// How long the rotor may turn faster than the applied voltage can drive a healthy winding,
 /// while drawing motoring current, before the drive latches an overcurrent (REQ-DRV-12):
-/// 20 ms of PWM-timer ticks, net (an overspeeding motoring period adds its ticks, a motoring
-/// period within the voltage and any call that does not conduct take their ticks off, a
+/// 20 ms, net (an overspeeding motoring period adds its time, a motoring
+/// period within the voltage and any call that does not conduct take their time off, a
 /// conducting period without motoring current leaves the count as it is).
 ///
 /// With motoring current `i > 0` the winding's own equation `D·V = e + i·R + L·di/dt` gives
@@ -163,7 +166,7 @@ pub const LIFT_LIMIT: PwmTicks = PwmTicks::from_micros(500_000);
 /// `Ke`) must exceed the applied voltage by [`OVERSPEED_MARGIN`] and [`OVERSPEED_FLOOR_MV`],
 /// with a motoring reading of at least an eighth of the window's limit (× the duty, at least
 /// a quarter, on a link-average board: [`limit::DriveConfig::motoring`]).
-pub const OVERSPEED_LIMIT: PwmTicks = PwmTicks::from_micros(20_000);
+pub const OVERSPEED_LIMIT: DriveTime = DriveTime::from_micros(20_000);
 
 /// The overspeed test's relative margin, in eighths: the Hall speed's back-EMF × 7/8 must
 /// exceed the applied voltage (a 14 % excess): a healthy motor whose `Ke` is up to 17 % below
@@ -277,8 +280,8 @@ pub struct DriveSample {
     pub bus_voltage: AdcCode,
     /// The carriage limit switches.
     pub limits: LimitSwitches,
-    /// PWM-timer ticks since the previous call.
-    pub elapsed: PwmTicks,
+    /// Time since the previous call.
+    pub elapsed: DriveTime,
 }
 
 /// What to put on the bridge now.
@@ -315,8 +318,8 @@ pub struct DriveStatus {
     pub steps: i32,
     /// The direction the rotor was last seen turning.
     pub rotation: Option<Direction>,
-    /// Ticks since the last accepted Hall step (saturating).
-    pub quiet_for: PwmTicks,
+    /// Time since the last accepted Hall step (saturating).
+    pub quiet_for: DriveTime,
     /// The direction the bridge is energised for, if any.
     pub energized: Option<Direction>,
     /// The motor current of the last sample, in the board's own scale and from the zero the
@@ -335,59 +338,59 @@ pub struct Drive {
     command: DriveCommand,
     energized: Option<Direction>,
     rotation: Option<Direction>,
-    quiet_for: PwmTicks,
+    quiet_for: DriveTime,
     steps: i32,
     fault: Option<DriveFault>,
     trip_active: bool,
     config: DriveConfig,
     /// The current sense's zero, tared while the bridge is off, in 1/16 codes.
     zero16: u16,
-    /// Ticks the bridge has been all-off (saturating).
-    off_for: PwmTicks,
-    /// Ticks between the last two accepted Hall steps in the same direction (0: unknown).
-    interval: PwmTicks,
+    /// Time the bridge has been all-off (saturating).
+    off_for: DriveTime,
+    /// Time between the last two accepted Hall steps in the same direction (0: unknown).
+    interval: DriveTime,
     /// The duty applied in the previous call (zero while no high side conducted).
     applied: Duty,
     /// The leaky fold-back count ([`FOLD_BACK_RISE`], [`FOLD_BACK_TRIP`]).
     folded: u16,
-    /// The largest duty applied lately, falling by [`DUTY_HOLD_DECAY_PER_PERIOD`]: what a
+    /// The largest duty applied lately, falling by [`DUTY_HOLD_DECAY_PER_MS`]: what a
     /// link-average current reading is judged by ([`limit::DriveConfig::over_limit`]).
     duty_hold: Duty,
-    /// Net ticks the window's lower edge has held the duty above the command ([`LIFT_LIMIT`]).
-    lifted_for: PwmTicks,
+    /// Net time the window's lower edge has held the duty above the command ([`LIFT_LIMIT`]).
+    lifted_for: DriveTime,
     /// The three conducting pairs' currents, revolution by revolution ([`balance`]).
     balance: WindingBalance,
-    /// Net ticks the rotor has turned faster than the applied voltage drives a healthy
+    /// Net time the rotor has turned faster than the applied voltage drives a healthy
     /// winding while motoring ([`OVERSPEED_LIMIT`]).
-    overspeed_for: PwmTicks,
+    overspeed_for: DriveTime,
     /// The step interval averaged over about a revolution (1/8 per step; 0: unknown): the
     /// overspeed test's speed, free of the Hall sensors' placement and of the call's
     /// quantisation.
-    interval_average: PwmTicks,
+    interval_average: DriveTime,
     /// The last sample's current and bus codes, for [`Drive::status`].
     last_current: AdcCode,
     last_bus: AdcCode,
 }
 
-/// One PWM period in ticks, for the per-period rates below.
-const PERIOD: u32 = PWM_PERIOD_TICKS as u32;
+/// The longest gap between calls the per-millisecond rates are scaled over: 1 ms (the slew's
+/// whole range; the cap keeps the products in a `u32`).
+const RATE_SPAN: u32 = 1_000 * TIME_UNITS_PER_MICRO;
 
-/// The longest gap between calls the per-period rates are scaled over: twenty periods (the
-/// slew's whole range; the cap keeps the products in a `u32`).
-const RATE_SPAN: u32 = 20 * PERIOD;
-
-/// The held duty's fall for a call `elapsed` ticks after the previous one, duty raw units.
-fn hold_decay_for(elapsed: PwmTicks) -> u16 {
-    let ticks = elapsed.0.min(RATE_SPAN);
-    let decay = ticks.saturating_mul(u32::from(DUTY_HOLD_DECAY_PER_PERIOD)) / PERIOD;
-    u16::try_from(decay).unwrap_or(u16::MAX)
+/// `per_ms` raw duty units per millisecond, over `elapsed` (at most [`RATE_SPAN`]).
+fn rate_for(elapsed: DriveTime, per_ms: u32) -> u16 {
+    let units = elapsed.0.min(RATE_SPAN);
+    let amount = units.saturating_mul(per_ms) / RATE_SPAN;
+    u16::try_from(amount).unwrap_or(u16::MAX)
 }
 
-/// The slew allowance for a call `elapsed` ticks after the previous one, duty raw units.
-fn slew_for(elapsed: PwmTicks) -> u16 {
-    let ticks = elapsed.0.min(RATE_SPAN);
-    let allowance = ticks.saturating_mul(u32::from(DUTY_SLEW_PER_PERIOD)) / PERIOD;
-    u16::try_from(allowance).unwrap_or(u16::MAX)
+/// The held duty's fall for a call `elapsed` after the previous one, duty raw units.
+fn hold_decay_for(elapsed: DriveTime) -> u16 {
+    rate_for(elapsed, DUTY_HOLD_DECAY_PER_MS)
+}
+
+/// The slew allowance for a call `elapsed` after the previous one, duty raw units.
+fn slew_for(elapsed: DriveTime) -> u16 {
+    rate_for(elapsed, DUTY_SLEW_PER_MS)
 }
 
 impl Default for Drive {
@@ -410,25 +413,25 @@ impl Drive {
         Self {
             filter: HallFilter::new(),
             last_sector: None,
-            sequencer: DeadTimeSequencer::new(),
+            sequencer: DeadTimeSequencer::new(config.dead_time()),
             command: DriveCommand::Coast,
             energized: None,
             rotation: None,
-            quiet_for: PwmTicks(0),
+            quiet_for: DriveTime(0),
             steps: 0,
             fault: None,
             trip_active: false,
             config,
             zero16: config.sense().design_zero.get().saturating_mul(16),
-            off_for: PwmTicks(0),
-            interval: PwmTicks(0),
+            off_for: DriveTime(0),
+            interval: DriveTime(0),
             applied: Duty::ZERO,
             folded: 0,
             duty_hold: Duty::ZERO,
-            lifted_for: PwmTicks(0),
+            lifted_for: DriveTime(0),
             balance: WindingBalance::new(),
-            overspeed_for: PwmTicks(0),
-            interval_average: PwmTicks(0),
+            overspeed_for: DriveTime(0),
+            interval_average: DriveTime(0),
             last_current: config.sense().design_zero,
             last_bus: AdcCode::new(0),
         }
@@ -465,13 +468,13 @@ impl Drive {
             let e = i32::try_from(self.config.emf_mv(self.quiet_for.0.max(1))).unwrap_or(0);
             return e.saturating_neg();
         };
-        let ticks = self.interval.0.max(self.quiet_for.0);
+        let per_step = self.interval.0.max(self.quiet_for.0);
         if self.interval.0 == 0 {
             // One step seen, no interval yet: the speed is at most one step since then.
             let e = i32::try_from(self.config.emf_mv(self.quiet_for.0.max(1))).unwrap_or(0);
             return if rotation == direction { 0 } else { e.saturating_neg() };
         }
-        let e = i32::try_from(self.config.emf_mv(ticks)).unwrap_or(i32::MAX);
+        let e = i32::try_from(self.config.emf_mv(per_step)).unwrap_or(i32::MAX);
         if rotation == direction { e } else { e.saturating_neg() }
     }
 
@@ -555,7 +558,7 @@ impl Drive {
         // The sector and the bridge while this sample's current flowed (the previous call's).
         let (sampled_sector, sampled_driving) = (self.last_sector, !self.applied.is_zero());
         (self.last_current, self.last_bus) = (sample.current, sample.bus_voltage);
-        self.quiet_for = PwmTicks(self.quiet_for.0.saturating_add(sample.elapsed.0));
+        self.quiet_for = DriveTime(self.quiet_for.0.saturating_add(sample.elapsed.0));
 
         // 1. Overcurrent and bus overvoltage, before anything else.
         self.trip_active = sample.overcurrent_trip;
@@ -631,7 +634,7 @@ impl Drive {
         let (Some(window), true) = (window, pattern.count(LegState::High) > 0) else {
             return self.off_with(pattern, sample);
         };
-        self.off_for = PwmTicks(0);
+        self.off_for = DriveTime(0);
         let slew = slew_for(sample.elapsed);
         let target = window.clamp(self.command.duty());
         let slewed = if target > self.applied {
@@ -648,13 +651,13 @@ impl Drive {
             self.folded.saturating_sub(1)
         };
         self.lifted_for = if self.command.duty() < window.low {
-            PwmTicks(self.lifted_for.0.saturating_add(sample.elapsed.0))
+            DriveTime(self.lifted_for.0.saturating_add(sample.elapsed.0))
         } else {
-            PwmTicks(self.lifted_for.0.saturating_sub(sample.elapsed.0))
+            DriveTime(self.lifted_for.0.saturating_sub(sample.elapsed.0))
         };
         self.overspeed_for = match self.overspeeding(sample.current, sample.bus_voltage) {
-            Some(true) => PwmTicks(self.overspeed_for.0.saturating_add(sample.elapsed.0)),
-            Some(false) => PwmTicks(self.overspeed_for.0.saturating_sub(sample.elapsed.0)),
+            Some(true) => DriveTime(self.overspeed_for.0.saturating_add(sample.elapsed.0)),
+            Some(false) => DriveTime(self.overspeed_for.0.saturating_sub(sample.elapsed.0)),
             None => self.overspeed_for,
         };
         if self.folded >= FOLD_BACK_TRIP
@@ -681,8 +684,8 @@ impl Drive {
     /// All off: no high side conducts (a fault, coast, or a pattern the dead time holds off).
     fn off(&mut self, sample: DriveSample) -> DriveOutput {
         self.folded = 0;
-        self.lifted_for = PwmTicks(0);
-        self.overspeed_for = PwmTicks(0);
+        self.lifted_for = DriveTime(0);
+        self.overspeed_for = DriveTime(0);
         self.energized = None;
         self.sequencer.all_off();
         self.off_with(SwitchPattern::ALL_OFF, sample)
@@ -693,34 +696,34 @@ impl Drive {
     fn off_with(&mut self, pattern: SwitchPattern, sample: DriveSample) -> DriveOutput {
         self.applied = Duty::ZERO;
         self.hold_duty(Duty::ZERO, sample.elapsed);
-        self.lifted_for = PwmTicks(self.lifted_for.0.saturating_sub(sample.elapsed.0));
-        self.overspeed_for = PwmTicks(self.overspeed_for.0.saturating_sub(sample.elapsed.0));
+        self.lifted_for = DriveTime(self.lifted_for.0.saturating_sub(sample.elapsed.0));
+        self.overspeed_for = DriveTime(self.overspeed_for.0.saturating_sub(sample.elapsed.0));
         if pattern.is_all_off() {
-            self.off_for = PwmTicks(self.off_for.0.saturating_add(sample.elapsed.0));
+            self.off_for = DriveTime(self.off_for.0.saturating_add(sample.elapsed.0));
             if self.off_for >= TARE_SETTLE {
                 self.tare(sample.current);
             }
         } else {
-            self.off_for = PwmTicks(0);
+            self.off_for = DriveTime(0);
         }
         DriveOutput { pattern, duty: Duty::ZERO }
     }
 
-    /// The held duty after a call that applied `applied` `elapsed` ticks after the previous.
-    fn hold_duty(&mut self, applied: Duty, elapsed: PwmTicks) {
+    /// The held duty after a call that applied `applied` `elapsed` after the previous.
+    fn hold_duty(&mut self, applied: Duty, elapsed: DriveTime) {
         let fallen = self.duty_hold.raw().saturating_sub(hold_decay_for(elapsed));
         self.duty_hold = applied.max(Duty::from_raw_clamped(fallen));
     }
 
-    /// Net ticks the window's lower edge has held the duty above the command ([`LIFT_LIMIT`]).
+    /// Net time the window's lower edge has held the duty above the command ([`LIFT_LIMIT`]).
     #[must_use]
-    pub const fn lifted_for(&self) -> PwmTicks {
+    pub const fn lifted_for(&self) -> DriveTime {
         self.lifted_for
     }
 
-    /// Net ticks the rotor has overspeeded while motoring ([`OVERSPEED_LIMIT`]).
+    /// Net time the rotor has overspeeded while motoring ([`OVERSPEED_LIMIT`]).
     #[must_use]
-    pub const fn overspeed_for(&self) -> PwmTicks {
+    pub const fn overspeed_for(&self) -> DriveTime {
         self.overspeed_for
     }
 
@@ -738,9 +741,9 @@ impl Drive {
         if !motoring {
             return None;
         }
-        let ticks = self.interval_average.0.max(self.quiet_for.0);
+        let per_step = self.interval_average.0.max(self.quiet_for.0);
         // 7 × e ≤ 7 × EMF_MAX_MV fits a u32; V × duty is one 32 × 32 → 64-bit product.
-        let emf = self.config.emf_mv(ticks).saturating_mul(OVERSPEED_MARGIN) / 8;
+        let emf = self.config.emf_mv(per_step).saturating_mul(OVERSPEED_MARGIN) / 8;
         let applied_mv = u64::from(self.config.bus().millivolts(bus))
             .saturating_mul(u64::from(self.applied.raw()))
             >> DUTY_ONE.trailing_zeros();
@@ -778,7 +781,12 @@ impl Drive {
     /// (a) the rotor is quiet or its last Hall step was already in `direction`, and (b) the
     /// dead-time sequencer can put the whole table entry on the gates in this same call; so
     /// the decision is taken on the rotor state of the very call whose output carries it.
-    fn engage(&mut self, direction: Direction, sector: Sector, elapsed: PwmTicks) -> SwitchPattern {
+    fn engage(
+        &mut self,
+        direction: Direction,
+        sector: Sector,
+        elapsed: DriveTime,
+    ) -> SwitchPattern {
         let entry = six_step(sector, direction);
         match self.energized {
             Some(current) if current == direction => entry,
@@ -822,17 +830,18 @@ impl Drive {
     /// An accepted Hall step in `direction`: the step interval (only between two steps the
     /// same way; a turn-around starts it afresh) and the rotation.
     fn stepped(&mut self, direction: Direction) {
-        self.interval = if self.rotation == Some(direction) { self.quiet_for } else { PwmTicks(0) };
+        self.interval =
+            if self.rotation == Some(direction) { self.quiet_for } else { DriveTime(0) };
         self.interval_average = match (self.interval.0, self.interval_average.0) {
-            (0, _) => PwmTicks(0),
-            (now, 0) => PwmTicks(now),
+            (0, _) => DriveTime(0),
+            (now, 0) => DriveTime(now),
             (now, average) if now >= average => {
-                PwmTicks(average.saturating_add(now.saturating_sub(average) / 8))
+                DriveTime(average.saturating_add(now.saturating_sub(average) / 8))
             }
-            (now, average) => PwmTicks(average.saturating_sub(average.saturating_sub(now) / 8)),
+            (now, average) => DriveTime(average.saturating_sub(average.saturating_sub(now) / 8)),
         };
         self.rotation = Some(direction);
-        self.quiet_for = PwmTicks(0);
+        self.quiet_for = DriveTime(0);
     }
 
     /// Latches `fault` unless one is already latched (the first cause is the one reported),
@@ -850,13 +859,22 @@ impl Drive {
 mod tests {
     use super::*;
 
+    /// One 50 µs PWM period of a 20 kHz board, in drive time.
+    const PERIOD: u32 = 50 * TIME_UNITS_PER_MICRO;
+
+    /// The slew allowance of one such period: 65 540 per ms × 0.05.
+    const DUTY_SLEW_PER_PERIOD: u16 = 3_277;
+
+    /// The held duty's fall in one such period: 3 280 per ms × 0.05.
+    const DUTY_HOLD_DECAY_PER_PERIOD: u16 = 164;
+
     /// A 24 V bus (code 1 638 of the 1:12 divider).
     const BUS_24V: AdcCode = AdcCode::new(1_638);
 
     fn sample(sector: Sector) -> DriveSample {
         DriveSample {
             hall: sector.hall_code(),
-            elapsed: PwmTicks(8_500),
+            elapsed: DriveTime(PERIOD),
             bus_voltage: BUS_24V,
             ..Default::default()
         }
@@ -900,22 +918,23 @@ mod tests {
         assert!(drive.applied().raw() < 15_400);
     }
 
-    /// The per-period rates scale with the time since the previous call, up to twenty periods
-    /// (a call that late may slew the whole range); no longer gap counts for more.
+    /// The per-millisecond rates scale with the time since the previous call, up to 1 ms
+    /// (twenty periods: a call that late may slew the whole range); no longer gap counts for
+    /// more.
     #[test]
     fn per_period_rates_scale_with_the_gap_up_to_twenty_periods() {
-        let period = u32::from(PWM_PERIOD_TICKS);
-        assert_eq!(slew_for(PwmTicks(period)), DUTY_SLEW_PER_PERIOD);
-        assert_eq!(slew_for(PwmTicks(period / 2)), DUTY_SLEW_PER_PERIOD / 2);
-        assert_eq!(slew_for(PwmTicks(10 * period)), 10 * DUTY_SLEW_PER_PERIOD);
+        let period = PERIOD;
+        assert_eq!(slew_for(DriveTime(period)), DUTY_SLEW_PER_PERIOD);
+        assert_eq!(slew_for(DriveTime(period / 2)), DUTY_SLEW_PER_PERIOD / 2);
+        assert_eq!(slew_for(DriveTime(10 * period)), 10 * DUTY_SLEW_PER_PERIOD);
         // Twenty periods' allowance is the whole range (it saturates the u16).
-        assert_eq!(slew_for(PwmTicks(20 * period)), u16::MAX);
-        assert_eq!(slew_for(PwmTicks(u32::MAX)), u16::MAX);
-        assert_eq!(hold_decay_for(PwmTicks(period)), DUTY_HOLD_DECAY_PER_PERIOD);
-        assert_eq!(hold_decay_for(PwmTicks(10 * period)), 10 * DUTY_HOLD_DECAY_PER_PERIOD);
-        assert_eq!(hold_decay_for(PwmTicks(20 * period)), 20 * DUTY_HOLD_DECAY_PER_PERIOD);
-        assert_eq!(hold_decay_for(PwmTicks(21 * period)), 20 * DUTY_HOLD_DECAY_PER_PERIOD);
-        assert_eq!(hold_decay_for(PwmTicks(u32::MAX)), 20 * DUTY_HOLD_DECAY_PER_PERIOD);
+        assert_eq!(slew_for(DriveTime(20 * period)), u16::MAX);
+        assert_eq!(slew_for(DriveTime(u32::MAX)), u16::MAX);
+        assert_eq!(hold_decay_for(DriveTime(period)), DUTY_HOLD_DECAY_PER_PERIOD);
+        assert_eq!(hold_decay_for(DriveTime(10 * period)), 10 * DUTY_HOLD_DECAY_PER_PERIOD);
+        assert_eq!(hold_decay_for(DriveTime(20 * period)), 20 * DUTY_HOLD_DECAY_PER_PERIOD);
+        assert_eq!(hold_decay_for(DriveTime(21 * period)), 20 * DUTY_HOLD_DECAY_PER_PERIOD);
+        assert_eq!(hold_decay_for(DriveTime(u32::MAX)), 20 * DUTY_HOLD_DECAY_PER_PERIOD);
     }
 
     #[test]
@@ -943,6 +962,7 @@ mod tests {
             BusSense::PAPER,
             limit::CurrentLimit::PAPER,
             12_000,
+            DriveConfig::PAPER.dead_time(),
         );
         let Ok(config) = config else { panic!("valid configuration") };
         let mut drive = Drive::with_config(config);
@@ -1054,6 +1074,7 @@ mod tests {
             BusSense::PAPER,
             limit::CurrentLimit::PAPER,
             12_000,
+            DriveConfig::PAPER.dead_time(),
         ) else {
             panic!("the link-average board is a valid configuration");
         };
@@ -1133,16 +1154,16 @@ mod tests {
     #[test]
     fn a_lower_edge_that_keeps_lifting_the_duty_latches_an_overcurrent_at_the_lift_limit() {
         // A command below the lower edge (a healthy rotor braking, or a shorted winding's
-        // runaway): the net lifted time rises by each period's ticks and latches at the limit.
+        // runaway): the net lifted time rises by each period's time and latches at the limit.
         let mut drive = settled(Sector::S0);
         let mut call = 0;
         turning_forward(&mut drive, &mut call, 200, 6_554);
         let lifted = drive.lifted_for();
         assert!(lifted.0 > 0, "the lower edge lifts a 10 % command at ≈ 15.7 V of back-EMF");
-        let periods_left = (LIFT_LIMIT.0 - lifted.0) / 8_500;
+        let periods_left = (LIFT_LIMIT.0 - lifted.0) / PERIOD;
         turning_forward(&mut drive, &mut call, periods_left - 1, 6_554);
         assert_eq!(drive.fault(), None, "one period short of the limit");
-        assert_eq!(drive.lifted_for().0, LIFT_LIMIT.0 - 8_500);
+        assert_eq!(drive.lifted_for().0, LIFT_LIMIT.0 - PERIOD);
         turning_forward(&mut drive, &mut call, 1, 6_554);
         assert_eq!(drive.fault(), Some(DriveFault::Overcurrent));
         assert_eq!(drive.pattern(), SwitchPattern::ALL_OFF);
@@ -1213,14 +1234,14 @@ mod tests {
     fn a_rotor_that_motors_faster_than_its_voltage_latches_an_overcurrent_in_twenty_ms() {
         // ≈ 15.7 V of back-EMF against 45 % of 24 V (10.8 V): with motoring current a healthy
         // winding cannot turn this fast (REQ-DRV-12). Net overspeeding time rises by each
-        // period's ticks and latches at 20 ms.
+        // period's time and latches at 20 ms.
         let mut drive = settled(Sector::S0);
         let mut call = 0;
         turning_at(&mut drive, &mut call, 20, 240, 29_491, 0);
         assert_eq!(drive.overspeed_for().0, 0, "no motoring current: not judged");
         turning_at(&mut drive, &mut call, 20, 200, 29_491, THREE_AMPS);
-        assert_eq!(drive.overspeed_for().0, 200 * 8_500);
-        let left = (OVERSPEED_LIMIT.0 - drive.overspeed_for().0) / 8_500;
+        assert_eq!(drive.overspeed_for().0, 200 * PERIOD);
+        let left = (OVERSPEED_LIMIT.0 - drive.overspeed_for().0) / PERIOD;
         turning_at(&mut drive, &mut call, 20, left - 1, 29_491, THREE_AMPS);
         assert_eq!(drive.fault(), None, "one period short of the limit");
         turning_at(&mut drive, &mut call, 20, 1, 29_491, THREE_AMPS);
@@ -1240,7 +1261,7 @@ mod tests {
         turning_at(&mut drive, &mut call, 20, 20_000, 34_900, THREE_AMPS);
         assert_eq!((drive.fault(), drive.overspeed_for().0), (None, 0));
         turning_at(&mut drive, &mut call, 20, 20, 34_800, THREE_AMPS);
-        assert_eq!(drive.overspeed_for().0, 19 * 8_500, "the first period flowed at 53.25 %");
+        assert_eq!(drive.overspeed_for().0, 19 * PERIOD, "the first period flowed at 53.25 %");
         turning_at(&mut drive, &mut call, 20, 200, 34_900, THREE_AMPS);
         assert_eq!((drive.fault(), drive.overspeed_for().0), (None, 0));
         // Exactly at the edge (53.21 %: 12 768 mV + 1 V = 13 768 mV) is not above.
@@ -1249,7 +1270,7 @@ mod tests {
         // Braking (no motoring reading) at 45 %: not evidence either way, the count holds.
         turning_at(&mut drive, &mut call, 20, 100, 29_491, THREE_AMPS);
         let counted = drive.overspeed_for();
-        assert_eq!(counted.0, 99 * 8_500, "the first period's current flowed under 60 %");
+        assert_eq!(counted.0, 99 * PERIOD, "the first period's current flowed under 60 %");
         turning_at(&mut drive, &mut call, 20, 20_000, 29_491, 100);
         assert_eq!((drive.fault(), drive.overspeed_for()), (None, counted));
         // Motoring within the voltage takes it back, period by period.
@@ -1468,7 +1489,7 @@ mod tests {
         drive.step(sample(Sector::S1));
         drive.step(sample(Sector::S1));
         assert_eq!(drive.status().steps, 1);
-        assert_eq!(drive.interval, PwmTicks(0));
+        assert_eq!(drive.interval, DriveTime(0));
     }
 
     #[test]
@@ -1499,7 +1520,7 @@ mod tests {
         }
         // After REVERSAL_QUIET without a step, the reverse entry comes on.
         let mut out = DriveOutput::OFF;
-        for _ in 0..(REVERSAL_QUIET.0 / 8_500 + 2) {
+        for _ in 0..(REVERSAL_QUIET.0 / PERIOD + 2) {
             out = drive.step(sample(Sector::S1));
         }
         assert_eq!(out.pattern, six_step(Sector::S1, Direction::Release));

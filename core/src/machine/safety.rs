@@ -31,7 +31,7 @@
 //! Every function here is pure: the same rule is called by the machine, by the Kani
 //! harnesses and by the model checker.
 
-use crate::drive::{DriveCommand, Duty, PwmTicks};
+use crate::drive::{DriveCommand, DriveTime, Duty};
 use crate::io::{Inputs, LimitSwitches};
 use crate::machine::fault::FaultCode;
 use crate::units::{AdcCode, Kgf, Q16};
@@ -56,8 +56,8 @@ pub const STALL_DUTY: Duty = Duty::from_raw_clamped(3_277);
 /// How long a driven motor may go without a Hall step before it counts as stalled, ms.
 pub const STALL_QUIET_MS: u32 = 500;
 
-/// [`STALL_QUIET_MS`] in PWM-timer ticks, as the drive reports its quiet time.
-pub const STALL_QUIET: PwmTicks = PwmTicks::from_micros(STALL_QUIET_MS * 1_000);
+/// [`STALL_QUIET_MS`] in drive time, as the drive reports its quiet time.
+pub const STALL_QUIET: DriveTime = DriveTime::from_micros(STALL_QUIET_MS * 1_000);
 
 /// The tension above the pull's peak target that counts as overload.
 pub const OVERLOAD_MARGIN: Kgf = Kgf::from_int(5);
@@ -355,19 +355,19 @@ mod tests {
         let at = |duty: Duty| DriveCommand::Drive { direction: Direction::Pull, duty };
         let mut inputs = Inputs::default();
         inputs.drive.quiet_for = STALL_QUIET;
-        // 500 ms without a step is 500 000 µs of PWM-timer ticks.
-        assert_eq!(STALL_QUIET, PwmTicks::from_micros(500_000));
+        // 500 ms without a step is 500 000 µs of drive time.
+        assert_eq!(STALL_QUIET, DriveTime::from_micros(500_000));
         assert!(stall(at(STALL_DUTY), &inputs, STALL_QUIET_MS));
         // Each condition one unit short of its threshold: no stall.
         let below = Duty::from_raw_clamped(STALL_DUTY.raw() - 1);
         assert!(!stall(at(below), &inputs, STALL_QUIET_MS));
         assert!(!stall(at(STALL_DUTY), &inputs, STALL_QUIET_MS - 1));
-        inputs.drive.quiet_for = PwmTicks(STALL_QUIET.0 - 1);
+        inputs.drive.quiet_for = DriveTime(STALL_QUIET.0 - 1);
         assert!(!stall(at(STALL_DUTY), &inputs, STALL_QUIET_MS));
         // Only one condition met: no stall.
-        inputs.drive.quiet_for = PwmTicks(0);
+        inputs.drive.quiet_for = DriveTime(0);
         assert!(!stall(at(crate::drive::DUTY_MAX), &inputs, u32::MAX));
-        inputs.drive.quiet_for = PwmTicks(u32::MAX);
+        inputs.drive.quiet_for = DriveTime(u32::MAX);
         assert!(!stall(DriveCommand::Coast, &inputs, u32::MAX));
         assert!(!stall(at(crate::drive::DUTY_MAX), &inputs, 0));
     }

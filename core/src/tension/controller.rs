@@ -153,7 +153,19 @@ pub struct ControllerConfig {
     pub motor: MotorModel,
     /// The pull profile.
     pub profile: ProfileConfig,
+    /// The duty the bridge's dead time takes from the high side: the dead time over the PWM
+    /// period, both the board's ([`crate::drive::DriveConfig::dead_time`]); at most
+    /// [`DEAD_TIME_DUTY_MAX`]. The slip damper's stall model starts from it.
+    pub dead_time_duty: Duty,
 }
+
+/// The largest dead-time duty a configuration may give: 0.1 (a 5 µs dead time in a 50 µs
+/// period).
+pub const DEAD_TIME_DUTY_MAX: Duty = Duty::from_raw_clamped(6_554);
+
+/// taut's board's dead-time duty: 1 µs of a 50 µs (20 kHz) period, 0.02 (Q15.16 1 311); the
+/// firmware checks its own timing against it when it is compiled.
+pub const TAUT_DEAD_TIME_DUTY: Duty = Duty::from_raw_clamped(1_311);
 
 /// taut's nominal plant, the voltage-driven machine (see `crate::tension::law`): `M̄` = the
 /// rotor and gearbox inertia reflected to the carriage (1.6 × 10⁻⁵ kg·m² / (0.2021 mm/rad)²
@@ -196,6 +208,7 @@ impl ControllerConfig {
         duty_map: DutyMap::Proportional { current_limit: CURRENT_LIMIT },
         motor: MotorModel::PAPER,
         profile: ProfileConfig::TAUT,
+        dead_time_duty: TAUT_DEAD_TIME_DUTY,
     };
 
     /// The paper's RSMC as published (λ = 100, G = 0.2, k_φ = 0.001, `sgn`, unbounded
@@ -207,6 +220,7 @@ impl ControllerConfig {
         duty_map: DutyMap::Proportional { current_limit: CURRENT_LIMIT },
         motor: MotorModel::PAPER,
         profile: ProfileConfig::STEP,
+        dead_time_duty: TAUT_DEAD_TIME_DUTY,
     };
 
     /// The paper's PD baseline (`k_p = 100`, `k_d = 20`) through the same force → duty
@@ -217,6 +231,7 @@ impl ControllerConfig {
         duty_map: DutyMap::Proportional { current_limit: CURRENT_LIMIT },
         motor: MotorModel::PAPER,
         profile: ProfileConfig::STEP,
+        dead_time_duty: TAUT_DEAD_TIME_DUTY,
     };
 }
 
@@ -233,6 +248,8 @@ pub enum ConfigError {
     Profile(ProfileError),
     /// An estimator parameter is out of range.
     Estimator(EstimatorError),
+    /// The dead-time duty is above [`DEAD_TIME_DUTY_MAX`].
+    DeadTimeDuty,
 }
 
 /// What the controller is told each tick.
@@ -330,6 +347,9 @@ impl TensionController {
         if period < PERIOD_RANGE_US.0 || period > PERIOD_RANGE_US.1 {
             return Err(ConfigError::Period);
         }
+        if config.dead_time_duty > DEAD_TIME_DUTY_MAX {
+            return Err(ConfigError::DeadTimeDuty);
+        }
         let law = match config.law {
             LawConfig::Rsmc(gains) => {
                 Law::Rsmc(Rsmc::new(&gains, period).map_err(ConfigError::Gain)?)
@@ -371,7 +391,13 @@ impl TensionController {
                     .and_then(|bits| i32::try_from(bits).ok())
                     .map(Q16::from_bits)
                     .ok_or(ConfigError::Motor(MotorError::Parameter))?;
-                Some(SlipDamper::new(gain, SLIP_DEAD_ZONE, SLIP_LEARNING_RATE, per_amp))
+                Some(SlipDamper::new(
+                    gain,
+                    SLIP_DEAD_ZONE,
+                    SLIP_LEARNING_RATE,
+                    per_amp,
+                    config.dead_time_duty,
+                ))
             }
         };
         Ok(Self {
@@ -739,6 +765,20 @@ mod tests {
         let motor = MotorModel { bus_mv: 48_000, ..ControllerConfig::TAUT.motor };
         let config = ControllerConfig { motor, ..ControllerConfig::TAUT };
         assert!(TensionController::new(&config).is_ok(), "a 48 V bus is a valid machine");
+    }
+
+    #[test]
+    fn takes_the_boards_dead_time_duty_up_to_a_tenth() {
+        let with = |raw| ControllerConfig {
+            dead_time_duty: Duty::from_raw_clamped(raw),
+            ..ControllerConfig::TAUT
+        };
+        assert!(TensionController::new(&with(0)).is_ok());
+        assert!(TensionController::new(&with(DEAD_TIME_DUTY_MAX.raw())).is_ok());
+        assert_eq!(
+            TensionController::new(&with(DEAD_TIME_DUTY_MAX.raw() + 1)),
+            Err(ConfigError::DeadTimeDuty)
+        );
     }
 
     #[test]

@@ -12,7 +12,8 @@
 //! carries `I = duty·V_bus/R`, and any motion subtracts its back-EMF, `Ke·ω/R`.
 //!
 //! So while the carriage is stuck (no Hall step for [`STUCK_TICKS`]), [`SlipDamper`] learns
-//! the stall relation `duty ≈ d₀ + c·I` (`d₀` = 0.02, the high side's dead time; `c = R/V`
+//! the stall relation `duty ≈ d₀ + c·I` (`d₀`, the duty the high side loses to the bridge's
+//! dead time — 0.02 on taut's board, handed in with the controller's configuration; `c = R/V`
 //! learned division-free, `c ← c + μ·(duty − d₀ − c·I)`, which also follows the bus voltage
 //! as braking's pump-up decays; once learned, only from residuals below 0.004, so a slip
 //! is not learned away), and once it has learned for [`LEARN_TICKS`] it reads the residual
@@ -24,7 +25,7 @@
 //! The controller owns one ([`crate::tension::ProfileConfig::slip_damping`] sets its gain) and
 //! asks it for a braking force every hold tick; `REQ-TEN-15` in `docs/SPEC.md` bounds it.
 
-use crate::drive::{DEAD_TIME, PWM_PERIOD_TICKS};
+use crate::drive::Duty;
 use crate::fixed::{mul_wide, saturate_i32};
 use crate::units::{Amps, Kgf, Q16};
 
@@ -46,21 +47,6 @@ pub const LEARN_TICKS: u16 = 200;
 /// Once learned, the largest model residual (duty) the current model keeps learning from:
 /// 0.004 (a slip's back-EMF is larger and is not learned away).
 const LEARN_BAND: i32 = 262;
-
-/// The duty the dead time takes from the switched leg while the current flows forward:
-/// `2·t_d/T`… of which the high side loses one `t_d`: [`DEAD_TIME`] over the PWM period
-/// (170/8 500 = 0.02), Q15.16 bits, rounded (1 311).
-const DEAD_TIME_DUTY: i32 = dead_time_duty();
-
-/// [`DEAD_TIME_DUTY`] from the drive's constants.
-const fn dead_time_duty() -> i32 {
-    const PERIOD: u64 = PWM_PERIOD_TICKS as u64;
-    const BITS: u64 = ((DEAD_TIME.0 as u64) << 16).saturating_add(PERIOD / 2) / PERIOD;
-    const _: () = assert!(BITS < 1 << 16, "the dead time must be shorter than a period");
-    #[allow(clippy::cast_possible_truncation, reason = "below 2¹⁶, checked just above")]
-    let bits = BITS as i32;
-    bits
-}
 
 /// The slip damper's memory (public for proofs and fuzzing).
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
@@ -86,21 +72,26 @@ pub struct SlipDamper {
     rate: i32,
     /// The model's starting point, duty per ampere (Q8.24 bits).
     initial: i32,
+    /// `d₀`: the duty the high side loses to the dead time, Q15.16 bits.
+    dead_time_duty: i32,
     state: SlipState,
 }
 
 impl SlipDamper {
     /// A damper with braking force `gain` (kgf per unit duty of residual), dead zone
     /// `dead_zone` (duty, Q15.16), learning rate `rate` (Q15.16) and the stall relation
-    /// `initial` (duty per ampere, Q15.16) to start learning from.
+    /// `initial` (duty per ampere, Q15.16) to start learning from, on a bridge whose dead time
+    /// takes `dead_time_duty` from the high side (the dead time over the PWM period: the
+    /// board's timing, [`crate::tension::ControllerConfig::dead_time_duty`]).
     #[must_use]
-    pub fn new(gain: Q16, dead_zone: Q16, rate: Q16, initial: Q16) -> Self {
+    pub fn new(gain: Q16, dead_zone: Q16, rate: Q16, initial: Q16, dead_time_duty: Duty) -> Self {
         let initial = initial.max(Q16::ZERO).to_bits().saturating_mul(256);
         Self {
             gain: gain.max(Q16::ZERO).to_bits(),
             dead_zone: dead_zone.max(Q16::ZERO).to_bits(),
             rate: rate.clamp(Q16::ZERO, Q16::ONE).to_bits(),
             initial,
+            dead_time_duty: i32::from(dead_time_duty.raw()),
             state: SlipState { duty_per_amp: initial, ..SlipState::default() },
         }
     }
@@ -134,7 +125,7 @@ impl SlipDamper {
         // c (Q8.24) × I (Q15.16) → duty in Q15.16.
         let predicted =
             saturate_i32(mul_wide(s.duty_per_amp, current.to_bits()).saturating_add(1 << 23) >> 24)
-                .saturating_add(DEAD_TIME_DUTY);
+                .saturating_add(self.dead_time_duty);
         let residual = s.last_duty.saturating_sub(predicted);
         let agrees = residual.saturating_abs() <= LEARN_BAND;
         if s.quiet >= STUCK_TICKS && (s.learned < LEARN_TICKS || agrees) {
@@ -161,7 +152,7 @@ impl SlipDamper {
     }
 
     /// Records the duty commanded this tick (read back at the next update).
-    pub fn note_duty(&mut self, duty: crate::drive::Duty) {
+    pub fn note_duty(&mut self, duty: Duty) {
         self.state.last_duty = duty.fraction().to_bits();
     }
 }
@@ -172,7 +163,7 @@ mod tests {
 
     /// A stuck carriage at 2 A and duty 0.02 + 0.046·2 (the twin's stall relation).
     fn stuck(damper: &mut SlipDamper, ticks: u32) {
-        let duty = crate::drive::Duty::from_fraction_clamped(Q16::lit("0.112"));
+        let duty = Duty::from_fraction_clamped(Q16::lit("0.112"));
         for _ in 0..ticks {
             damper.note_duty(duty);
             let brake = damper.update(Amps::from_int(2), 0, true);
@@ -188,6 +179,7 @@ mod tests {
             Q16::lit("0.002"),
             Q16::lit("0.005"),
             Q16::lit("0.035"),
+            Duty::from_raw_clamped(1_311),
         );
         // Inactive (outside the hold): nothing, and nothing learned.
         assert_eq!(damper.update(Amps::from_int(2), 0, false), Kgf::ZERO);

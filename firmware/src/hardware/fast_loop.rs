@@ -6,7 +6,7 @@
 //! RM0440 section 29.3.26 "Interfacing with Hall sensors"), which applies a new sector at once
 //! instead of up to one PWM period later. Time between calls comes from the DWT cycle counter,
 //! which runs at the system clock — the same 170 MHz as TIM1, so its counts are
-//! [`PwmTicks`] directly.
+//! [`DriveTime`] directly.
 
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicU32, Ordering};
@@ -22,12 +22,13 @@ use embassy_stm32::timer::{Ch1, Ch2, Ch3, TimerPin};
 use taut_core::drive::hall::{HALL_VOTES, vote};
 use taut_core::drive::limit::{CurrentLimit, CurrentSense};
 use taut_core::drive::{
-    BusSense, Drive, DriveConfig, DriveOutput, DriveSample, DriveStatus, HallCode, PwmTicks,
+    BusSense, Drive, DriveConfig, DriveOutput, DriveSample, DriveStatus, DriveTime, HallCode,
 };
 use taut_core::io::LimitSwitches;
 use taut_core::units::AdcCode;
 use taut_firmware::bridge::{BridgeImage, main_output_enabled};
 use taut_firmware::pins::{self, Pin, Port};
+use taut_firmware::timing::{DEAD_TIME, drive_time};
 
 use super::{bridge, store};
 
@@ -45,14 +46,15 @@ const BOARD_BUS: BusSense = BusSense { full_scale_mv: 63_218, ..BusSense::PAPER 
 /// (the paper's configuration if that were ever rejected; it is not: core's
 /// `a_three_volt_three_referred_bus_divider_is_accepted` builds the same configuration).
 fn board_drive() -> Drive {
-    DriveConfig::new(CurrentSense::PAPER, BOARD_BUS, CurrentLimit::PAPER, OVERCURRENT_MA)
+    DriveConfig::new(CurrentSense::PAPER, BOARD_BUS, CurrentLimit::PAPER, OVERCURRENT_MA, DEAD_TIME)
         .map_or_else(|_| Drive::new(), Drive::with_config)
 }
 
 /// The overcurrent trip, mA: the drive's 12 A.
 const OVERCURRENT_MA: u32 = 12_000;
 
-/// DWT cycle count at the previous fast-loop call.
+/// DWT cycle count at the previous fast-loop call, less the cycles not yet counted into a
+/// [`DriveTime`] unit (under one).
 static LAST_CALL: AtomicU32 = AtomicU32::new(0);
 
 /// The current samples since the tick last took them: their sum in bits 31..10, their count in
@@ -184,7 +186,8 @@ pub fn take_current_mean() -> AdcCode {
 /// edge's, so each period's current sample is summed once for the tick.
 fn step(period: bool) {
     let now = DWT::cycle_count();
-    let elapsed = now.wrapping_sub(LAST_CALL.swap(now, Ordering::Relaxed));
+    let (elapsed, carry) = drive_time(now.wrapping_sub(LAST_CALL.load(Ordering::Relaxed)));
+    LAST_CALL.store(now.wrapping_sub(carry), Ordering::Relaxed);
     // The injected conversion TIM1's channel 4 triggered mid on-time this period.
     let current = pac::ADC1.jdr(0).read().jdata();
     if period {
@@ -198,7 +201,7 @@ fn step(period: bool) {
         // The bus voltage ADC1 converts (hardware-averaged) at the period's quiet window.
         bus_voltage: AdcCode::new(pac::ADC1.dr().read().rdata()),
         limits: limits(),
-        elapsed: PwmTicks(elapsed),
+        elapsed,
     };
     let (output, fault_latched) =
         critical_section::with(|cs| match DRIVE.borrow_ref_mut(cs).as_mut() {

@@ -50,10 +50,13 @@ use static_cell::StaticCell;
 use taut_firmware::timing::PWM_TIMER_HZ;
 
 /// The system clock: HSI16 / 4 × 85 / 2 = 170 MHz. TIM1 and the DWT cycle counter both run
-/// at it, so it must equal the core's [`PWM_TIMER_HZ`].
+/// at it, so it must equal the board timing's [`PWM_TIMER_HZ`].
 pub const SYSCLK_HZ: u32 = 170_000_000;
 
-const _: () = assert!(SYSCLK_HZ == PWM_TIMER_HZ, "TIM1 must count the core's PWM ticks");
+const _: () = assert!(
+    SYSCLK_HZ == PWM_TIMER_HZ,
+    "TIM1 and the cycle counter must run at the board timing's clock"
+);
 
 /// Clocks up and the peripherals claimed. Not inlined: the clock tree's arithmetic takes
 /// ≈ 0.9 KB of stack, which must not sit under the machine's construction in [`start_up`].

@@ -50,8 +50,8 @@
 )]
 
 use taut_core::drive::{
-    Direction, Drive, DriveCommand, DriveFault, DriveOutput, DriveSample, DriveStatus,
-    PWM_FREQUENCY_HZ, PWM_PERIOD_TICKS, PwmTicks, Sector,
+    Direction, Drive, DriveCommand, DriveFault, DriveOutput, DriveSample, DriveStatus, DriveTime,
+    Sector,
 };
 use taut_core::io::{Inputs, Keys, LimitSwitches, Outputs};
 use taut_core::machine::{Machine, MachineState};
@@ -70,6 +70,12 @@ pub const HEADER_LEN: usize = 24 + RECORD_LEN;
 
 /// PWM periods per 1 ms tick: the fast-loop calls the replay makes per tick.
 pub const PERIODS_PER_TICK: u32 = PWM_FREQUENCY_HZ / 1_000;
+
+/// The firmware's PWM frequency, 20 kHz (`firmware/src/timing.rs`: this crate links only core).
+pub const PWM_FREQUENCY_HZ: u32 = 20_000;
+
+/// One PWM period in the drive's time: 50 µs.
+pub const PWM_PERIOD: DriveTime = DriveTime::from_micros(1_000_000 / PWM_FREQUENCY_HZ);
 
 /// [`PERIODS_PER_TICK`] as a signed step count.
 #[allow(clippy::cast_possible_wrap, reason = "20 periods; checked below")]
@@ -220,7 +226,7 @@ pub fn decode_inputs(bytes: &[u8]) -> Inputs {
     let fault = fault_from(input.u8());
     let steps = input.i32();
     let rotation = direction_from(input.u8());
-    let quiet_for = PwmTicks(input.u32());
+    let quiet_for = DriveTime(input.u32());
     let energized = direction_from(input.u8());
     let current = Amps::from_bits(input.i32());
     let bus = Volts::from_bits(input.i32());
@@ -552,7 +558,7 @@ pub fn replay(session: &Session<'_>, machine: &mut Machine, meter: &mut impl Met
                 overcurrent_trip: false,
                 bus_voltage: now.bus_voltage,
                 limits: now.limits,
-                elapsed: PwmTicks(u32::from(PWM_PERIOD_TICKS)),
+                elapsed: PWM_PERIOD,
             };
             let _output = meter.measure(Call::DriveStep, || drive_call(&mut drive, sample));
             replayed.drive_steps = replayed.drive_steps.saturating_add(1);
@@ -581,7 +587,7 @@ mod tests {
                 fault: Some(DriveFault::SectorSkipped),
                 steps: -123_456,
                 rotation: Some(Direction::Release),
-                quiet_for: PwmTicks(987_654),
+                quiet_for: DriveTime(987_654),
                 energized: Some(Direction::Pull),
                 current: Amps::from_bits(-123_457),
                 bus: Volts::from_bits(24 << 16),

@@ -36,6 +36,11 @@
     )
 )]
 
+// The fuzz targets' `arbitrary` derives expand to `std::thread_local!`: only that host-side
+// build links `std` (the firmware's and every other build stay `no_std`).
+#[cfg(feature = "arbitrary")]
+extern crate std;
+
 pub mod drive;
 pub mod fixed;
 pub mod io;

@@ -27,9 +27,12 @@
 //! constant gains, which CBMC's simplifier folds), no `i128`, no loop. The force → duty
 //! stage is four such products, the estimator seven (and a four-step loop), the slip
 //! damper three, the reciprocal six plus a shift by a
-//! leading-zero count and a three-iteration loop (`unwind(4)`). Each part's state is built
-//! from primitive `kani::any()` values through the real setters and constrained only by
-//! `kani::assume(is_valid())` — an over-approximation of the reachable states. The
+//! leading-zero count and a three-iteration loop (`unwind(4)`). Each part's state is its own
+//! core type — `RsmcState`, `EstimatorState`, `SlipState`, `ProfileState`, which derive
+//! `kani::Arbitrary` (and `arbitrary::Arbitrary` for the fuzzer) in core — drawn whole, set
+//! through the real setters and constrained only by `kani::assume(is_valid())`: an
+//! over-approximation of the reachable states. The cases below bundle those states with the
+//! step's inputs; they no longer mirror any state field by field. The
 //! composed harness adds the profile's dozen products to the sum of the parts; it is the
 //! one to run with `--harness` on its own.
 //!
@@ -57,16 +60,6 @@ use taut_core::tension::slip::{
 use taut_core::tension::{ControllerConfig, Measurement, PullPhase};
 use taut_core::units::{Amps, Kgf, KgfPerSecond, Q16, Seconds, Volts};
 
-/// A saturation flag from a selector (`% 3`).
-#[must_use]
-pub const fn saturation(selector: u8) -> Saturation {
-    match selector % 3 {
-        0 => Saturation::None,
-        1 => Saturation::High,
-        _ => Saturation::Low,
-    }
-}
-
 /// The paper's gains on taut's plant (a constant, for the same reason as below).
 const PAPER_GAINS: RsmcGains = RsmcGains::paper(TAUT_PLANT);
 
@@ -78,21 +71,16 @@ const OBSERVER_GAIN: Q16 = Q16::lit("0.05");
 /// paper's motor, 0.846 Ω / 24 V).
 const SLIP_INITIAL_DUTY_PER_AMP: Q16 = Q16::lit("0.035");
 
-/// The law step's inputs, as primitives.
+/// The law step's state and inputs: the law's own state type, drawn whole, and the reference
+/// and measurement as bits.
 #[derive(Clone, Copy, Debug, Default)]
 #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
 #[cfg_attr(kani, derive(kani::Arbitrary))]
 pub struct LawCase {
     /// The paper's gains (on taut's nominal plant) instead of taut's.
     pub paper: bool,
-    /// State: previous error, kgf bits.
-    pub e_prev: i32,
-    /// State: error rate, kgf/s bits.
-    pub e_rate: i32,
-    /// State: integral `z`, kgf/s bits.
-    pub z: i32,
-    /// State: adaptive gain `φ̂`, Q31.32.
-    pub phi_hat: i64,
+    /// The law's memory.
+    pub state: RsmcState,
     /// The plant scale `ρ`, Q15.16 bits (clamped by the setter).
     pub scale: i32,
     /// Reference tension, kgf bits.
@@ -103,8 +91,8 @@ pub struct LawCase {
     pub accel: i32,
     /// Measured tension, kgf bits.
     pub y: i32,
-    /// Saturation selector (`% 3`).
-    pub saturated: u8,
+    /// Which way the previous output saturated.
+    pub saturated: Saturation,
 }
 
 /// The law at 1 kHz in the case's state (its invariant not yet checked).
@@ -114,12 +102,7 @@ pub fn law_in(case: &LawCase) -> Rsmc {
     let Ok(mut law) = Rsmc::new(&gains, 1_000) else {
         panic!("REQ-TEN-06: a built-in law was rejected");
     };
-    law.set_state(RsmcState {
-        e_prev: case.e_prev,
-        e_rate: case.e_rate,
-        z: case.z,
-        phi_hat: case.phi_hat,
-    });
+    law.set_state(case.state);
     law.set_plant_scale(Q16::from_bits(case.scale));
     law
 }
@@ -138,7 +121,7 @@ pub fn rsmc_step_bounded(case: &LawCase) -> bool {
         rate: KgfPerSecond::from_bits(case.rate),
         accel: Q16::from_bits(case.accel),
     };
-    let _ = law.step(&reference, Kgf::from_bits(case.y), saturation(case.saturated));
+    let _ = law.step(&reference, Kgf::from_bits(case.y), case.saturated);
     assert!(law.is_valid(), "REQ-TEN-03: the law step broke its invariant: {case:?}");
     assert_eq!(law.plant_scale(), scale, "REQ-TEN-03: the law step changed the plant scale");
     true
@@ -204,7 +187,8 @@ pub fn force_to_duty_within(
     }
 }
 
-/// The estimator step's inputs, as primitives.
+/// The estimator step's configuration switches, state (the estimator's own type, drawn whole)
+/// and inputs.
 #[derive(Clone, Copy, Debug, Default)]
 #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
 #[cfg_attr(kani, derive(kani::Arbitrary))]
@@ -213,24 +197,8 @@ pub struct EstimatorCase {
     pub clip: bool,
     /// Observer on.
     pub observer: bool,
-    /// State: the median window.
-    pub window: [i32; 5],
-    /// State: the filtered sample.
-    pub filtered: i32,
-    /// State: the observer's tension, Q31.32.
-    pub fused: i64,
-    /// State: the rate low-pass.
-    pub rate: i32,
-    /// State: the speed low-pass.
-    pub speed: i32,
-    /// State: the previous step count.
-    pub last_steps: i32,
-    /// State: primed.
-    pub primed: bool,
-    /// State: the observer's stiffness.
-    pub stiffness: i32,
-    /// State: the Hall travel of the last ticks.
-    pub recent: [i32; 4],
+    /// The estimator's memory.
+    pub state: EstimatorState,
     /// Input: the tension sample, kgf bits.
     pub sample: i32,
     /// Input: the Hall step count.
@@ -250,21 +218,11 @@ pub fn estimator_step_bounded(case: &EstimatorCase) -> bool {
     let Ok(mut estimator) = TensionEstimator::new(&config, 1_000) else {
         panic!("REQ-TEN-06: the estimator configuration was rejected");
     };
-    estimator.set_state(EstimatorState {
-        window: case.window,
-        filtered: case.filtered,
-        fused: case.fused,
-        rate: case.rate,
-        speed: case.speed,
-        last_steps: case.last_steps,
-        primed: case.primed,
-        stiffness: case.stiffness,
-        recent: case.recent,
-    });
+    estimator.set_state(case.state);
     if !estimator.is_valid() {
         return false;
     }
-    let before = if case.primed { case.filtered } else { case.sample };
+    let before = if case.state.primed { case.state.filtered } else { case.sample };
     let out = estimator.update(Kgf::from_bits(case.sample), case.steps);
     assert!(estimator.is_valid(), "REQ-TEN-03: the estimator broke its invariant: {case:?}");
     assert!(out.steps.abs() <= 16, "REQ-TEN-10: step count change not clamped");
@@ -307,25 +265,31 @@ pub fn reciprocal_total(x: i32) {
     }
 }
 
-/// The slip damper's inputs, as primitives.
+/// The slip damper's state (its own type, drawn whole) and inputs.
 #[derive(Clone, Copy, Debug, Default)]
 #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
 #[cfg_attr(kani, derive(kani::Arbitrary))]
 pub struct SlipCase {
-    /// State: the stall relation, duty per ampere (Q8.24).
-    pub duty_per_amp: i32,
-    /// State: the previous duty (Q15.16).
-    pub last_duty: i32,
-    /// State: ticks since the last Hall step.
-    pub quiet: u16,
-    /// State: ticks learned.
-    pub learned: u16,
+    /// The damper's memory (its stall relation raised to zero and its learning count capped
+    /// at [`LEARN_TICKS`]: the damper's reachable states).
+    pub state: SlipState,
     /// Input: the winding current, A bits.
     pub current: i32,
     /// Input: Hall steps moved.
     pub moved: i32,
     /// Input: the hold is on.
     pub active: bool,
+}
+
+/// `state` moved into the damper's reachable states: a non-negative stall relation, a learning
+/// count within [`LEARN_TICKS`].
+#[must_use]
+pub fn reachable_slip(state: SlipState) -> SlipState {
+    SlipState {
+        duty_per_amp: state.duty_per_amp.max(0),
+        learned: state.learned.min(LEARN_TICKS),
+        ..state
+    }
 }
 
 /// REQ-TEN-15: the slip damper never panics, returns a braking force that is never
@@ -340,12 +304,7 @@ pub fn slip_damper_bounded(case: &SlipCase) {
         SLIP_INITIAL_DUTY_PER_AMP,
         taut_core::tension::controller::TAUT_DEAD_TIME_DUTY,
     );
-    damper.set_state(SlipState {
-        duty_per_amp: case.duty_per_amp.max(0),
-        last_duty: case.last_duty,
-        quiet: case.quiet,
-        learned: case.learned.min(LEARN_TICKS),
-    });
+    damper.set_state(reachable_slip(case.state));
     let before = damper.state();
     let brake = damper.update(Amps::from_bits(case.current), case.moved, case.active);
     let after = damper.state();
@@ -357,49 +316,30 @@ pub fn slip_damper_bounded(case: &SlipCase) {
     assert!(after.learned <= LEARN_TICKS, "REQ-TEN-15: learning count out of range");
 }
 
-/// Everything one controller step depends on, as primitives.
+/// Everything one controller step depends on: each part's own state type, drawn whole, and
+/// the measurement as bits.
 #[derive(Clone, Copy, Debug, Default)]
 #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
 #[cfg_attr(kani, derive(kani::Arbitrary))]
 pub struct StepCase {
     /// Use the paper's RSMC configuration instead of taut's.
     pub paper: bool,
-    /// The law's state and plant scale (its reference and measurement fields unused).
-    pub law: LawCase,
-    /// The tension estimator's state and configuration switches (its inputs unused).
-    pub estimator: EstimatorCase,
-    /// The slip damper's state (its inputs unused).
-    pub slip: SlipCase,
+    /// The law's memory.
+    pub law: RsmcState,
+    /// The law's plant scale, Q15.16 bits.
+    pub scale: i32,
+    /// The tension estimator's memory.
+    pub estimator: EstimatorState,
+    /// The slip damper's memory.
+    pub slip: SlipState,
     /// Speed filter: last step count.
     pub last_steps: i32,
     /// Speed filter: speed (bits).
     pub speed: i32,
     /// Speed filter primed.
     pub primed: bool,
-    /// Profile: phase selector (`% 7`).
-    pub phase: u8,
-    /// Profile: peak (bits).
-    pub peak: i32,
-    /// Profile: final target (bits).
-    pub final_target: i32,
-    /// Profile: goal (bits).
-    pub goal: i32,
-    /// Profile: speed limit (bits).
-    pub speed_limit: i32,
-    /// Profile: reference (Q31.32).
-    pub reference: i64,
-    /// Profile: reference rate (bits).
-    pub reference_rate: i32,
-    /// Profile: reference acceleration (bits).
-    pub reference_accel: i32,
-    /// Profile: ticks in phase.
-    pub ticks: u32,
-    /// Profile: at tension.
-    pub at_tension: bool,
-    /// Profile: saturation selector (`% 3`).
-    pub saturated: u8,
-    /// Profile: the law is to be reset on the next closed-loop tick.
-    pub fresh: bool,
+    /// The profile's state.
+    pub profile: ProfileState,
     /// Measurement: tension (bits).
     pub tension: i32,
     /// Measurement: Hall steps.
@@ -424,54 +364,19 @@ pub fn controller_in(case: &StepCase) -> TensionController {
         panic!("REQ-TEN-06: a built-in configuration was rejected");
     };
     if let Some(rsmc) = controller.rsmc_mut() {
-        rsmc.set_state(RsmcState {
-            e_prev: case.law.e_prev,
-            e_rate: case.law.e_rate,
-            z: case.law.z,
-            phi_hat: case.law.phi_hat,
-        });
-        rsmc.set_plant_scale(Q16::from_bits(case.law.scale));
+        rsmc.set_state(case.law);
+        rsmc.set_plant_scale(Q16::from_bits(case.scale));
     }
-    let e = &case.estimator;
-    controller.estimator_mut().set_state(EstimatorState {
-        window: e.window,
-        filtered: e.filtered,
-        fused: e.fused,
-        rate: e.rate,
-        speed: e.speed,
-        last_steps: e.last_steps,
-        primed: e.primed,
-        stiffness: e.stiffness,
-        recent: e.recent,
-    });
+    controller.estimator_mut().set_state(case.estimator);
     if let Some(damper) = controller.slip_damper_mut() {
-        damper.set_state(SlipState {
-            duty_per_amp: case.slip.duty_per_amp.max(0),
-            last_duty: case.slip.last_duty,
-            quiet: case.slip.quiet,
-            learned: case.slip.learned.min(LEARN_TICKS),
-        });
+        damper.set_state(reachable_slip(case.slip));
     }
     controller.speed_estimator_mut().set_state(
         case.last_steps,
         MmPerSecond(Q16::from_bits(case.speed)),
         case.primed,
     );
-    let phase = PullPhase::ALL.into_iter().nth(usize::from(case.phase % 7)).unwrap_or_default();
-    controller.set_profile_state(ProfileState {
-        phase,
-        peak: Kgf::from_bits(case.peak),
-        final_target: Kgf::from_bits(case.final_target),
-        speed_limit: MmPerSecond(Q16::from_bits(case.speed_limit)),
-        reference: Q32(case.reference),
-        reference_rate: KgfPerSecond::from_bits(case.reference_rate),
-        reference_accel: Q16::from_bits(case.reference_accel),
-        goal: Kgf::from_bits(case.goal),
-        ticks: case.ticks,
-        at_tension: case.at_tension,
-        saturated: saturation(case.saturated),
-        fresh: case.fresh,
-    });
+    controller.set_profile_state(case.profile);
     if let Some(held_at) = case.lock {
         let _in_hold = controller.set_constant_pull(false, held_at);
     }
@@ -680,7 +585,7 @@ mod verification {
         _speed: MmPerSecond,
     ) -> (DriveCommand, Saturation) {
         let duty = Duty::from_raw_clamped(kani::any());
-        (DriveCommand::Drive { direction: Direction::Pull, duty }, saturation(kani::any()))
+        (DriveCommand::Drive { direction: Direction::Pull, duty }, kani::any())
     }
 
     /// The slip damper: any non-negative brake.
@@ -733,7 +638,7 @@ mod verification {
     fn verify_lock_out_step_bounded() {
         let mut case: StepCase = kani::any();
         case.lock = Some(kani::any());
-        case.phase = 5; // PullPhase::ALL[5] = Hold
+        case.profile.phase = PullPhase::Hold;
         kani::assume(controller_in(&case).is_valid());
         assert!(controller_step_bounded(&case));
     }

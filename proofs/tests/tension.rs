@@ -14,9 +14,15 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use proptest::prelude::*;
+use taut_core::fixed::Q32;
+use taut_core::settings::MmPerSecond;
+use taut_core::tension::PullPhase;
 use taut_core::tension::controller::{TAUT_GAINS, TAUT_PLANT};
-use taut_core::tension::law::RsmcGains;
-use taut_core::units::Kgf;
+use taut_core::tension::estimator::EstimatorState;
+use taut_core::tension::law::{RsmcGains, RsmcState, Saturation};
+use taut_core::tension::profile::ProfileState;
+use taut_core::tension::slip::SlipState;
+use taut_core::units::{Kgf, KgfPerSecond, Q16};
 use taut_proofs::tension::{
     EstimatorCase, LawCase, SlipCase, StepCase, controller_step_bounded, estimator_step_bounded,
     force_to_duty_bounded, hold_state, reciprocal_accurate, reciprocal_total,
@@ -26,34 +32,42 @@ use taut_proofs::tension_reference::{TrackStep, coefficient_errors, law_tracks_r
 
 const KGF: i32 = 65_536;
 
-fn law_case() -> impl Strategy<Value = LawCase> {
-    (
-        (any::<bool>(), any::<i32>(), any::<i32>(), -2_000 * KGF..=2_000 * KGF),
-        (0_i64..=(2_i64 << 32), 0..=11 * KGF),
-        (any::<i32>(), any::<i32>(), any::<i32>(), any::<i32>(), any::<u8>()),
-    )
-        .prop_map(
-            |((paper, e_prev, e_rate, z), (phi_hat, scale), (y_d, rate, accel, y, saturated))| {
-                LawCase { paper, e_prev, e_rate, z, phi_hat, scale, y_d, rate, accel, y, saturated }
-            },
-        )
+fn saturation() -> impl Strategy<Value = Saturation> {
+    prop_oneof![Just(Saturation::None), Just(Saturation::High), Just(Saturation::Low)]
 }
 
-fn estimator_case() -> impl Strategy<Value = EstimatorCase> {
+/// The law's memory, steered into its valid domain (`|z|` and `φ̂` within their bounds).
+fn rsmc_state() -> impl Strategy<Value = RsmcState> {
+    (any::<i32>(), any::<i32>(), -2_000 * KGF..=2_000 * KGF, 0_i64..=(2_i64 << 32))
+        .prop_map(|(e_prev, e_rate, z, phi_hat)| RsmcState { e_prev, e_rate, z, phi_hat })
+}
+
+fn law_case() -> impl Strategy<Value = LawCase> {
     (
-        (any::<bool>(), any::<bool>(), any::<[i32; 5]>(), any::<i32>(), any::<i64>()),
-        (any::<i32>(), any::<i32>(), any::<i32>(), any::<bool>(), 0..=4 * KGF),
-        (any::<i32>(), any::<i32>(), any::<[i32; 4]>()),
+        (any::<bool>(), rsmc_state(), 0..=11 * KGF),
+        (any::<i32>(), any::<i32>(), any::<i32>(), any::<i32>(), saturation()),
+    )
+        .prop_map(|((paper, state, scale), (y_d, rate, accel, y, saturated))| LawCase {
+            paper,
+            state,
+            scale,
+            y_d,
+            rate,
+            accel,
+            y,
+            saturated,
+        })
+}
+
+/// The estimator's memory, its stiffness in range.
+fn estimator_state() -> impl Strategy<Value = EstimatorState> {
+    (
+        (any::<[i32; 5]>(), any::<i32>(), any::<i64>(), any::<i32>()),
+        (any::<i32>(), any::<i32>(), any::<bool>(), 0..=4 * KGF, any::<[i32; 4]>()),
     )
         .prop_map(
-            |(
-                (clip, observer, window, filtered, fused),
-                (rate, speed, last_steps, primed, stiffness),
-                (sample, steps, recent),
-            )| {
-                EstimatorCase {
-                    clip,
-                    observer,
+            |((window, filtered, fused, rate), (speed, last_steps, primed, stiffness, recent))| {
+                EstimatorState {
                     window,
                     filtered,
                     fused,
@@ -63,30 +77,76 @@ fn estimator_case() -> impl Strategy<Value = EstimatorCase> {
                     primed,
                     stiffness,
                     recent,
-                    sample,
-                    steps,
                 }
             },
         )
 }
 
-fn slip_case() -> impl Strategy<Value = SlipCase> {
-    (
-        (any::<i32>(), any::<i32>(), any::<u16>(), any::<u16>()),
-        (any::<i32>(), any::<i32>(), any::<bool>()),
+fn estimator_case() -> impl Strategy<Value = EstimatorCase> {
+    (any::<bool>(), any::<bool>(), estimator_state(), any::<i32>(), any::<i32>()).prop_map(
+        |(clip, observer, state, sample, steps)| EstimatorCase {
+            clip,
+            observer,
+            state,
+            sample,
+            steps,
+        },
     )
-        .prop_map(|((duty_per_amp, last_duty, quiet, learned), (current, moved, active))| {
-            SlipCase { duty_per_amp, last_duty, quiet, learned, current, moved, active }
+}
+
+fn slip_state() -> impl Strategy<Value = SlipState> {
+    (any::<i32>(), any::<i32>(), any::<u16>(), any::<u16>()).prop_map(
+        |(duty_per_amp, last_duty, quiet, learned)| SlipState {
+            duty_per_amp,
+            last_duty,
+            quiet,
+            learned,
+        },
+    )
+}
+
+fn slip_case() -> impl Strategy<Value = SlipCase> {
+    (slip_state(), any::<i32>(), any::<i32>(), any::<bool>())
+        .prop_map(|(state, current, moved, active)| SlipCase { state, current, moved, active })
+}
+
+/// A profile state in the valid domain's neighbourhood: tensions within the range, the peak
+/// at or above the final target, the goal at or below the peak, every phase.
+fn profile_state() -> impl Strategy<Value = ProfileState> {
+    (
+        (
+            prop::sample::select(PullPhase::ALL.to_vec()),
+            0..=50 * KGF,
+            0..=50 * KGF,
+            0..=50 * KGF,
+            any::<i32>(),
+        ),
+        (0_i64..=(50_i64 << 32), any::<i32>(), any::<i32>(), any::<u32>()),
+        (any::<bool>(), saturation(), any::<bool>()),
+    )
+        .prop_map(|(a, b, c)| {
+            let (peak, final_target) = if a.1 >= a.2 { (a.1, a.2) } else { (a.2, a.1) };
+            ProfileState {
+                phase: a.0,
+                peak: Kgf::from_bits(peak),
+                final_target: Kgf::from_bits(final_target),
+                goal: Kgf::from_bits(a.3.min(peak)),
+                speed_limit: MmPerSecond(Q16::from_bits(a.4)),
+                reference: Q32(b.0),
+                reference_rate: KgfPerSecond::from_bits(b.1),
+                reference_accel: Q16::from_bits(b.2),
+                ticks: b.3,
+                at_tension: c.0,
+                saturated: c.1,
+                fresh: c.2,
+            }
         })
 }
 
 fn step_case() -> impl Strategy<Value = StepCase> {
     (
-        (any::<bool>(), law_case(), estimator_case(), slip_case()),
-        (any::<i32>(), any::<i32>(), any::<bool>(), 0_u8..7),
-        (0..=50 * KGF, 0..=50 * KGF, 0..=50 * KGF, any::<i32>()),
-        (0_i64..=(50_i64 << 32), any::<i32>(), any::<i32>(), any::<u32>()),
-        (any::<bool>(), any::<u8>(), any::<bool>()),
+        (any::<bool>(), rsmc_state(), 0..=11 * KGF, estimator_state(), slip_state()),
+        (any::<i32>(), any::<i32>(), any::<bool>(), profile_state()),
         (
             -5 * KGF..=70 * KGF,
             any::<i32>(),
@@ -97,36 +157,23 @@ fn step_case() -> impl Strategy<Value = StepCase> {
         ),
         prop::option::of(any::<i32>()),
     )
-        .prop_map(|(a, b, c, d, e, f, lock)| {
-            let (peak, final_target) = if c.0 >= c.1 { (c.0, c.1) } else { (c.1, c.0) };
-            StepCase {
-                paper: a.0,
-                law: a.1,
-                estimator: a.2,
-                slip: a.3,
-                last_steps: b.0,
-                speed: b.1,
-                primed: b.2,
-                phase: b.3,
-                peak,
-                final_target,
-                goal: c.2.min(peak),
-                speed_limit: c.3,
-                reference: d.0,
-                reference_rate: d.1,
-                reference_accel: d.2,
-                ticks: d.3,
-                at_tension: e.0,
-                saturated: e.1,
-                fresh: e.2,
-                tension: f.0,
-                steps: f.1,
-                current: f.2,
-                home: f.3,
-                end: f.4,
-                bus: f.5,
-                lock,
-            }
+        .prop_map(|(a, b, f, lock)| StepCase {
+            paper: a.0,
+            law: a.1,
+            scale: a.2,
+            estimator: a.3,
+            slip: a.4,
+            last_steps: b.0,
+            speed: b.1,
+            primed: b.2,
+            profile: b.3,
+            tension: f.0,
+            steps: f.1,
+            current: f.2,
+            home: f.3,
+            end: f.4,
+            bus: f.5,
+            lock,
         })
 }
 
@@ -149,7 +196,8 @@ proptest! {
     #[test]
     fn rsmc_step_bounded_raw(case in any::<(bool, i32, i32, i32, i64, i32, i32, i32)>()) {
         let (paper, e_prev, e_rate, z, phi_hat, scale, y_d, y) = case;
-        let case = LawCase { paper, e_prev, e_rate, z, phi_hat, scale, y_d, y, ..LawCase::default() };
+        let state = RsmcState { e_prev, e_rate, z, phi_hat };
+        let case = LawCase { paper, state, scale, y_d, y, ..LawCase::default() };
         let _ = rsmc_step_bounded(&case);
     }
 

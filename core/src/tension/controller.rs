@@ -337,6 +337,13 @@ fn lag_ticks(lag: Seconds, period_us: u32) -> u8 {
     u8::try_from(ticks.clamp(0, max)).unwrap_or(0)
 }
 
+/// Whether a filtered carriage speed counts as stopped for the hold's observer gain:
+/// `|speed| ≤` [`HOLD_GAIN_SPEED`], total over every speed (the magnitude saturates: `Q16::MIN`
+/// has no negation).
+fn carriage_stopped(speed: MmPerSecond) -> bool {
+    speed.0.saturating_abs() <= HOLD_GAIN_SPEED.0
+}
+
 impl TensionController {
     /// A controller built from `config`.
     ///
@@ -654,7 +661,7 @@ impl TensionController {
         if advance.braking_ended {
             self.hold_gain_pending = true;
         }
-        if self.hold_gain_pending && speed.0.saturating_abs() <= HOLD_GAIN_SPEED.0 {
+        if self.hold_gain_pending && carriage_stopped(speed) {
             // From here the carriage moves by single Hall steps at most, and the observer
             // (still fusing them) takes its hold gain. Not at the parabola's end: a carriage
             // that braked short of its planned deceleration still runs on, and while it
@@ -973,6 +980,17 @@ mod tests {
 
     /// The observer keeps its braking gain after the braking parabola ends while the
     /// carriage still runs on, and takes its hold gain once the carriage has stopped.
+    /// The stopped-carriage test is total and symmetric: 5 mm/s either way is stopped, one
+    /// bit faster is not, and the extremes (whose magnitude does not fit) are moving.
+    #[test]
+    fn a_carriage_is_stopped_within_five_millimetres_per_second_either_way() {
+        let at = |bits: i32| carriage_stopped(MmPerSecond(Q16::from_bits(bits)));
+        let limit = HOLD_GAIN_SPEED.0.to_bits();
+        assert!(at(0) && at(limit) && at(-limit));
+        assert!(!at(limit + 1) && !at(-limit - 1));
+        assert!(!at(i32::MIN) && !at(i32::MAX));
+    }
+
     #[test]
     fn the_hold_gain_waits_for_the_carriage_to_stop() {
         let mut controller = started(25);

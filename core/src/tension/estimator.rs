@@ -88,8 +88,11 @@ pub struct Estimate {
     pub steps: i32,
 }
 
-/// The estimator's memory (public for proofs and fuzzing).
+/// The estimator's memory (public for proofs and fuzzing, which draw it whole;
+/// [`TensionEstimator::is_valid`] states which values are reachable).
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
+#[cfg_attr(kani, derive(kani::Arbitrary))]
+#[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
 pub struct EstimatorState {
     /// The last five raw samples, kgf bits, oldest first.
     pub window: [i32; 5],

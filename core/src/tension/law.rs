@@ -344,6 +344,8 @@ impl RsmcGains {
 
 /// Which way the actuator saturated on the previous step, for conditional integration.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
+#[cfg_attr(kani, derive(kani::Arbitrary))]
+#[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
 pub enum Saturation {
     /// Not saturated.
     #[default]
@@ -354,8 +356,11 @@ pub enum Saturation {
     Low,
 }
 
-/// The RSMC's memory between steps.
+/// The RSMC's memory between steps (any value: [`Rsmc::is_valid`] states which are reachable;
+/// proofs and fuzzing draw it whole).
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
+#[cfg_attr(kani, derive(kani::Arbitrary))]
+#[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
 pub struct RsmcState {
     /// The previous error, kgf bits (for the backward difference).
     pub e_prev: i32,
@@ -585,17 +590,6 @@ impl Pd {
     /// Clears the memory, starting from error `e0`.
     pub fn reset(&mut self, e0: Kgf) {
         self.e_prev = e0.to_bits();
-    }
-
-    /// The previous error, kgf bits.
-    #[must_use]
-    pub const fn e_prev(&self) -> i32 {
-        self.e_prev
-    }
-
-    /// Sets the previous error (proofs, fuzzing).
-    pub fn set_e_prev(&mut self, e_prev: i32) {
-        self.e_prev = e_prev;
     }
 
     /// One step: `u = k_p e + k_d (e − e_prev)/dt`.

@@ -195,6 +195,8 @@ pub enum ProfileError {
 
 /// Where in a pull the controller is.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
+#[cfg_attr(kani, derive(kani::Arbitrary))]
+#[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
 pub enum PullPhase {
     /// Not driving; the output is coast.
     #[default]
@@ -254,6 +256,50 @@ pub struct ProfileState {
     pub saturated: Saturation,
     /// The law has not run since Start (its memory is reset on the first closed-loop tick).
     pub fresh: bool,
+}
+
+/// Any profile state, for proofs ([`Profile::is_valid`] states which are reachable): every
+/// field drawn whole (the unit types wrap `fixed` numbers, which have no `Arbitrary` of their
+/// own, so the bits are drawn instead).
+#[cfg(kani)]
+impl kani::Arbitrary for ProfileState {
+    fn any() -> Self {
+        Self {
+            phase: kani::any(),
+            peak: Kgf::from_bits(kani::any()),
+            final_target: Kgf::from_bits(kani::any()),
+            speed_limit: MmPerSecond(Q16::from_bits(kani::any())),
+            reference: Q32(kani::any()),
+            reference_rate: KgfPerSecond::from_bits(kani::any()),
+            reference_accel: Q16::from_bits(kani::any()),
+            goal: Kgf::from_bits(kani::any()),
+            ticks: kani::any(),
+            at_tension: kani::any(),
+            saturated: kani::any(),
+            fresh: kani::any(),
+        }
+    }
+}
+
+/// Any profile state, for fuzzing (as the Kani impl above).
+#[cfg(feature = "arbitrary")]
+impl<'a> arbitrary::Arbitrary<'a> for ProfileState {
+    fn arbitrary(u: &mut arbitrary::Unstructured<'a>) -> arbitrary::Result<Self> {
+        Ok(Self {
+            phase: u.arbitrary()?,
+            peak: Kgf::from_bits(u.arbitrary()?),
+            final_target: Kgf::from_bits(u.arbitrary()?),
+            speed_limit: MmPerSecond(Q16::from_bits(u.arbitrary()?)),
+            reference: Q32(u.arbitrary()?),
+            reference_rate: KgfPerSecond::from_bits(u.arbitrary()?),
+            reference_accel: Q16::from_bits(u.arbitrary()?),
+            goal: Kgf::from_bits(u.arbitrary()?),
+            ticks: u.arbitrary()?,
+            at_tension: u.arbitrary()?,
+            saturated: u.arbitrary()?,
+            fresh: u.arbitrary()?,
+        })
+    }
 }
 
 impl ProfileState {

@@ -48,8 +48,10 @@ pub const LEARN_TICKS: u16 = 200;
 /// 0.004 (a slip's back-EMF is larger and is not learned away).
 const LEARN_BAND: i32 = 262;
 
-/// The slip damper's memory (public for proofs and fuzzing).
+/// The slip damper's memory (public for proofs and fuzzing, which draw it whole).
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
+#[cfg_attr(kani, derive(kani::Arbitrary))]
+#[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
 pub struct SlipState {
     /// The learned stall relation: duty per ampere of winding current, Q8.24 bits.
     pub duty_per_amp: i32,

@@ -517,7 +517,7 @@ mod verification {
     fn verify_estimator_step_bounded() {
         let case: EstimatorCase = kani::any();
         // The estimator's invariant, as `TensionEstimator::is_valid` states it.
-        kani::assume(case.stiffness >= 0 && case.stiffness <= 4 << 16);
+        kani::assume(case.state.stiffness >= 0 && case.state.stiffness <= 4 << 16);
         assert!(estimator_step_bounded(&case));
     }
 

@@ -12,7 +12,7 @@
 //!    injected glitch bursts),
 //! 2. calls `Drive::step` with that code, the previous period's bus-current sample and
 //!    comparator flag, the (possibly miswired) limit switches and one PWM period of
-//!    elapsed timer ticks,
+//!    elapsed time ([`PWM_PERIOD`], 50 µs of the drive's `DriveTime`),
 //! 3. applies the returned switch pattern and duty to the three-phase winding model
 //!    ([`crate::motor`]) with the back-EMF of the current speed and angle,
 //! 4. turns the mean phase currents into torque and moves the rotor, gearbox, screw and

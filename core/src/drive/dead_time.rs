@@ -14,9 +14,8 @@
 //! timer's hardware dead-time generator, which inserts it between a channel and its
 //! complementary output. This sequencer is the second, independent layer, in software, and it
 //! is stricter: a leg may only turn **on** (to either side) after having been **off** for at
-//! least the dead time, and a request to change a leg
-//! directly from one side to the other is carried out as "off now, the new side once the dead
-//! time has passed". So no sequence of requests can make a leg go high → low or low → high
+//! least the dead time, and a request to change a leg directly from one side to the other is
+//! carried out as "off now, the new side once the dead time has passed". So no sequence of requests can make a leg go high → low or low → high
 //! without the dead time of both-off in between.
 //!
 //! # Time

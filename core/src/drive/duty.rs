@@ -11,7 +11,8 @@
 //!
 //! The format is an unsigned fraction of the PWM period with 16 fractional bits
 //! (`U0F16`-like: value = raw / 65 536), resolution 1.5 × 10⁻⁵ of the period — far finer than
-//! the timer's own resolution (1 / 8 500 at 20 kHz from 170 MHz).
+//! a timer's own resolution (taut's board: 1 / 8 500, 20 kHz from 170 MHz;
+//! [`Duty::compare_ticks`] takes the period the board counts).
 
 use crate::units::Q16;
 

@@ -5,8 +5,9 @@
 //! mode (TIM2 XORs the three Hall lines into TI1 and captures on every edge of the result,
 //! RM0440 section 29.3.26 "Interfacing with Hall sensors"), which applies a new sector at once
 //! instead of up to one PWM period later. Time between calls comes from the DWT cycle counter,
-//! which runs at the system clock — the same 170 MHz as TIM1, so its counts are
-//! [`DriveTime`] directly.
+//! which runs at the system clock — the same 170 MHz as TIM1 — converted to core's
+//! [`DriveTime`] (100 ns) by [`drive_time`], 17 cycles a unit, the remainder carried into the
+//! next call so no time is lost.
 
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicU32, Ordering};

@@ -63,11 +63,11 @@
 //! into discontinuous conduction and its torque stops following the duty. It also recharges
 //! the high side's bootstrap capacitor every period.
 //!
-//! The two switches of the switched leg never conduct together: the timer's complementary
-//! output inserts the board's dead time ([`super::DriveConfig::dead_time`]) at every edge, in
-//! hardware, within the period. The core's guarantees are one level up, between periods: a leg's *state* never changes between
-//! [`LegState::High`] and [`LegState::Low`] without the sequencer's own dead time of both-off
-//! ([`super::dead_time`]).
+//! The two switches of the switched leg never conduct together: the timer's complementary output
+//! inserts the board's dead time ([`super::DriveConfig::dead_time`]) at every edge, in hardware,
+//! within the period. The core's guarantees are one level up, between periods: a leg's *state*
+//! never changes between [`LegState::High`] and [`LegState::Low`] without the sequencer's own dead
+//! time of both-off ([`super::dead_time`]).
 
 use super::Direction;
 use super::hall::Sector;

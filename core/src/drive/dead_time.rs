@@ -8,15 +8,15 @@
 //! **dead time**: both switches of the leg off for at least the dead time before the other
 //! one turns on.
 //!
-//! The dead time is a fact of the board (its MOSFETs and gate drivers), so it is handed in
-//! with the board's configuration ([`super::DriveConfig::dead_time`], validated between
-//! [`DEAD_TIME_MIN`] and [`DEAD_TIME_MAX`]); the firmware programs the same value into the
-//! timer's hardware dead-time generator, which inserts it between a channel and its
-//! complementary output. This sequencer is the second, independent layer, in software, and it
-//! is stricter: a leg may only turn **on** (to either side) after having been **off** for at
-//! least the dead time, and a request to change a leg directly from one side to the other is
-//! carried out as "off now, the new side once the dead time has passed". So no sequence of requests can make a leg go high → low or low → high
-//! without the dead time of both-off in between.
+//! The dead time is a fact of the board (its MOSFETs and gate drivers), so it is handed in with the
+//! board's configuration ([`super::DriveConfig::dead_time`], validated between [`DEAD_TIME_MIN`]
+//! and [`DEAD_TIME_MAX`]); the firmware programs the same value into the timer's hardware dead-time
+//! generator, which inserts it between a channel and its complementary output. This sequencer is
+//! the second, independent layer, in software, and it is stricter: a leg may only turn **on** (to
+//! either side) after having been **off** for at least the dead time, and a request to change a leg
+//! directly from one side to the other is carried out as "off now, the new side once the dead time
+//! has passed". So no sequence of requests can make a leg go high → low or low → high without the
+//! dead time of both-off in between.
 //!
 //! # Time
 //!

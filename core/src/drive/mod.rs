@@ -3,12 +3,12 @@
 //!
 //! # Theory of operation
 //!
-//! [`Drive::step`] runs on every PWM period (and on Hall edges): it is handed one
-//! [`DriveSample`] — the voted Hall code, the bus-current code, the overcurrent comparator's
-//! flag, the limit switches and the time since the previous call ([`DriveTime`]) — and returns the
-//! [`DriveOutput`] to put on the bridge: a [`SwitchPattern`] and a [`Duty`] for its high side.
-//! The 1 kHz control tick talks to the drive only through [`Drive::set_command`] (direction
-//! and duty, or coast) and [`Drive::clear_fault`], and reads back [`Drive::status`].
+//! [`Drive::step`] runs on every PWM period (and on Hall edges): it is handed one [`DriveSample`] —
+//! the voted Hall code, the bus-current code, the overcurrent comparator's flag, the limit switches
+//! and the time since the previous call ([`DriveTime`]) — and returns the [`DriveOutput`] to put on
+//! the bridge: a [`SwitchPattern`] and a [`Duty`] for its high side. The 1 kHz control tick talks
+//! to the drive only through [`Drive::set_command`] (direction and duty, or coast) and
+//! [`Drive::clear_fault`], and reads back [`Drive::status`].
 //!
 //! Every call goes through the same fixed sequence, whose order is the safety argument:
 //!
@@ -36,10 +36,11 @@
 //!    that must change sides off for the board's dead time ([`DriveConfig::dead_time`]).
 //! 6. **Duty.** Emitted only while some high side is on (otherwise zero): the held command's
 //!    duty (bounded by [`DUTY_MAX`] by its type), slewed by at most
-//!    [`DUTY_SLEW_PER_MS`] (pro rata of the time since the last call) from the last applied duty, folded back halfway
-//!    to the zero-current duty in a period whose sampled winding current is at the fold-back
-//!    threshold, and always clamped into the **duty window** — so the winding current stays
-//!    within the limit whatever the command, the rotor speed or the bus voltage (`limit`).
+//!    [`DUTY_SLEW_PER_MS`] (pro rata of the time since the last call) from the last applied
+//!    duty, folded back halfway to the zero-current duty in a period whose sampled winding
+//!    current is at the fold-back threshold, and always clamped into the **duty window** — so
+//!    the winding current stays within the limit whatever the command, the rotor speed or the
+//!    bus voltage (`limit`).
 //!    The same step keeps three confirmed rules on the current the window cannot hold, each
 //!    latching an overcurrent: a sustained over-limit reading ([`FOLD_BACK_TRIP`]), a lower
 //!    edge lifting the duty for [`LIFT_LIMIT`], and a rotor **motoring faster than its
@@ -79,9 +80,10 @@ use duty::DUTY_ONE;
 ///
 /// The drive never sees a clock frequency: the firmware converts its timer's counts
 /// (`firmware/src/timing.rs`), the twin its simulation step, each into this unit, and every
-/// duration the drive and the machine compare against is written in microseconds. 100 ns
-/// resolves the dead time (1 µs = 10) and a Hall step at full speed (≈ 675 µs = 6 750) to
-/// well under a percent, and a `u32` spans 429 s.
+/// duration the drive and the machine compare against is written in microseconds. 100 ns is
+/// a tenth of taut's 1 µs dead time (a dead time is configured in whole units, and the
+/// firmware checks its own is one), resolves a Hall step at full speed (≈ 675 µs = 6 750
+/// units) to under 0.02 %, and a `u32` of it spans 429 s.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Debug, Default)]
 pub struct DriveTime(pub u32);
 

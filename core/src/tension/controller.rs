@@ -163,7 +163,7 @@ pub struct ControllerConfig {
 /// period).
 pub const DEAD_TIME_DUTY_MAX: Duty = Duty::from_raw_clamped(6_554);
 
-/// taut's board's dead-time duty: 1 µs of a 50 µs (20 kHz) period, 0.02 (Q15.16 1 311); the
+/// taut's board's dead-time duty: 1 µs of a 50 µs (20 kHz) period, 0.02 (raw 1 311 of 65 536); the
 /// firmware checks its own timing against it when it is compiled.
 pub const TAUT_DEAD_TIME_DUTY: Duty = Duty::from_raw_clamped(1_311);
 

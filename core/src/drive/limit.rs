@@ -46,8 +46,9 @@
 //! - `I_lim·R` with the *lowest* resistance the pair can have (cold windings, MOSFETs at their
 //!   best), so the real current is at most the limit.
 //!
-//! Above the regeneration threshold (`BusSense::regen_mv`, as `DriveConfig`'s `regen_code`) the lower edge rises to `e/V_bus`: no braking current, so the
-//! bus stops being pumped; at the overvoltage threshold (`BusSense::max_mv`) the drive latches a fault and coasts.
+//! Above the regeneration threshold (`BusSense::regen_mv`, as `DriveConfig`'s `regen_code`)
+//! the lower edge rises to `e/V_bus`: no braking current, so the bus stops being pumped; at
+//! the overvoltage threshold (`BusSense::max_mv`) the drive latches a fault and coasts.
 //!
 //! # Current sensing
 //!
@@ -604,7 +605,8 @@ mod tests {
         let config =
             DriveConfig::new(CurrentSense::PAPER, bus, CurrentLimit::PAPER, 12_000, DEAD_TIME);
         let Ok(config) = config else { panic!("{config:?}") };
-        // Code 1 555 of that divider is 24.0 V, to the mV below (the paper's 1:12 would call it 22.8 V).
+        // Code 1 555 of that divider is 24.0 V, to the mV below (the paper's 1:12 would call it
+        // 22.8 V).
         assert_eq!(config.bus().volts(AdcCode::new(1_555)), Volts::from_milli(23_999));
         assert!(config.bus_over(AdcCode::new(2_592)) && !config.bus_over(AdcCode::new(2_591)));
     }

@@ -271,7 +271,8 @@ pub enum View {
     ConstantPull,
     /// Preset selection (`P 3`); the number is 0-based.
     Preset(u8),
-    /// The stringing timer (`r1.05`: r for the racket; an `S` would read as a 5): Up starts and stops it, Down resets it when stopped.
+    /// The stringing timer (`r1.05`: r for the racket; an `S` would read as a 5): Up starts
+    /// and stops it, Down resets it when stopped.
     Timer,
     /// The pull log: `entry` back from the latest (Up: older, Down: newer), `field` of
     /// [`LOG_FIELDS`] (Preset: the next).

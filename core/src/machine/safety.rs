@@ -12,8 +12,8 @@
 //!   the bridge off in that same period and reports the latched fault here.
 //! - **While moving** ([`limit_guard`], [`stall`], [`load_cell_rail`]): the drive command
 //!   never points toward an active limit switch (it is replaced by coast); where the
-//!   carriage should be moving, duty with no Hall step for [`STALL_QUIET`] is a stall; a load-cell reading at a converter rail for
-//!   [`RAIL_PERSIST`] ticks is a broken sensor.
+//!   carriage should be moving, duty with no Hall step for [`STALL_QUIET`] is a stall; a
+//!   load-cell reading at a converter rail for [`RAIL_PERSIST`] ticks is a broken sensor.
 //! - **While the string is under tension** ([`TensionWatch`]): the end-of-travel limit
 //!   (tension never reached), overload, string break, no string and reversed load-cell
 //!   wiring. These decide on *evidence*, never on one sample: the paper's amplifier board

@@ -21,8 +21,8 @@
 //!   `true = gain × raw + offset`, fitted by least squares through the loaded points.
 //!   A line, rather than a polyline through every point, because the reference gauge has its
 //!   own error (a good digital tension calibrator: σ ≈ 0.02 kgf) and the least-squares fit
-//!   averages it over the points (for four): the fitted line's error is σ·√(1/4 + (x − x̄)²/Σ(xᵢ − x̄)²),
-//!   i.e. 0.5 σ at 25 kgf and ≤ 0.9 σ anywhere in 8–40 kgf, where a polyline would pass every
+//!   averages it over the points (for four): the fitted line's error is
+//!   σ·√(1/4 + (x − x̄)²/Σ(xᵢ − x̄)²), i.e. 0.5 σ at 25 kgf and ≤ 0.9 σ anywhere in 8–40 kgf, where a polyline would pass every
 //!   point's full error σ straight into the tensions near that point.
 //! - **Below the knee:** the sensor's non-linearity there is not captured by any of the loaded
 //!   points, so the fitted line is not trusted; instead the correction interpolates linearly
@@ -38,8 +38,8 @@
 //!
 //! [`Calibration::new`] rejects a set of points that cannot come from a healthy chain and a
 //! careful operator ([`CalibrationError`]): raw or reference readings not strictly
-//! increasing from the zero point, a reference outside the plausible band, a fitted gain off by more than 25 %
-//! or an offset beyond ±3 kgf (the four-point calibration corrects a chain, it cannot make a
+//! increasing from the zero point, a reference outside the plausible band, a fitted gain off
+//! by more than 25 % or an offset beyond ±3 kgf (the four-point calibration corrects a chain, it cannot make a
 //! broken one right), a point more than 0.5 kgf off the fitted line (a mistyped reading),
 //! and a low-range sensitivity (zero point to knee) more than ×2 off the fitted one. The
 //! per-sample [`Calibration::correct`] has no

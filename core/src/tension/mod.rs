@@ -32,8 +32,8 @@
 //!   and the carriage speed from Hall steps.
 //!
 //! Everything is fixed point ([`crate::fixed`]: Q15.16 signals, 64-bit products and sums, no
-//! division in the step), allocation-free and panic-free; gains are validated once at construction. The
-//! requirements are `REQ-TEN-*` in `docs/SPEC.md`.
+//! division in the step), allocation-free and panic-free; gains are validated once at
+//! construction. The requirements are `REQ-TEN-*` in `docs/SPEC.md`.
 
 pub mod controller;
 pub mod estimator;

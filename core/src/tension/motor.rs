@@ -251,7 +251,8 @@ impl ForceToDuty {
     /// undervoltage lockout holds the gates off there, so the duty does nothing; a missing
     /// divider reads 0) and leaves the nominal scale; a reading above twice the nominal is
     /// taken as twice (the drive faults at its configured maximum long before). So the scale
-    /// is always within `[½, 2]` — never a division by a small number. Division-free: one reciprocal ([`reciprocal_q24`]).
+    /// is always within `[½, 2]` — never a division by a small number. Division-free: one
+    /// reciprocal ([`reciprocal_q24`]).
     pub fn set_bus(&mut self, bus: Volts) {
         let nominal = self.nominal_bus;
         let measured = bus.to_bits();

@@ -18,9 +18,10 @@
 //! as braking's pump-up decays; once learned, only from residuals below 0.004, so a slip
 //! is not learned away), and once it has learned for [`LEARN_TICKS`] it reads the residual
 //! `r = duty_prev − d₀ − c·I` — the back-EMF of the motion, in duty — every tick. Beyond a
-//! dead zone the residual is turned into a braking force `k·F_stall·(r − r₀)` subtracted from the law's force: active damping of forward slips
-//! only, acting within a tick or two of the breakaway, so a slip stops long before the
-//! next detent. No division, three products per tick.
+//! dead zone the residual is turned into a braking force `k·F_stall·(r − r₀)` subtracted
+//! from the law's force: active damping of forward slips only, acting within a tick or two
+//! of the breakaway, so a slip stops long before the next detent. No division, three
+//! products per tick.
 //!
 //! The controller owns one ([`crate::tension::ProfileConfig::slip_damping`] sets its gain) and
 //! asks it for a braking force every hold tick; `REQ-TEN-15` in `docs/SPEC.md` bounds it.
@@ -162,6 +163,7 @@ impl SlipDamper {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tension::controller::TAUT_DEAD_TIME_DUTY;
 
     /// A stuck carriage at 2 A and duty 0.02 + 0.046·2 (the twin's stall relation).
     fn stuck(damper: &mut SlipDamper, ticks: u32) {
@@ -181,7 +183,7 @@ mod tests {
             Q16::lit("0.002"),
             Q16::lit("0.005"),
             Q16::lit("0.035"),
-            Duty::from_raw_clamped(1_311),
+            TAUT_DEAD_TIME_DUTY,
         );
         // Inactive (outside the hold): nothing, and nothing learned.
         assert_eq!(damper.update(Amps::from_int(2), 0, false), Kgf::ZERO);

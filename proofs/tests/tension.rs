@@ -14,7 +14,7 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use proptest::prelude::*;
-use taut_core::fixed::Q32;
+use taut_core::fixed::{Q24, Q32};
 use taut_core::settings::MmPerSecond;
 use taut_core::tension::PullPhase;
 use taut_core::tension::controller::{TAUT_GAINS, TAUT_PLANT};
@@ -123,8 +123,9 @@ fn profile_state() -> impl Strategy<Value = ProfileState> {
         ),
         (0_i64..=(50_i64 << 32), any::<i32>(), any::<i32>(), any::<u32>()),
         (any::<bool>(), saturation(), any::<bool>()),
+        (any::<u32>(), 0..=(1_200_i32 << 16), 0..=i32::MAX),
     )
-        .prop_map(|(a, b, c)| {
+        .prop_map(|(a, b, c, d)| {
             let (peak, final_target) = if a.1 >= a.2 { (a.1, a.2) } else { (a.2, a.1) };
             ProfileState {
                 phase: a.0,
@@ -139,6 +140,9 @@ fn profile_state() -> impl Strategy<Value = ProfileState> {
                 at_tension: c.0,
                 saturated: c.1,
                 fresh: c.2,
+                take_up_mark: d.0,
+                braking_decel: Q16::from_bits(d.1),
+                braking_inv_two_decel: Q24(d.2),
             }
         })
 }

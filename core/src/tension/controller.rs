@@ -20,7 +20,9 @@
 //! 1. [`PullPhase::TakeUp`] — velocity mode: the carriage runs at the speed setting's limit
 //!    (duty = back-EMF of that speed + resistive drop of the present tension, accelerating
 //!    no harder than the current limit allows), taking up the slack and stretching the
-//!    string, while the estimator measures the tension rate `ẏ` and the carriage speed `v`.
+//!    string, while the estimator measures the tension rate `ẏ` and the carriage speed `v`,
+//!    and the profile measures the carriage's acceleration to plan the braking with
+//!    ([`Profile::observe_take_up`], REQ-ID-06: no more than this machine can do).
 //! 2. [`PullPhase::Approach`] — **braking**. A carriage at speed `v` into a string of
 //!    stiffness `K = ẏ/v`, braked at a constant deceleration `a`, adds `K·v²/(2a) = ẏ·v/(2a)`
 //!    of tension before it stops. The braking starts in the tick where that rise reaches
@@ -71,7 +73,8 @@
 //!
 //! As in [`crate::tension::law`] and [`crate::tension::profile`] (whose reference is kept
 //! in Q31.32): Q15.16 signals, exact 64-bit products ([`crate::fixed`]). The step has no
-//! division: the one reciprocal (the stiffness, at the braking onset) is [`reciprocal_q24`].
+//! division: the one reciprocal (the stiffness, at the braking onset) is [`reciprocal_q24`];
+//! once per pull the take-up's identification divides (see [`crate::tension::profile`]).
 
 use crate::drive::{DUTY_MAX, Direction, DriveCommand, Duty};
 use crate::fixed::{Q24, mul_q24, reciprocal_q24};
@@ -612,6 +615,7 @@ impl TensionController {
                 }
             }
             PullPhase::TakeUp => {
+                self.profile.observe_take_up(speed);
                 if self.profile.braking_due(&est) {
                     self.begin_braking(&est);
                     self.closed_loop(&est, speed, Kgf::ZERO, &mut force)

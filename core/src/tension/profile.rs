@@ -10,6 +10,14 @@
 //! applies what the profile identifies (the string's stiffness at the braking onset, the
 //! end of the braking) to the estimator and the law; the profile itself touches neither.
 //!
+//! - **Take-up identification** ([`Profile::observe_take_up`], REQ-ID-06): the take-up
+//!   accelerates from rest at the drive's current limit, so the ticks its speed takes from a
+//!   quarter to three quarters of the speed limit measure the acceleration this machine's
+//!   carriage and rotor allow. The braking is planned at [`BRAKING_PER_TAKE_UP`] times it
+//!   where that is below [`ProfileConfig::braking_deceleration`]: a heavier rotor, a weaker
+//!   motor or a low bus brakes from further out instead of overshooting (at 4× the twin's
+//!   nominal inertia, overshoot 0.75 → 0.01 kgf), while a machine that can brake harder than
+//!   configured keeps the configured plan.
 //! - **Braking onset** ([`Profile::braking_due`]): a carriage at speed `v` into a string of
 //!   stiffness `K = ẏ/v`, braked at a constant deceleration `a`, adds `ẏ·v/(2a)` of tension
 //!   before it stops; the braking starts in the tick where that rise reaches the gap to the
@@ -30,7 +38,8 @@
 //!
 //! Everything the step needs from the configuration is derived once, with its divisions, by
 //! [`ProfileCoefficients::new`] (as the law's `RsmcCoefficients` are): the step itself has
-//! no division. Each coefficient carries its fixed-point format in its type ([`Q16`] units,
+//! no division, except once per pull, when the take-up's identification ends (`Δv/(n·dt)`
+//! and its `1/(2a)`, two 64-bit divisions by checked non-zero divisors). Each coefficient carries its fixed-point format in its type ([`Q16`] units,
 //! [`Q24`], [`Q32`]).
 //!
 //! # Fixed point
@@ -56,6 +65,23 @@ pub const STIFFNESS_RANGE: (Q16, Q16) = (Q16::lit("0.05"), Q16::const_from_int(4
 
 /// The longest sensing lag a profile may declare, 0.1 s.
 pub const SENSING_LAG_MAX: Q16 = Q16::lit("0.1");
+
+/// The braking deceleration a take-up identifies is planned at this multiple of the
+/// acceleration it measured (REQ-ID-06): 1.4. Braking has at least the take-up's force — the
+/// drive's current window allows the full limit both ways while the take-up's current-limited
+/// duty, judged on a lagging speed, delivers about half of it — and the screw's friction and
+/// the string's pull both help it. On the twin's family at 4× the nominal inertia the take-up
+/// accelerates at ≈ 600 mm/s² and the braking achieves ≈ 820 mm/s² (1.37×).
+pub const BRAKING_PER_TAKE_UP: Q16 = Q16::lit("1.4");
+
+/// The fewest ticks an acceleration measurement may span: 3 (a shorter one is a carriage
+/// that needs no braking plan of its own; the configured one stands).
+const IDENTIFY_TICKS_MIN: u32 = 3;
+
+/// The least braking deceleration an identification plans with, mm/s²: 100 (twelve times the
+/// nominal machine's inertia; a take-up slower than that is a carriage dragging, and the
+/// approach still brakes under closed-loop control).
+pub const BRAKING_DECELERATION_MIN: Q16 = Q16::const_from_int(100);
 
 /// The fastest reference rate, kgf/s (a 4 kgf/mm string at 250 mm/s).
 pub const REFERENCE_RATE_MAX: KgfPerSecond = KgfPerSecond::from_int(1_000);
@@ -256,6 +282,14 @@ pub struct ProfileState {
     pub saturated: Saturation,
     /// The law has not run since Start (its memory is reset on the first closed-loop tick).
     pub fresh: bool,
+    /// The take-up's tick at which the carriage first reached a quarter of the speed limit
+    /// (0: not yet), the start of the acceleration measurement (REQ-ID-06).
+    pub take_up_mark: u32,
+    /// The braking deceleration this pull plans with, mm/s², as the take-up identified it
+    /// (0: the configured one, [`ProfileCoefficients::decel`]).
+    pub braking_decel: Q16,
+    /// `1/(2a)` of [`ProfileState::braking_decel`], s²/mm (0: the configured one).
+    pub braking_inv_two_decel: Q24,
 }
 
 /// Any profile state, for proofs ([`Profile::is_valid`] states which are reachable): every
@@ -277,6 +311,9 @@ impl kani::Arbitrary for ProfileState {
             at_tension: kani::any(),
             saturated: kani::any(),
             fresh: kani::any(),
+            take_up_mark: kani::any(),
+            braking_decel: Q16::from_bits(kani::any()),
+            braking_inv_two_decel: Q24(kani::any()),
         }
     }
 }
@@ -298,6 +335,9 @@ impl<'a> arbitrary::Arbitrary<'a> for ProfileState {
             at_tension: u.arbitrary()?,
             saturated: u.arbitrary()?,
             fresh: u.arbitrary()?,
+            take_up_mark: u.arbitrary()?,
+            braking_decel: Q16::from_bits(u.arbitrary()?),
+            braking_inv_two_decel: Q24(u.arbitrary()?),
         })
     }
 }
@@ -317,6 +357,9 @@ impl ProfileState {
         at_tension: false,
         saturated: Saturation::None,
         fresh: false,
+        take_up_mark: 0,
+        braking_decel: Q16::ZERO,
+        braking_inv_two_decel: Q24(0),
     };
 }
 
@@ -497,6 +540,9 @@ impl Profile {
             at_tension: false,
             saturated: Saturation::None,
             fresh: true,
+            take_up_mark: 0,
+            braking_decel: Q16::ZERO,
+            braking_inv_two_decel: Q24(0),
         };
     }
 
@@ -582,7 +628,11 @@ impl Profile {
         let p = &self.state;
         let in_range = |value: Kgf| value >= Kgf::ZERO && value <= TENSION_MAX;
         let reference_ok = p.reference.0 >= 0 && p.reference <= Q32::from_q16(TENSION_MAX.0);
-        in_range(p.peak)
+        let braking_ok = p.braking_decel >= Q16::ZERO
+            && p.braking_decel <= self.coefficients.decel
+            && p.braking_inv_two_decel.0 >= 0;
+        braking_ok
+            && in_range(p.peak)
             && in_range(p.final_target)
             && in_range(p.goal)
             && p.final_target <= p.peak
@@ -601,13 +651,72 @@ impl Profile {
         self.state.reference = Q32(reference.0.clamp(0, max.0));
     }
 
+    /// The braking deceleration `a` this pull plans with and its `1/(2a)`: the take-up's
+    /// identification where it made one, else the configured ones. (The identification sets
+    /// both fields together, so the deceleration alone tells whether it has.)
+    #[must_use]
+    pub fn braking_deceleration(&self) -> (Q16, Q24) {
+        let p = &self.state;
+        if p.braking_decel > Q16::ZERO {
+            (p.braking_decel, p.braking_inv_two_decel)
+        } else {
+            (self.coefficients.decel, self.coefficients.inv_two_decel)
+        }
+    }
+
+    /// One take-up tick's look at the carriage speed `speed` (REQ-ID-06): the take-up
+    /// accelerates at the current limit from rest, so the time its speed takes from a
+    /// quarter to three quarters of the speed limit measures the acceleration the drive
+    /// gives this carriage — its reflected inertia against the motor's force, on this
+    /// machine, today. The braking is then planned at [`BRAKING_PER_TAKE_UP`] times that,
+    /// where that is below the configured deceleration (never above it), and at least
+    /// [`BRAKING_DECELERATION_MIN`]. Both crossings read the same lagging speed estimate, so
+    /// its lag cancels out of the interval. One division per pull, at the second crossing.
+    pub fn observe_take_up(&mut self, speed: MmPerSecond) {
+        let p = self.state;
+        if p.phase != PullPhase::TakeUp || p.braking_decel > Q16::ZERO {
+            return;
+        }
+        let limit = p.speed_limit.0.to_bits().max(0);
+        let quarter = limit >> 2;
+        let speed = speed.0.to_bits();
+        if p.take_up_mark == 0 {
+            if quarter > 0 && speed >= quarter {
+                self.state.take_up_mark = p.ticks.max(1);
+            }
+            return;
+        }
+        if speed < limit.saturating_sub(quarter) {
+            return;
+        }
+        let ticks = p.ticks.saturating_sub(p.take_up_mark);
+        let c = &self.coefficients;
+        // a = Δv/(n·dt): Δv < 2³¹ bits, × 2³² over n·dt (dt in 2⁻³² s), Q16 mm/s².
+        let rise = i64::from(limit.saturating_sub(quarter.saturating_mul(2)));
+        let span = i64::from(ticks).saturating_mul(c.dt.wide());
+        let measured = if ticks >= IDENTIFY_TICKS_MIN {
+            rise.saturating_mul(1_i64 << 32).checked_div(span).unwrap_or(i64::MAX)
+        } else {
+            i64::MAX
+        };
+        let planned = i64::from(BRAKING_PER_TAKE_UP.to_bits()).saturating_mul(measured) >> 16;
+        let floor = i64::from(BRAKING_DECELERATION_MIN.to_bits());
+        let decel = planned.clamp(floor, i64::from(c.decel.to_bits()).max(floor));
+        let inv = (1_i64 << 40).checked_div(decel.saturating_mul(2)).unwrap_or(0);
+        let (Ok(decel), Ok(inv)) = (i32::try_from(decel), i32::try_from(inv)) else {
+            return;
+        };
+        self.state.braking_decel = Q16::from_bits(decel);
+        self.state.braking_inv_two_decel = Q24(inv);
+    }
+
     /// The tension a braking carriage still adds, `ẏ·v/(2a)`, kgf bits (see the module
     /// docs), and the lag-compensated tension `y + ẏ·t_lag`.
     fn braking_rise(&self, est: &Estimate) -> (i32, i32) {
         let c = &self.coefficients;
         let rate = est.rate.to_bits().max(0);
         let speed = est.speed.0.to_bits().max(0);
-        let rise = mul_q24(narrow(mul_wide(rate, speed)), c.inv_two_decel);
+        let rise = mul_q24(narrow(mul_wide(rate, speed)), self.braking_deceleration().1);
         let predicted = est.sample.to_bits().saturating_add(mul_q24(rate, c.lag));
         (rise, predicted)
     }
@@ -654,8 +763,9 @@ impl Profile {
         self.set_reference(Q32(i64::from(start) << 16));
         self.state.reference_rate = KgfPerSecond::from_bits(rate);
         // ÿ_d = −K̂·a.
+        let decel = self.braking_deceleration().0;
         self.state.reference_accel =
-            Q16::from_bits(narrow(mul_wide(stiffness, c.decel.to_bits())).saturating_neg());
+            Q16::from_bits(narrow(mul_wide(stiffness, decel.to_bits())).saturating_neg());
         self.state.fresh = true;
         self.enter(PullPhase::Approach);
         BrakingOnset { stiffness: Q16::from_bits(stiffness), start: Kgf::from_bits(start) }
@@ -867,6 +977,155 @@ mod tests {
         assert_eq!(Profile::new(&fast, 1_000), Err(ProfileError::ClosingTimeConstant));
         assert!(Profile::new(&fast, 100).is_ok());
         assert!(Profile::FALLBACK.is_valid());
+    }
+
+    /// A speed-9 take-up on `TAUT` whose carriage accelerates at `accel` mm/s² from rest
+    /// (the speed as the controller would read it, one value per 1 ms tick), for `ms` ticks.
+    fn take_up(accel: i64, ms: u32) -> Profile {
+        let mut profile = Profile::new(&ProfileConfig::TAUT, 1_000).unwrap_or(Profile::FALLBACK);
+        let settings = PullSettings::default();
+        profile.start(&settings, PullKind::Main);
+        assert_eq!(profile.phase(), PullPhase::TakeUp);
+        let limit = i64::from(settings.speed().carriage_limit().0.to_bits());
+        for tick in 0..ms {
+            profile.tick();
+            // v = a·t, Q16 mm/s, no faster than the limit.
+            let speed = (accel * i64::from(tick) * 65_536 / 1_000).min(limit);
+            profile.observe_take_up(MmPerSecond(Q16::from_bits(speed.try_into().unwrap_or(0))));
+            assert!(profile.is_valid());
+        }
+        profile
+    }
+
+    /// The planned braking deceleration, whole mm/s².
+    fn planned_decel(profile: &Profile) -> i32 {
+        profile.braking_deceleration().0.to_bits() >> 16
+    }
+
+    #[test]
+    fn a_take_up_identifies_the_braking_deceleration_from_its_acceleration() {
+        // Nominal machine (≈ 2 000 mm/s² in its take-up): 1.4 × that is above the configured
+        // 1 200, which stands.
+        let nominal = take_up(2_000, 200);
+        assert_eq!(nominal.braking_deceleration().0, Q16::const_from_int(1_200));
+        assert_eq!(
+            nominal.braking_deceleration().1,
+            ProfileCoefficients::new(&ProfileConfig::TAUT, 1_000)
+                .map_or(Q24(0), |c| c.inv_two_decel)
+        );
+        // A heavy rotor (≈ 600 mm/s²): braked at 1.4 × 600 = 840, its 1/(2a) beside it.
+        let heavy = take_up(600, 300);
+        let (decel, inv) = heavy.braking_deceleration();
+        let a = planned_decel(&heavy);
+        assert!((a - 840).abs() < 30, "planned {a} mm/s²");
+        let exact = (1_i64 << 40) / (2 * i64::from(decel.to_bits()));
+        assert_eq!(i64::from(inv.0), exact);
+        // One bound below 1 200 a little: 850 × 1.4 = 1 190.
+        let a = planned_decel(&take_up(850, 300));
+        assert!((a - 1_190).abs() < 40, "planned {a} mm/s²");
+        // A carriage that crawls up to speed: the floor, 100 mm/s².
+        let crawling = take_up(40, 3_000);
+        assert_eq!(crawling.braking_deceleration().0, BRAKING_DECELERATION_MIN);
+        // Still accelerating (three quarters of the limit not reached): nothing identified.
+        let early = take_up(600, 60);
+        assert_eq!(early.braking_deceleration().0, Q16::const_from_int(1_200));
+        // A jump to full speed within the shortest span measures nothing.
+        let jump = take_up(1_000_000, 50);
+        assert_eq!(jump.braking_deceleration().0, Q16::const_from_int(1_200));
+        // The next pull starts afresh.
+        let mut again = heavy;
+        again.start(&PullSettings::default(), PullKind::Main);
+        assert_eq!(again.braking_deceleration().0, Q16::const_from_int(1_200));
+        assert_eq!(again.state().take_up_mark, 0);
+    }
+
+    #[test]
+    fn the_identification_starts_and_ends_on_its_thresholds_and_stays_valid() {
+        // Speed 9: limit 81 mm/s; the thresholds in Q15.16 bits as the profile computes them.
+        let mut profile = take_up(0, 1);
+        let limit = profile.state().speed_limit.0.to_bits();
+        let (quarter, three_quarters) = (limit >> 2, limit - (limit >> 2));
+        let at = |profile: &mut Profile, bits: i32| {
+            profile.tick();
+            profile.observe_take_up(MmPerSecond(Q16::from_bits(bits)));
+        };
+        at(&mut profile, quarter - 1);
+        assert_eq!(profile.state().take_up_mark, 0, "below a quarter: not started");
+        at(&mut profile, quarter);
+        let mark = profile.state().take_up_mark;
+        assert!(mark > 0, "a quarter starts the measurement");
+        for _ in 0..3 {
+            at(&mut profile, three_quarters - 1);
+        }
+        assert_eq!(profile.state().braking_decel, Q16::ZERO, "below three quarters: not done");
+        at(&mut profile, three_quarters);
+        // Three quarters ends it: 40.5 mm/s in 4 ms is ≈ 10 000 mm/s²; the plan stays at the
+        // configured 1 200, now recorded as identified.
+        assert_eq!(profile.state().braking_decel, Q16::const_from_int(1_200));
+        assert_eq!(profile.state().take_up_mark, mark);
+        // A speed limit too small to have a quarter measures nothing, however long.
+        let mut tiny = take_up(0, 1);
+        let mut state = tiny.state();
+        state.speed_limit = MmPerSecond(Q16::from_bits(3));
+        tiny.set_state(state);
+        for _ in 0..10 {
+            at(&mut tiny, 0);
+        }
+        assert_eq!(tiny.state().take_up_mark, 0);
+        assert_eq!(tiny.state().braking_decel, Q16::ZERO);
+        // Validity: the identified deceleration within [0, configured], its 1/(2a) not
+        // negative.
+        let valid_with = |decel: i32, inv: i32| {
+            let mut p = take_up(0, 1);
+            let mut state = p.state();
+            state.braking_decel = Q16::from_bits(decel);
+            state.braking_inv_two_decel = Q24(inv);
+            p.set_state(state);
+            p.is_valid()
+        };
+        let configured = 1_200 << 16;
+        assert!(valid_with(0, 0));
+        assert!(valid_with(configured, 1));
+        assert!(!valid_with(-1, 0));
+        assert!(!valid_with(configured + 1, 0));
+        assert!(!valid_with(0, -1));
+        // And the reference within [0, TENSION_MAX], both ends.
+        let with_reference = |reference: i64| {
+            let mut p = take_up(0, 1);
+            let mut state = p.state();
+            state.reference = Q32(reference);
+            p.set_state(state);
+            p.is_valid()
+        };
+        let max = Q32::from_q16(TENSION_MAX.0).0;
+        assert!(with_reference(0) && with_reference(max));
+        assert!(!with_reference(-1) && !with_reference(max + 1));
+    }
+
+    #[test]
+    fn the_braking_parabola_uses_the_identified_deceleration() {
+        let est = |speed: i32| Estimate {
+            tension: Kgf::from_int(10),
+            sample: Kgf::from_int(10),
+            rate: KgfPerSecond::from_int(50),
+            speed: MmPerSecond(Q16::const_from_int(speed)),
+            steps: 0,
+        };
+        let mut configured = take_up(2_000, 200);
+        let mut heavy = take_up(600, 300);
+        // K̂ = 50/50 = 1 kgf/mm: ÿ_d = −K̂·a.
+        configured.begin_braking(&est(50));
+        heavy.begin_braking(&est(50));
+        let accel = |p: &Profile| p.state().reference_accel.to_bits() >> 16;
+        assert!((accel(&configured) + 1_200).abs() < 5, "{}", accel(&configured));
+        assert!((accel(&heavy) + 840).abs() < 35, "{}", accel(&heavy));
+        // And the braking starts earlier: the rise ẏ·v/(2a) is larger for the lower a.
+        let rise = |p: &Profile| p.braking_rise(&est(50)).0;
+        assert!(rise(&heavy) > rise(&configured));
+        // Outside the take-up nothing is measured.
+        let before = heavy.state();
+        heavy.observe_take_up(MmPerSecond(Q16::const_from_int(70)));
+        assert_eq!(heavy.state(), before);
     }
 
     fn valid_coefficients(config: &ProfileConfig, period_us: u32) -> ProfileCoefficients {

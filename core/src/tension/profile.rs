@@ -37,10 +37,10 @@
 //! # Coefficients
 //!
 //! Everything the step needs from the configuration is derived once, with its divisions, by
-//! [`ProfileCoefficients::new`] (as the law's `RsmcCoefficients` are): the step itself has
-//! no division, except once per pull, when the take-up's identification ends (`Δv/(n·dt)`
-//! and its `1/(2a)`, two 64-bit divisions by checked non-zero divisors). Each coefficient carries its fixed-point format in its type ([`Q16`] units,
-//! [`Q24`], [`Q32`]).
+//! [`ProfileCoefficients::new`] (as the law's `RsmcCoefficients` are): the step itself has no
+//! division, except once per pull, when the take-up's identification ends (`Δv/(n·dt)` and its
+//! `1/(2a)`, two 64-bit divisions by checked non-zero divisors). Each coefficient carries its
+//! fixed-point format in its type ([`Q16`] units, [`Q24`], [`Q32`]).
 //!
 //! # Fixed point
 //!
@@ -395,6 +395,13 @@ pub struct ProfileCoefficients {
     pub release_speed: MmPerSecond,
 }
 
+/// `1/(2a)` in Q8.24 s²/mm of a deceleration `a` in Q15.16 mm/s² bits (0 for `a ≤ 0`), or
+/// `None` if it does not fit: the braking rise's divisor, for the configured deceleration and
+/// for the one a take-up identifies alike.
+fn inverse_of_twice(decel_bits: i64) -> Option<i32> {
+    i32::try_from((1_i64 << 40).checked_div(decel_bits.saturating_mul(2)).unwrap_or(0)).ok()
+}
+
 impl ProfileCoefficients {
     /// The coefficients of `config` at a control period of `period_us` µs (the controller
     /// validates the period first; a period the closing time constant cannot be sampled at
@@ -416,9 +423,8 @@ impl ProfileCoefficients {
         let closing_step =
             u32::try_from(closing_step).ok().filter(|&step| step > 0).ok_or(TAU_REFUSED)?;
         let inv_tau = Q16::ONE.checked_div(tau).ok_or(TAU_REFUSED)?;
-        let two_decel = i64::from(decel.to_bits()).saturating_mul(2);
-        let inv_two_decel = i32::try_from((1_i64 << 40).checked_div(two_decel).unwrap_or(0))
-            .map_err(|_| ProfileError::BrakingDeceleration)?;
+        let inv_two_decel = inverse_of_twice(i64::from(decel.to_bits()))
+            .ok_or(ProfileError::BrakingDeceleration)?;
         Ok(Self {
             shaped: config.shaped,
             dt: Frac32(dt),
@@ -702,8 +708,7 @@ impl Profile {
         let planned = i64::from(BRAKING_PER_TAKE_UP.to_bits()).saturating_mul(measured) >> 16;
         let floor = i64::from(BRAKING_DECELERATION_MIN.to_bits());
         let decel = planned.clamp(floor, i64::from(c.decel.to_bits()).max(floor));
-        let inv = (1_i64 << 40).checked_div(decel.saturating_mul(2)).unwrap_or(0);
-        let (Ok(decel), Ok(inv)) = (i32::try_from(decel), i32::try_from(inv)) else {
+        let (Ok(decel), Some(inv)) = (i32::try_from(decel), inverse_of_twice(decel)) else {
             return;
         };
         self.state.braking_decel = Q16::from_bits(decel);

@@ -688,17 +688,20 @@ mod verification {
     #[kani::unwind(8)]
     fn verify_bounded_duty() {
         three_calls(|_, record| bounded_duty(record));
+        crate::harness_end_reached();
     }
 
     #[kani::proof]
     fn verify_duty_type_bounded() {
         duty_constructors_bounded(kani::any(), kani::any(), kani::any());
+        crate::harness_end_reached();
     }
 
     #[kani::proof]
     #[kani::unwind(8)]
     fn verify_no_shoot_through() {
         three_calls(|_, record| no_shoot_through(record));
+        crate::harness_end_reached();
     }
 
     fn any_sector() -> Sector {
@@ -713,18 +716,21 @@ mod verification {
     #[kani::unwind(8)]
     fn verify_six_step_table() {
         six_step_entry_is_well_formed(any_sector(), any_direction());
+        crate::harness_end_reached();
     }
 
     #[kani::proof]
     #[kani::unwind(8)]
     fn verify_commutation_consistent() {
         commutation_is_consistent(any_sector(), any_direction());
+        crate::harness_end_reached();
     }
 
     #[kani::proof]
     #[kani::unwind(8)]
     fn verify_dead_time_sequence() {
         three_calls(dead_time_respected);
+        crate::harness_end_reached();
     }
 
     #[kani::proof]
@@ -745,12 +751,14 @@ mod verification {
             requested,
             DriveTime(kani::any()),
         );
+        crate::harness_end_reached();
     }
 
     #[kani::proof]
     #[kani::unwind(8)]
     fn verify_hall_fault_all_off() {
         three_calls(hall_fault_turns_off);
+        crate::harness_end_reached();
     }
 
     /// REQ-DRV-04's skipped sector: two arbitrary calls from a rotor accepted in S0 (see
@@ -759,30 +767,35 @@ mod verification {
     #[kani::unwind(8)]
     fn verify_hall_skip_latches() {
         hall_fault_after(Sector::S0, &[kani::any(), kani::any()]);
+        crate::harness_end_reached();
     }
 
     #[kani::proof]
     #[kani::unwind(8)]
     fn verify_overcurrent_all_off() {
         three_calls(|_, record| overcurrent_turns_off(record));
+        crate::harness_end_reached();
     }
 
     #[kani::proof]
     #[kani::unwind(8)]
     fn verify_fault_latched_until_cleared() {
         three_calls(fault_latched_until_cleared);
+        crate::harness_end_reached();
     }
 
     #[kani::proof]
     #[kani::unwind(8)]
     fn verify_limit_interlock() {
         three_calls(|_, record| never_toward_active_limit(record));
+        crate::harness_end_reached();
     }
 
     #[kani::proof]
     #[kani::unwind(8)]
     fn verify_safe_reversal() {
         three_calls(safe_reversal);
+        crate::harness_end_reached();
     }
 
     #[kani::proof]
@@ -802,6 +815,7 @@ mod verification {
             duty_within_window(&observer, &record);
             observer.observe(&record);
         }
+        crate::harness_end_reached();
     }
 
     /// REQ-DRV-12's evidence: for any code, zero and applied duty, on a winding sense and on
@@ -815,6 +829,7 @@ mod verification {
         let zero: u16 = kani::any();
         let duty: u16 = kani::any();
         motoring_evidence(code, zero, duty);
+        crate::harness_end_reached();
     }
 
     /// REQ-DRV-10 at the window itself: for every back-EMF, on the nominal 24 V bus and at
@@ -829,6 +844,7 @@ mod verification {
         for bus in [1_638u16, 2_595] {
             window_bounds_current(bus, emf);
         }
+        crate::harness_end_reached();
     }
 }
 

@@ -33,3 +33,14 @@ pub mod machine_store;
 pub mod record_fuzz;
 pub mod tension;
 pub mod tension_reference;
+
+/// The vacuity guard every Kani harness ends with: a cover property that is satisfiable only
+/// if some input passes all of the harness's assumptions and assertions. A harness whose
+/// assumptions exclude every input proves nothing, yet verifies; `scripts/kani` fails on an
+/// unsatisfied cover. (This replaces Kani's per-assertion reachability checks, switched off
+/// in the root `Cargo.toml`: each of those that is reached makes CBMC write a trace, which
+/// took about half of every harness's time.)
+#[cfg(kani)]
+pub fn harness_end_reached() {
+    kani::cover!(true, "the harness's last line is reachable");
+}

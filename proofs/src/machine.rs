@@ -723,6 +723,7 @@ mod verification {
             #[kani::stub(taut_core::sense::calibration::Calibration::new, any_calibration_fit)]
             fn $name() {
                 check_tick(&one_tick_in($state));
+                crate::harness_end_reached();
             }
         };
     }
@@ -804,6 +805,7 @@ mod verification {
             _ => DriveCommand::Drive { direction: Direction::Release, duty },
         };
         limit_guard_is_sound(command, LimitSwitches { home: kani::any(), end: kani::any() });
+        crate::harness_end_reached();
     }
 
     /// REQ-SM-08: a hold adjustment never moves the target outside the validated range,
@@ -815,6 +817,7 @@ mod verification {
         let unit = if kani::any() { Unit::Kilograms } else { Unit::Pounds };
         let step: i8 = if kani::any() { 1 } else { -1 };
         hold_adjustment_in_range(base, unit, kani::any(), step);
+        crate::harness_end_reached();
     }
 
     /// The global-fault rule alone, for any inputs.
@@ -822,5 +825,6 @@ mod verification {
     fn verify_global_fault() {
         let tick: TickInput = kani::any();
         global_fault_is_sound(&tick.inputs());
+        crate::harness_end_reached();
     }
 }

@@ -176,64 +176,60 @@ mod verification {
     // assertion failed: length >= min_length` on the slice pattern in
     // `crc::crc32::update_table`), so every store harness replaces the record's checksum,
     // `taut_core::store::checksum`, with a stand-in. The CRC is not what these harnesses
-    // prove (its known answer is a unit test in `core/src/store.rs`). Remove the stubs when a
-    // Kani release compiles `crc` (check with
+    // prove (its known answer, and that every single-bit flip is caught, are unit tests in
+    // `core/src/store.rs`). Remove the stubs when a Kani release compiles `crc` (check with
     // `cargo kani -p taut-proofs --harness verify_store_round_trips` without the stub).
 
-    /// A cheap stand-in checksum: the XOR of the body's little-endian words. It is a
-    /// function (the same body always gives the same value, as decode-then-re-encode needs)
-    /// and the solver can meet or miss it with any bytes, so both the "CRC matches" and the
-    /// "CRC mismatch" paths of decoding are explored for every byte string.
-    fn xor_checksum(body: &[u8]) -> u32 {
-        let mut sum = 0_u32;
-        let mut word = [0_u8; 4];
-        for (index, byte) in body.iter().enumerate() {
-            if let Some(slot) = word.get_mut(index % 4) {
-                *slot = *byte;
-            }
-            if index % 4 == 3 {
-                sum ^= u32::from_le_bytes(word);
-            }
-        }
-        sum
+    /// The stand-in checksum: zero for every body. The stored CRC field is four bytes the
+    /// solver chooses freely, so it can meet the stand-in or miss it with any body: both the
+    /// "CRC matches" path (and everything decoding does after it) and the "CRC mismatch" path
+    /// are explored for every byte string. (An XOR of the body's words, the stand-in before,
+    /// explored the same paths but made the solver prove parity chains equal: 131 s for the
+    /// version-1 harness against 34 s.)
+    fn zero_checksum(_body: &[u8]) -> u32 {
+        0
     }
 
     #[kani::proof]
     #[kani::unwind(130)]
-    #[kani::stub(taut_core::store::checksum, xor_checksum)]
+    #[kani::stub(taut_core::store::checksum, zero_checksum)]
     fn verify_store_decode_is_total() {
         let bytes: [u8; RECORD_LEN] = kani::any();
         // Every version byte but 1 and 2 (today's format, and every unknown one); versions 1
         // and 2 are the next harnesses', so that each stays within the two-minute budget.
         kani::assume(bytes.get(2) != Some(&FORMAT_V1) && bytes.get(2) != Some(&FORMAT_V2));
         decode_is_total(&bytes);
+        crate::harness_end_reached();
     }
 
     #[kani::proof]
     #[kani::unwind(130)]
-    #[kani::stub(taut_core::store::checksum, xor_checksum)]
+    #[kani::stub(taut_core::store::checksum, zero_checksum)]
     fn verify_store_decode_migrates_version_1() {
         let bytes: [u8; RECORD_LEN] = kani::any();
         kani::assume(bytes.get(2) == Some(&FORMAT_V1));
         decode_is_total(&bytes);
+        crate::harness_end_reached();
     }
 
     #[kani::proof]
     #[kani::unwind(130)]
-    #[kani::stub(taut_core::store::checksum, xor_checksum)]
+    #[kani::stub(taut_core::store::checksum, zero_checksum)]
     fn verify_store_decode_migrates_version_2() {
         let bytes: [u8; RECORD_LEN] = kani::any();
         kani::assume(bytes.get(2) == Some(&FORMAT_V2));
         decode_is_total(&bytes);
+        crate::harness_end_reached();
     }
 
     #[kani::proof]
     #[kani::unwind(130)]
-    #[kani::stub(taut_core::store::checksum, xor_checksum)]
+    #[kani::stub(taut_core::store::checksum, zero_checksum)]
     fn verify_store_round_trips() {
         let input: RecordInput = kani::any();
         if let Some(record) = input.record() {
             round_trips(&record);
         }
+        crate::harness_end_reached();
     }
 }

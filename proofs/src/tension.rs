@@ -498,6 +498,7 @@ mod verification {
         let case: LawCase = kani::any();
         kani::assume(law_in(&case).is_valid());
         assert!(rsmc_step_bounded(&case));
+        crate::harness_end_reached();
     }
 
     /// REQ-TEN-02/09, the force → duty stage: every force, speed and current-limit window
@@ -507,6 +508,7 @@ mod verification {
         let (low, high): (i64, i64) = (kani::any(), kani::any());
         kani::assume(low >= 0 && high <= i64::from(DUTY_MAX.raw()));
         force_to_duty_within(kani::any(), kani::any(), kani::any(), kani::any(), (low, high));
+        crate::harness_end_reached();
     }
 
     /// REQ-TEN-01/03/10, the estimator: every valid state and input, clip and observer on
@@ -519,12 +521,14 @@ mod verification {
         // The estimator's invariant, as `TensionEstimator::is_valid` states it.
         kani::assume(case.state.stiffness >= 0 && case.state.stiffness <= 4 << 16);
         assert!(estimator_step_bounded(&case));
+        crate::harness_end_reached();
     }
 
     /// REQ-TEN-15, the slip damper: every state and input. Three products.
     #[kani::proof]
     fn verify_slip_damper_bounded() {
         slip_damper_bounded(&kani::any());
+        crate::harness_end_reached();
     }
 
     /// REQ-TEN-01, the reciprocal is total: every `x` (three Newton steps, `unwind(4)`).
@@ -532,6 +536,7 @@ mod verification {
     #[kani::unwind(4)]
     fn verify_reciprocal_total() {
         reciprocal_total(kani::any());
+        crate::harness_end_reached();
     }
 
     // # The composed step, assume–guarantee
@@ -602,6 +607,7 @@ mod verification {
     fn verify_hold_retarget_in_range() {
         let state = hold_state(kani::any(), kani::any(), kani::any(), kani::any());
         let _in_domain = retarget_keeps_the_target_in_range(state, Kgf::from_bits(kani::any()));
+        crate::harness_end_reached();
     }
 
     /// REQ-TEN-01/02/03, the composition: every valid controller state (law, estimator,
@@ -621,6 +627,7 @@ mod verification {
         kani::assume(case.lock.is_none());
         kani::assume(controller_in(&case).is_valid());
         assert!(controller_step_bounded(&case));
+        crate::harness_end_reached();
     }
 
     /// REQ-TEN-18 with REQ-TEN-01/02/03: the same composition with constant pull switched
@@ -641,5 +648,6 @@ mod verification {
         case.profile.phase = PullPhase::Hold;
         kani::assume(controller_in(&case).is_valid());
         assert!(controller_step_bounded(&case));
+        crate::harness_end_reached();
     }
 }

@@ -35,7 +35,8 @@ pub mod tension;
 pub mod tension_reference;
 
 /// The vacuity guard every Kani harness ends with: a cover property that is satisfiable only
-/// if some input passes all of the harness's assumptions and assertions. A harness whose
+/// if some input passes all of the harness's assumptions (`kani::assume`, and the `is_valid`
+/// invariants its inputs are built under) and reaches its last line. A harness whose
 /// assumptions exclude every input proves nothing, yet verifies; `scripts/kani` fails on an
 /// unsatisfied cover. (This replaces Kani's per-assertion reachability checks, switched off
 /// in the root `Cargo.toml`: each of those that is reached makes CBMC write a trace, which

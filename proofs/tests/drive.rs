@@ -127,7 +127,8 @@ fn drive_properties_exhaustive_three_calls_deep() {
     let mut transitions = 0u64;
     for depth in 1..=DEPTH {
         // The last call's successors are never expanded, so they are checked but not kept:
-        // hashing the million states it reaches would double the test's time.
+        // hashing the million states it reaches took five sixths of the test's time (91 s
+        // against 15 s).
         let last = depth == DEPTH;
         let mut next = HashSet::new();
         for (drive, observer) in &frontier {

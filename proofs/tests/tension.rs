@@ -20,7 +20,7 @@ use taut_core::tension::PullPhase;
 use taut_core::tension::controller::{TAUT_GAINS, TAUT_PLANT};
 use taut_core::tension::estimator::EstimatorState;
 use taut_core::tension::law::{RsmcGains, RsmcState, Saturation};
-use taut_core::tension::profile::ProfileState;
+use taut_core::tension::profile::{GRIPPER_BIAS_MAX, ProfileState};
 use taut_core::tension::slip::SlipState;
 use taut_core::units::{Kgf, KgfPerSecond, Q16};
 use taut_proofs::tension::{
@@ -124,8 +124,9 @@ fn profile_state() -> impl Strategy<Value = ProfileState> {
         (0_i64..=(50_i64 << 32), any::<i32>(), any::<i32>(), any::<u32>()),
         (any::<bool>(), saturation(), any::<bool>()),
         (any::<u32>(), 0..=(1_200_i32 << 16), 0..=i32::MAX),
+        (any::<i32>(), any::<i32>(), 0..=GRIPPER_BIAS_MAX.to_bits()),
     )
-        .prop_map(|(a, b, c, d)| {
+        .prop_map(|(a, b, c, d, e)| {
             let (peak, final_target) = if a.1 >= a.2 { (a.1, a.2) } else { (a.2, a.1) };
             ProfileState {
                 phase: a.0,
@@ -143,6 +144,9 @@ fn profile_state() -> impl Strategy<Value = ProfileState> {
                 take_up_mark: d.0,
                 braking_decel: Q16::from_bits(d.1),
                 braking_inv_two_decel: Q24(d.2),
+                rest_sum: e.0,
+                inertial_sum: e.1,
+                gripper_bias: Kgf::from_bits(e.2),
             }
         })
 }

@@ -591,7 +591,10 @@ impl TensionController {
     pub fn step(&mut self, m: &Measurement) -> ControlOutput {
         let speed = self.speed.update(m.drive.steps);
         self.map.set_bus(m.bus);
-        let est = self.estimator.update(m.tension, m.drive.steps);
+        // While the carriage brakes, the gripper outboard of the load cell takes its inertial
+        // force off the reading (REQ-ID-07): the observer is given the string's pull.
+        let sample = m.tension.saturating_add(self.profile.gripper_bias());
+        let est = self.estimator.update(sample, m.drive.steps);
         self.shown = est.tension;
         let holding = self.profile.phase() == PullPhase::Hold;
         let slip_brake = match &mut self.slip {
@@ -615,7 +618,7 @@ impl TensionController {
                 }
             }
             PullPhase::TakeUp => {
-                self.profile.observe_take_up(speed);
+                self.profile.observe_take_up(speed, est.sample);
                 if self.profile.braking_due(&est) {
                     self.begin_braking(&est);
                     self.closed_loop(&est, speed, Kgf::ZERO, &mut force)

@@ -18,6 +18,15 @@
 //!   motor or a low bus brakes from further out instead of overshooting (at 4× the twin's
 //!   nominal inertia, overshoot 0.75 → 0.01 kgf), while a machine that can brake harder than
 //!   configured keeps the configured plan.
+//! - **Gripper identification** (the same window, REQ-ID-07): the gripper hangs on the load
+//!   cell outboard of it, so the cell carries the string's pull *less* the force that
+//!   accelerates the gripper, `F = T − m_g·a`. In the take-up the string is slack and the
+//!   cell reads `m_g·a_t` above its reading at rest; summed over the window that is the
+//!   momentum `m_g·Δv`, which gives `m_g`. While the carriage brakes at `a` the cell reads
+//!   `m_g·a` low — a tension the braking parabola would otherwise drive on into (on the
+//!   family, a 1.1 kg gripper braked at 1.3 m/s² reads 0.15 kgf low and overshot a soft
+//!   string by 0.09 kgf) — so the controller adds [`Profile::gripper_bias`] to the reading
+//!   for the observer in [`PullPhase::Approach`].
 //! - **Braking onset** ([`Profile::braking_due`]): a carriage at speed `v` into a string of
 //!   stiffness `K = ẏ/v`, braked at a constant deceleration `a`, adds `ẏ·v/(2a)` of tension
 //!   before it stops; the braking starts in the tick where that rise reaches the gap to the
@@ -38,9 +47,10 @@
 //!
 //! Everything the step needs from the configuration is derived once, with its divisions, by
 //! [`ProfileCoefficients::new`] (as the law's `RsmcCoefficients` are): the step itself has no
-//! division, except once per pull, when the take-up's identification ends (`Δv/(n·dt)` and its
-//! `1/(2a)`, two 64-bit divisions by checked non-zero divisors). Each coefficient carries its
-//! fixed-point format in its type ([`Q16`] units, [`Q24`], [`Q32`]).
+//! division, except once per pull, when the take-up's identification ends (`Δv/(n·dt)`, its
+//! `1/(2a)` and the gripper's `m_g·a`: three 64-bit divisions by checked non-zero divisors).
+//! Each coefficient carries its fixed-point format in its type ([`Q16`] units, [`Q24`],
+//! [`Q32`]).
 //!
 //! # Fixed point
 //!
@@ -77,6 +87,21 @@ pub const BRAKING_PER_TAKE_UP: Q16 = Q16::lit("1.4");
 /// The fewest ticks an acceleration measurement may span: 3 (a shorter one is a carriage
 /// that needs no braking plan of its own; the configured one stands).
 const IDENTIFY_TICKS_MIN: u32 = 3;
+
+/// The take-up's ticks whose load-cell samples are the gripper's reading at rest: the first 4
+/// (REQ-ID-07). The drive's current needs a tick or two to rise and the cell's amplifier and
+/// the gripper's own spring delay the inertial force further (on the twin's family it shows
+/// from the fifth tick on); four samples average the converter's noise by half.
+pub const REST_TICKS: u32 = 1 << REST_SHIFT;
+
+/// `log2` of [`REST_TICKS`]: the rest reading's mean is its sum shifted.
+const REST_SHIFT: u32 = 2;
+
+/// The most the gripper compensation adds to the load-cell reading while the carriage brakes,
+/// 0.5 kgf (REQ-ID-07): a 3.5 kg gripper braked at 1 400 mm/s², over twice the heaviest
+/// gripper head the family draws. A take-up that reads more than that is not accelerating a
+/// gripper but pulling on a string that was not slack: nothing is identified.
+pub const GRIPPER_BIAS_MAX: Kgf = Kgf(Q16::lit("0.5"));
 
 /// The least braking deceleration an identification plans with, mm/s²: 100 (twelve times the
 /// nominal machine's inertia; a take-up slower than that is a carriage dragging, and the
@@ -290,6 +315,17 @@ pub struct ProfileState {
     pub braking_decel: Q16,
     /// `1/(2a)` of [`ProfileState::braking_decel`], s²/mm (0: the configured one).
     pub braking_inv_two_decel: Q24,
+    /// The take-up's first [`REST_TICKS`] filtered load-cell samples, summed, kgf bits: the
+    /// reading of the still gripper, before its inertial force reaches the cell (REQ-ID-07).
+    pub rest_sum: i32,
+    /// What the filtered load-cell samples of the acceleration window (the ticks after
+    /// [`ProfileState::take_up_mark`]) read above the rest reading, summed, kgf bits: the
+    /// gripper's inertial force, tick by tick (REQ-ID-07).
+    pub inertial_sum: i32,
+    /// What the gripper's inertia takes off the load-cell reading while the carriage brakes
+    /// at the planned deceleration, as the take-up identified it (0: not identified), in
+    /// `[0, GRIPPER_BIAS_MAX]` (REQ-ID-07).
+    pub gripper_bias: Kgf,
 }
 
 /// Any profile state, for proofs ([`Profile::is_valid`] states which are reachable): every
@@ -314,6 +350,9 @@ impl kani::Arbitrary for ProfileState {
             take_up_mark: kani::any(),
             braking_decel: Q16::from_bits(kani::any()),
             braking_inv_two_decel: Q24(kani::any()),
+            rest_sum: kani::any(),
+            inertial_sum: kani::any(),
+            gripper_bias: Kgf::from_bits(kani::any()),
         }
     }
 }
@@ -338,6 +377,9 @@ impl<'a> arbitrary::Arbitrary<'a> for ProfileState {
             take_up_mark: u.arbitrary()?,
             braking_decel: Q16::from_bits(u.arbitrary()?),
             braking_inv_two_decel: Q24(u.arbitrary()?),
+            rest_sum: u.arbitrary()?,
+            inertial_sum: u.arbitrary()?,
+            gripper_bias: Kgf::from_bits(u.arbitrary()?),
         })
     }
 }
@@ -360,6 +402,9 @@ impl ProfileState {
         take_up_mark: 0,
         braking_decel: Q16::ZERO,
         braking_inv_two_decel: Q24(0),
+        rest_sum: 0,
+        inertial_sum: 0,
+        gripper_bias: Kgf::ZERO,
     };
 }
 
@@ -400,6 +445,24 @@ pub struct ProfileCoefficients {
 /// for the one a take-up identifies alike.
 fn inverse_of_twice(decel_bits: i64) -> Option<i32> {
     i32::try_from((1_i64 << 40).checked_div(decel_bits.saturating_mul(2)).unwrap_or(0)).ok()
+}
+
+/// The gripper's inertial force at the braking deceleration `decel` (Q15.16 mm/s²), kgf
+/// (REQ-ID-07): the force that accelerated it summed over the window's ticks, `inertial_sum`
+/// (kgf bits), is its momentum gain `m_g·Δv` once multiplied by the tick `dt`; over the
+/// window's speed gain `rise` (Q15.16 mm/s) that is its mass, and times `decel` the force
+/// braking takes off the reading. The window's length cancels out: one division, by the speed
+/// gain. 0 for a reading that fell, a window without a speed gain, or a force above
+/// [`GRIPPER_BIAS_MAX`]: no gripper explains that much, a string already pulling does.
+fn inertial_force(inertial_sum: i32, dt: Frac32, decel: i64, rise: i64) -> Kgf {
+    // Σ·dt in kgf·s, Q8.24: |Σ| < 2³¹ kgf bits times dt < 2³² over 2²⁴.
+    let impulse = i64::from(inertial_sum.max(0)).saturating_mul(dt.wide()) >> 24;
+    let bias_q24 = impulse.saturating_mul(decel).checked_div(rise).unwrap_or(0);
+    let bias = bias_q24 >> 8;
+    if bias > i64::from(GRIPPER_BIAS_MAX.to_bits()) {
+        return Kgf::ZERO;
+    }
+    Kgf::from_bits(saturate_i32(bias.max(0)))
 }
 
 impl ProfileCoefficients {
@@ -549,6 +612,9 @@ impl Profile {
             take_up_mark: 0,
             braking_decel: Q16::ZERO,
             braking_inv_two_decel: Q24(0),
+            rest_sum: 0,
+            inertial_sum: 0,
+            gripper_bias: Kgf::ZERO,
         };
     }
 
@@ -636,7 +702,9 @@ impl Profile {
         let reference_ok = p.reference.0 >= 0 && p.reference <= Q32::from_q16(TENSION_MAX.0);
         let braking_ok = p.braking_decel >= Q16::ZERO
             && p.braking_decel <= self.coefficients.decel
-            && p.braking_inv_two_decel.0 >= 0;
+            && p.braking_inv_two_decel.0 >= 0
+            && p.gripper_bias >= Kgf::ZERO
+            && p.gripper_bias <= GRIPPER_BIAS_MAX;
         braking_ok
             && in_range(p.peak)
             && in_range(p.final_target)
@@ -670,18 +738,30 @@ impl Profile {
         }
     }
 
-    /// One take-up tick's look at the carriage speed `speed` (REQ-ID-06): the take-up
-    /// accelerates at the current limit from rest, so the time its speed takes from a
-    /// quarter to three quarters of the speed limit measures the acceleration the drive
-    /// gives this carriage — its reflected inertia against the motor's force, on this
-    /// machine, today. The braking is then planned at [`BRAKING_PER_TAKE_UP`] times that,
-    /// where that is below the configured deceleration (never above it), and at least
-    /// [`BRAKING_DECELERATION_MIN`]. Both crossings read the same lagging speed estimate, so
-    /// its lag cancels out of the interval. One division per pull, at the second crossing.
-    pub fn observe_take_up(&mut self, speed: MmPerSecond) {
+    /// One take-up tick's look at the carriage speed `speed` and the filtered load-cell
+    /// sample `sample` (REQ-ID-06, REQ-ID-07): the take-up accelerates at the current limit
+    /// from rest, so the time its speed takes from a quarter to three quarters of the speed
+    /// limit measures the acceleration the drive gives this carriage — its reflected inertia
+    /// against the motor's force, on this machine, today. The braking is then planned at
+    /// [`BRAKING_PER_TAKE_UP`] times that, where that is below the configured deceleration
+    /// (never above it), and at least [`BRAKING_DECELERATION_MIN`]. Both crossings read the
+    /// same lagging speed estimate, so its lag cancels out of the interval.
+    ///
+    /// Over the same window the string is slack, so what the load cell reads above its
+    /// reading at rest (the take-up's first [`REST_TICKS`] samples) is the force that
+    /// accelerates the gripper hung outboard of it, `m_g·a_t`; braking at `a` it reads
+    /// `m_g·a` *less* than the string's pull. [`ProfileState::gripper_bias`] is that,
+    /// `m̂_g·a`, `m̂_g` the momentum the reading's excess gave the gripper over the window
+    /// divided by the window's speed gain, within `[0, GRIPPER_BIAS_MAX]`, for the controller
+    /// to add to the reading while the carriage brakes ([`Profile::gripper_bias`]). Two
+    /// divisions per pull, at the second crossing.
+    pub fn observe_take_up(&mut self, speed: MmPerSecond, sample: Kgf) {
         let p = self.state;
         if p.phase != PullPhase::TakeUp || p.braking_decel > Q16::ZERO {
             return;
+        }
+        if (1..=REST_TICKS).contains(&p.ticks) {
+            self.state.rest_sum = p.rest_sum.saturating_add(sample.to_bits());
         }
         let limit = p.speed_limit.0.to_bits().max(0);
         let quarter = limit >> 2;
@@ -692,6 +772,9 @@ impl Profile {
             }
             return;
         }
+        let rest = p.rest_sum >> REST_SHIFT;
+        let inertial_sum = p.inertial_sum.saturating_add(sample.to_bits().saturating_sub(rest));
+        self.state.inertial_sum = inertial_sum;
         if speed < limit.saturating_sub(quarter) {
             return;
         }
@@ -713,6 +796,21 @@ impl Profile {
         };
         self.state.braking_decel = Q16::from_bits(decel);
         self.state.braking_inv_two_decel = Q24(inv);
+        // The window (the ticks after the mark) starts once the rest's ticks are summed.
+        let rested = p.take_up_mark >= REST_TICKS;
+        self.state.gripper_bias = if rested && ticks >= IDENTIFY_TICKS_MIN {
+            inertial_force(inertial_sum, c.dt, i64::from(decel), rise)
+        } else {
+            Kgf::ZERO
+        };
+    }
+
+    /// What to add to the load-cell reading this tick for the gripper's inertia: the
+    /// identified [`ProfileState::gripper_bias`] while the carriage brakes along its parabola
+    /// ([`PullPhase::Approach`]), else nothing (REQ-ID-07).
+    #[must_use]
+    pub fn gripper_bias(&self) -> Kgf {
+        if self.state.phase == PullPhase::Approach { self.state.gripper_bias } else { Kgf::ZERO }
     }
 
     /// The tension a braking carriage still adds, `ẏ·v/(2a)`, kgf bits (see the module
@@ -987,6 +1085,11 @@ mod tests {
     /// A speed-9 take-up on `TAUT` whose carriage accelerates at `accel` mm/s² from rest
     /// (the speed as the controller would read it, one value per 1 ms tick), for `ms` ticks.
     fn take_up(accel: i64, ms: u32) -> Profile {
+        take_up_reading(accel, ms, |_| 0)
+    }
+
+    /// [`take_up`], the load cell reading `reading(tick)` kgf bits in tick `tick` (from 1).
+    fn take_up_reading(accel: i64, ms: u32, reading: impl Fn(u32) -> i32) -> Profile {
         let mut profile = Profile::new(&ProfileConfig::TAUT, 1_000).unwrap_or(Profile::FALLBACK);
         let settings = PullSettings::default();
         profile.start(&settings, PullKind::Main);
@@ -996,10 +1099,116 @@ mod tests {
             profile.tick();
             // v = a·t, Q16 mm/s, no faster than the limit.
             let speed = (accel * i64::from(tick) * 65_536 / 1_000).min(limit);
-            profile.observe_take_up(MmPerSecond(Q16::from_bits(speed.try_into().unwrap_or(0))));
+            let speed = MmPerSecond(Q16::from_bits(speed.try_into().unwrap_or(0)));
+            profile.observe_take_up(speed, Kgf::from_bits(reading(tick + 1)));
             assert!(profile.is_valid());
         }
         profile
+    }
+
+    /// A gripper of `grams` on a cell that reads `rest` mkgf still: the reading in tick
+    /// `tick` of a take-up at `accel` mm/s² (the inertial force from tick 5 on, as on the
+    /// twin), kgf bits.
+    fn gripper(grams: i64, accel: i64, rest: i64) -> impl Fn(u32) -> i32 {
+        move |tick| {
+            // m·a in kgf: g × mm/s² / 9.80665e6, in Q16 bits.
+            let inertial = if tick > REST_TICKS { grams * accel * 65_536 / 9_806_650 } else { 0 };
+            i32::try_from(rest * 65_536 / 1_000 + inertial).unwrap_or(0)
+        }
+    }
+
+    /// The identified gripper bias, mkgf.
+    fn bias_mkgf(profile: &Profile) -> i64 {
+        i64::from(profile.state().gripper_bias.to_bits()) * 1_000 / 65_536
+    }
+
+    #[test]
+    fn a_take_up_identifies_the_grippers_inertial_force_at_the_braking_deceleration() {
+        // A 1.1 kg gripper on a heavy rotor's carriage (600 mm/s², braked at 840): the cell
+        // reads 67 mkgf above its rest (−40 mkgf) while accelerating, so braking it reads
+        // 1.1 × 0.84 / 9.81 = 94 mkgf low.
+        let heavy = take_up_reading(600, 300, gripper(1_100, 600, -40));
+        assert!((bias_mkgf(&heavy) - 94).abs() <= 3, "{}", bias_mkgf(&heavy));
+        // On the nominal carriage (2 000 mm/s²) the braking is the configured 1 200 mm/s²:
+        // 1.1 × 1.2 / 9.81 = 135 mkgf, whatever the rest reading.
+        for rest in [-300, 0, 250] {
+            let nominal = take_up_reading(2_000, 200, gripper(1_100, 2_000, rest));
+            assert!((bias_mkgf(&nominal) - 135).abs() <= 5, "{rest}: {}", bias_mkgf(&nominal));
+        }
+        // No gripper, or a reading that falls while accelerating: nothing added.
+        assert_eq!(bias_mkgf(&take_up_reading(600, 300, gripper(0, 600, 30))), 0);
+        assert_eq!(bias_mkgf(&take_up_reading(600, 300, gripper(-500, 600, 30))), 0);
+        // A reading beyond any real gripper is a string already pulling: nothing identified.
+        // Up to the most the compensation adds, the gripper is believed.
+        let anvil = take_up_reading(600, 300, gripper(20_000, 600, 0));
+        assert_eq!(anvil.state().gripper_bias, Kgf::ZERO);
+        let heaviest = take_up_reading(600, 300, gripper(3_450, 600, 0));
+        assert!((bias_mkgf(&heaviest) - 295).abs() <= 8, "{}", bias_mkgf(&heaviest));
+        let beyond = take_up_reading(600, 300, gripper(6_000, 600, 0));
+        assert_eq!(beyond.state().gripper_bias, Kgf::ZERO);
+        // No window to identify in (still accelerating; a jump to full speed; a window that
+        // starts within the rest ticks): nothing added.
+        assert_eq!(bias_mkgf(&take_up_reading(600, 60, gripper(1_100, 600, 0))), 0);
+        assert_eq!(bias_mkgf(&take_up_reading(1_000_000, 50, gripper(1_100, 600, 0))), 0);
+        assert_eq!(bias_mkgf(&take_up_reading(15_000, 50, gripper(1_100, 15_000, 0))), 0);
+        // (A window from the fifth tick on is identified: 8 000 mm/s² reaches a quarter of
+        // the limit in the fourth.)
+        let quick = take_up_reading(8_000, 50, gripper(1_100, 8_000, 0));
+        assert_eq!(quick.state().take_up_mark, REST_TICKS);
+        assert!((bias_mkgf(&quick) - 135).abs() <= 10, "{}", bias_mkgf(&quick));
+        // The rest is the first four ticks only: a fifth reading as high as the window's
+        // does not move it.
+        let late = take_up_reading(600, 300, |tick| {
+            gripper(1_100, 600, -40)(tick) + if tick == REST_TICKS + 1 { 5_000 } else { 0 }
+        });
+        assert!((bias_mkgf(&late) - bias_mkgf(&heavy)).abs() <= 1);
+        // The next pull starts afresh.
+        let mut again = heavy;
+        again.start(&PullSettings::default(), PullKind::Main);
+        assert_eq!(again.state().gripper_bias, Kgf::ZERO);
+        assert_eq!((again.state().rest_sum, again.state().inertial_sum), (0, 0));
+    }
+
+    #[test]
+    fn the_inertial_force_is_the_momentum_over_the_speed_gain_up_to_its_bound() {
+        // dt = 2⁻⁸ s and a braking as hard as the window's speed gain: the force is the sum's
+        // Q8.24 impulse over 2⁸, exactly.
+        let dt = Frac32(1 << 24);
+        let force = |sum: i32| inertial_force(sum, dt, 1_000 << 16, 1_000 << 16).to_bits();
+        let max = GRIPPER_BIAS_MAX.to_bits();
+        assert_eq!(force(max << 8), max, "the bound itself is believed");
+        assert_eq!(force((max + 1) << 8), 0, "beyond it is a string, not a gripper");
+        assert_eq!(force(100 << 8), 100);
+        assert_eq!(force(-(100 << 8)), 0, "a reading that fell");
+        // Twice the braking, twice the force; no speed gain, nothing.
+        assert_eq!(inertial_force(100 << 8, dt, 2_000 << 16, 1_000 << 16).to_bits(), 200);
+        assert_eq!(inertial_force(100 << 8, dt, 1_000 << 16, 0).to_bits(), 0);
+    }
+
+    #[test]
+    fn the_gripper_bias_is_added_only_while_the_carriage_brakes() {
+        let mut profile = take_up_reading(600, 300, gripper(1_100, 600, 0));
+        let bias = profile.state().gripper_bias;
+        assert!(bias > Kgf::ZERO);
+        assert_eq!(profile.gripper_bias(), Kgf::ZERO, "not in the take-up");
+        for phase in PullPhase::ALL {
+            let mut state = profile.state();
+            state.phase = phase;
+            profile.set_state(state);
+            let expected = if phase == PullPhase::Approach { bias } else { Kgf::ZERO };
+            assert_eq!(profile.gripper_bias(), expected, "{phase:?}");
+        }
+        // Validity: the bias within [0, GRIPPER_BIAS_MAX].
+        let valid_with = |bits: i32| {
+            let mut p = take_up(0, 1);
+            let mut state = p.state();
+            state.gripper_bias = Kgf::from_bits(bits);
+            p.set_state(state);
+            p.is_valid()
+        };
+        let max = GRIPPER_BIAS_MAX.to_bits();
+        assert!(valid_with(0) && valid_with(max));
+        assert!(!valid_with(-1) && !valid_with(max + 1));
     }
 
     /// The planned braking deceleration, whole mm/s².
@@ -1052,7 +1261,7 @@ mod tests {
         let (quarter, three_quarters) = (limit >> 2, limit - (limit >> 2));
         let at = |profile: &mut Profile, bits: i32| {
             profile.tick();
-            profile.observe_take_up(MmPerSecond(Q16::from_bits(bits)));
+            profile.observe_take_up(MmPerSecond(Q16::from_bits(bits)), Kgf::ZERO);
         };
         at(&mut profile, quarter - 1);
         assert_eq!(profile.state().take_up_mark, 0, "below a quarter: not started");
@@ -1129,7 +1338,7 @@ mod tests {
         assert!(rise(&heavy) > rise(&configured));
         // Outside the take-up nothing is measured.
         let before = heavy.state();
-        heavy.observe_take_up(MmPerSecond(Q16::const_from_int(70)));
+        heavy.observe_take_up(MmPerSecond(Q16::const_from_int(70)), Kgf::from_int(3));
         assert_eq!(heavy.state(), before);
     }
 

@@ -6,7 +6,7 @@
 //! RM0440 section 29.3.26 "Interfacing with Hall sensors"), which applies a new sector at once
 //! instead of up to one PWM period later. Time between calls comes from the DWT cycle counter,
 //! which runs at the system clock — the same 170 MHz as TIM1 — converted to core's
-//! [`DriveTime`] (100 ns) by [`drive_time`], 17 cycles a unit, the remainder carried into the
+//! [`DriveTime`](taut_core::drive::DriveTime) (100 ns) by [`drive_time`], 17 cycles a unit, the remainder carried into the
 //! next call so no time is lost.
 
 use core::cell::RefCell;
@@ -23,7 +23,7 @@ use embassy_stm32::timer::{Ch1, Ch2, Ch3, TimerPin};
 use taut_core::drive::hall::{HALL_VOTES, vote};
 use taut_core::drive::limit::{CurrentLimit, CurrentSense};
 use taut_core::drive::{
-    BusSense, Drive, DriveConfig, DriveOutput, DriveSample, DriveStatus, DriveTime, HallCode,
+    BusSense, Drive, DriveConfig, DriveOutput, DriveSample, DriveStatus, HallCode,
 };
 use taut_core::io::LimitSwitches;
 use taut_core::units::AdcCode;
@@ -55,7 +55,7 @@ fn board_drive() -> Drive {
 const OVERCURRENT_MA: u32 = 12_000;
 
 /// DWT cycle count at the previous fast-loop call, less the cycles not yet counted into a
-/// [`DriveTime`] unit (under one).
+/// [`DriveTime`](taut_core::drive::DriveTime) unit (under one).
 static LAST_CALL: AtomicU32 = AtomicU32::new(0);
 
 /// The current samples since the tick last took them: their sum in bits 31..10, their count in

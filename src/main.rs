@@ -5,6 +5,7 @@ use taut::cli::{Cli, Command, ReportKind};
 use taut::output::report_failure;
 
 fn main() {
+    quiet_on_closed_stdout();
     let cli = Cli::parse();
     let status = match &cli.command {
         None => taut::job::main(&cli.job),
@@ -24,4 +25,25 @@ fn main() {
         Ok(false) => 1,
         Err(failure) => report_failure(&failure),
     });
+}
+
+/// A reader that closes the pipe early (`taut pull … | head`) ends the output: the process
+/// exits quietly, as a Unix filter killed by `SIGPIPE` does (status 128 + 13), instead of
+/// printing `println!`'s panic and a backtrace. Every other panic keeps the default report.
+fn quiet_on_closed_stdout() {
+    let report = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let payload = info.payload();
+        let message = payload
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| payload.downcast_ref::<&str>().copied());
+        let closed = message.is_some_and(|message| {
+            message.starts_with("failed printing to stdout") && message.contains("Broken pipe")
+        });
+        if closed {
+            std::process::exit(141);
+        }
+        report(info);
+    }));
 }

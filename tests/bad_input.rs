@@ -233,3 +233,23 @@ fn the_table_covers_every_subcommand_and_every_value_taking_option() {
     }
     assert!(missing.is_empty(), "options without a bad-input row: {missing:?}");
 }
+
+/// A reader that closes its end of the pipe early (`taut … | head -1`): the tool stops
+/// quietly with the status of a `SIGPIPE`-killed filter (141), not a panic (101) with a
+/// backtrace on the terminal.
+#[test]
+fn a_closed_pipe_ends_the_output_quietly() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_taut"))
+        .args(["paper"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Close the reading end before the tool has written anything.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    println!("status {:?}, stderr {stderr:?}", out.status.code());
+    assert_eq!(out.status.code(), Some(141), "stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "stderr: {stderr}");
+}

@@ -17,7 +17,7 @@
 //! | [`estimator_step_bounded`] | `verify_estimator_step_bounded` | no panic, stiffness kept, the spike clip's per-tick limit |
 //! | [`slip_damper_bounded`] | `verify_slip_damper_bounded` | no panic, a braking force ≥ 0 only for a forward residual, learning within bounds |
 //! | [`reciprocal_total`] | `verify_reciprocal_total` | no panic for any `x`, zero for `x ≤ 0` (accuracy: [`reciprocal_accurate`], swept under `cargo test`) |
-//! | [`controller_step_bounded`] | `verify_controller_step_bounded` | the composition: duty ≤ `DUTY_MAX`, `is_valid()` kept, every phase |
+//! | [`controller_step_bounded`] | `verify_controller_step_bounded`, `verify_take_up_step_bounded` | the composition: duty ≤ `DUTY_MAX`, `is_valid()` kept, every phase (the take-up in the second) |
 //!
 //! # Why the harnesses are small enough for CBMC
 //!
@@ -33,8 +33,8 @@
 //! through the real setters and constrained only by `kani::assume(is_valid())`: an
 //! over-approximation of the reachable states. The cases below bundle those states with the
 //! step's inputs; they no longer mirror any state field by field. The
-//! composed harness adds the profile's dozen products to the sum of the parts; it is the
-//! one to run with `--harness` on its own.
+//! composed harnesses add the profile's dozen products to the sum of the parts; they are the
+//! ones to run with `--harness` on their own.
 //!
 //! The same bodies run under `cargo test` (`proofs/tests/tension.rs`: proptest over the
 //! valid domain, printing the cases checked) and under the `rsmc_step` fuzz target.
@@ -611,7 +611,8 @@ mod verification {
     }
 
     /// REQ-TEN-01/02/03, the composition: every valid controller state (law, estimator,
-    /// Hall filter, profile in every phase), every measurement, every behaviour of the parts
+    /// Hall filter, profile in every phase but the take-up, which the next harness takes),
+    /// every measurement, every behaviour of the parts
     /// within their proven guarantees (see above). The estimator's four-step loop is stubbed;
     /// the construction's loops (the reciprocal's three steps) need `unwind(6)` at most.
     #[kani::proof]
@@ -625,6 +626,27 @@ mod verification {
     fn verify_controller_step_bounded() {
         let case: StepCase = kani::any();
         kani::assume(case.lock.is_none());
+        kani::assume(case.profile.phase != PullPhase::TakeUp);
+        kani::assume(controller_in(&case).is_valid());
+        assert!(controller_step_bounded(&case));
+        crate::harness_end_reached();
+    }
+
+    /// REQ-TEN-01/02/03 with REQ-ID-06/07: the same composition in the take-up — the
+    /// identifications' once-a-pull divisions and the braking onset — split from the
+    /// harness above so each stays within two minutes (together they cover every phase).
+    #[kani::proof]
+    #[kani::unwind(6)]
+    #[kani::stub(taut_core::tension::estimator::TensionEstimator::update, any_estimate)]
+    #[kani::stub(taut_core::tension::motor::SpeedEstimator::update, any_speed)]
+    #[kani::stub(taut_core::tension::law::Rsmc::step, any_law_output)]
+    #[kani::stub(taut_core::tension::law::Pd::step, any_pd_force)]
+    #[kani::stub(taut_core::tension::motor::ForceToDuty::command, any_pull_command)]
+    #[kani::stub(taut_core::tension::slip::SlipDamper::update, any_brake)]
+    fn verify_take_up_step_bounded() {
+        let mut case: StepCase = kani::any();
+        case.lock = None;
+        case.profile.phase = PullPhase::TakeUp;
         kani::assume(controller_in(&case).is_valid());
         assert!(controller_step_bounded(&case));
         crate::harness_end_reached();

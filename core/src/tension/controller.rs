@@ -22,7 +22,8 @@
 //!    no harder than the current limit allows), taking up the slack and stretching the
 //!    string, while the estimator measures the tension rate `ẏ` and the carriage speed `v`,
 //!    and the profile measures the carriage's acceleration to plan the braking with
-//!    ([`Profile::observe_take_up`], REQ-ID-06: no more than this machine can do).
+//!    ([`Profile::observe_take_up`], REQ-ID-06: no more than this machine can do) and the
+//!    gripper's inertial force on the load cell (REQ-ID-07).
 //! 2. [`PullPhase::Approach`] — **braking**. A carriage at speed `v` into a string of
 //!    stiffness `K = ẏ/v`, braked at a constant deceleration `a`, adds `K·v²/(2a) = ẏ·v/(2a)`
 //!    of tension before it stops. The braking starts in the tick where that rise reaches
@@ -33,7 +34,10 @@
 //!    scaled to it (`ρ = K̄/K̂`, [`Rsmc::set_plant_scale`]) and the observer starts fusing
 //!    the Hall travel. The reference then follows the braking parabola exactly —
 //!    `ÿ_d = −K̂·a`, from the present tension and rate to the goal with zero rate — and the
-//!    law's equivalent control turns `ÿ_d` and `ẏ_d` into the braking force.
+//!    law's equivalent control turns `ÿ_d` and `ẏ_d` into the braking force. While it
+//!    brakes, the gripper's inertial force the take-up identified is added back to the
+//!    load-cell reading ([`Profile::gripper_bias`]): decelerating, the cell reads `m_g·a`
+//!    below the string's pull, and the braking would drive on into tension it does not see.
 //! 3. [`PullPhase::PreStretch`] — with pre-stretch, the reference closes exponentially
 //!    (time constant `τ_c`) on the peak `T(1 + p)`, held for
 //!    [`ProfileConfig::pre_stretch_dwell_ms`], then

@@ -397,6 +397,52 @@ pub fn hold_state(phase: u8, peak: i32, final_target: i32, reference: i64) -> Pr
     }
 }
 
+/// `base` with the take-up identification's fields of `id` — the fields a take-up
+/// observation writes (REQ-ID-06/07), and the only ones.
+#[must_use]
+pub const fn with_identification_of(base: ProfileState, id: ProfileState) -> ProfileState {
+    ProfileState {
+        take_up_mark: id.take_up_mark,
+        braking_decel: id.braking_decel,
+        braking_inv_two_decel: id.braking_inv_two_decel,
+        rest_sum: id.rest_sum,
+        inertial_sum: id.inertial_sum,
+        gripper_bias: id.gripper_bias,
+        ..base
+    }
+}
+
+/// REQ-ID-06/07 at the profile: from any valid profile state (taut's shaped profile at
+/// 1 kHz), one take-up observation at any carriage speed and any load-cell sample keeps the
+/// profile valid (the planned deceleration within the machine's, the gripper's bias within
+/// `[0, GRIPPER_BIAS_MAX]`) and changes nothing but the identification's fields. Returns the
+/// state after the observation, or `None` for a state outside the valid domain.
+///
+/// The composed take-up harness (`verify_take_up_step_bounded`) replaces the observation
+/// by exactly this guarantee.
+#[must_use]
+pub fn take_up_observation_keeps_the_profile_valid(
+    state: ProfileState,
+    speed: i32,
+    sample: i32,
+) -> Option<ProfileState> {
+    let Ok(mut profile) = Profile::new(&ProfileConfig::TAUT, 1_000) else {
+        panic!("REQ-TEN-06: the built-in profile was rejected");
+    };
+    profile.set_state(state);
+    if !profile.is_valid() {
+        return None;
+    }
+    profile.observe_take_up(MmPerSecond(Q16::from_bits(speed)), Kgf::from_bits(sample));
+    let after = profile.state();
+    assert!(
+        with_identification_of(after, state) == state,
+        "REQ-ID-06: the take-up observation changed more than the identification"
+    );
+    assert!(profile.is_valid(), "REQ-TEN-03: the take-up observation broke the invariant");
+    Some(after)
+}
+
 /// REQ-SM-08 at the controller: from any valid profile state, a retarget to any tension
 /// keeps the profile valid and its final target in the tension range; it is accepted exactly
 /// in the hold with the target in range, and then the final target is the new one.
@@ -549,7 +595,9 @@ mod verification {
     // arithmetic, which the per-part harnesses prove. Guarantees used: the estimator's step
     // count is clamped to ±`MAX_STEPS_PER_TICK` (REQ-TEN-10); the duty stage always commands
     // `Pull` with a valid duty (REQ-TEN-02/09); the slip damper's brake is never negative
-    // (REQ-TEN-15); everything else is any value of its type.
+    // (REQ-TEN-15); the take-up observation writes only the identification's fields and
+    // keeps the profile valid (REQ-ID-06/07, `verify_take_up_observation_valid`); everything
+    // else is any value of its type.
 
     /// The estimator's update: any estimate, the step count within its clamp.
     fn any_estimate(_estimator: &mut TensionEstimator, _sample: Kgf, _steps: i32) -> Estimate {
@@ -610,66 +658,85 @@ mod verification {
         crate::harness_end_reached();
     }
 
-    /// REQ-TEN-01/02/03, the composition: every valid controller state (law, estimator,
-    /// Hall filter, profile in every phase but the take-up, which the next harness takes),
-    /// every measurement, every behaviour of the parts
-    /// within their proven guarantees (see above). The estimator's four-step loop is stubbed;
-    /// the construction's loops (the reciprocal's three steps) need `unwind(6)` at most.
+    /// REQ-ID-06/07: one take-up observation from any valid profile state, at any speed
+    /// and sample, keeps the profile valid and writes only the identification (its two
+    /// 64-bit divisions and the bias's, once a pull). The composed take-up harness relies on
+    /// it through `any_take_up_observation`.
     #[kani::proof]
-    #[kani::unwind(6)]
-    #[kani::stub(taut_core::tension::estimator::TensionEstimator::update, any_estimate)]
-    #[kani::stub(taut_core::tension::motor::SpeedEstimator::update, any_speed)]
-    #[kani::stub(taut_core::tension::law::Rsmc::step, any_law_output)]
-    #[kani::stub(taut_core::tension::law::Pd::step, any_pd_force)]
-    #[kani::stub(taut_core::tension::motor::ForceToDuty::command, any_pull_command)]
-    #[kani::stub(taut_core::tension::slip::SlipDamper::update, any_brake)]
-    fn verify_controller_step_bounded() {
-        let case: StepCase = kani::any();
-        kani::assume(case.lock.is_none());
-        kani::assume(case.profile.phase != PullPhase::TakeUp);
-        kani::assume(controller_in(&case).is_valid());
-        assert!(controller_step_bounded(&case));
+    fn verify_take_up_observation_valid() {
+        let state: ProfileState = kani::any();
+        let _in_domain =
+            take_up_observation_keeps_the_profile_valid(state, kani::any(), kani::any());
         crate::harness_end_reached();
     }
 
-    /// REQ-TEN-01/02/03 with REQ-ID-06/07: the same composition in the take-up — the
-    /// identifications' once-a-pull divisions and the braking onset — split from the
-    /// harness above so each stays within two minutes (together they cover every phase).
-    #[kani::proof]
-    #[kani::unwind(6)]
-    #[kani::stub(taut_core::tension::estimator::TensionEstimator::update, any_estimate)]
-    #[kani::stub(taut_core::tension::motor::SpeedEstimator::update, any_speed)]
-    #[kani::stub(taut_core::tension::law::Rsmc::step, any_law_output)]
-    #[kani::stub(taut_core::tension::law::Pd::step, any_pd_force)]
-    #[kani::stub(taut_core::tension::motor::ForceToDuty::command, any_pull_command)]
-    #[kani::stub(taut_core::tension::slip::SlipDamper::update, any_brake)]
-    fn verify_take_up_step_bounded() {
-        let mut case: StepCase = kani::any();
-        case.lock = None;
-        case.profile.phase = PullPhase::TakeUp;
-        kani::assume(controller_in(&case).is_valid());
-        assert!(controller_step_bounded(&case));
-        crate::harness_end_reached();
+    /// The take-up observation: the identification's fields any values that keep the
+    /// profile valid, everything else as it was — the guarantee
+    /// `verify_take_up_observation_valid` proves.
+    fn any_take_up_observation(profile: &mut Profile, _speed: MmPerSecond, _sample: Kgf) {
+        let drawn: ProfileState = kani::any();
+        profile.set_state(with_identification_of(profile.state(), drawn));
+        kani::assume(profile.is_valid());
     }
 
-    /// REQ-TEN-18 with REQ-TEN-01/02/03: the same composition with constant pull switched
-    /// off (the lock-out, only in the hold) at any Hall count — a split of the harness above
-    /// so each stays within two minutes: the locked step pulls, within `DUTY_MAX`, and keeps
-    /// the state valid.
-    #[kani::proof]
-    #[kani::unwind(6)]
-    #[kani::stub(taut_core::tension::estimator::TensionEstimator::update, any_estimate)]
-    #[kani::stub(taut_core::tension::motor::SpeedEstimator::update, any_speed)]
-    #[kani::stub(taut_core::tension::law::Rsmc::step, any_law_output)]
-    #[kani::stub(taut_core::tension::law::Pd::step, any_pd_force)]
-    #[kani::stub(taut_core::tension::motor::ForceToDuty::command, any_pull_command)]
-    #[kani::stub(taut_core::tension::slip::SlipDamper::update, any_brake)]
-    fn verify_lock_out_step_bounded() {
-        let mut case: StepCase = kani::any();
-        case.lock = Some(kani::any());
-        case.profile.phase = PullPhase::Hold;
-        kani::assume(controller_in(&case).is_valid());
-        assert!(controller_step_bounded(&case));
-        crate::harness_end_reached();
+    /// A composed-step harness: the controller's step with its parts replaced by their
+    /// proven guarantees (the stubs above; the estimator's four-step loop is stubbed, the
+    /// construction's loops — the reciprocal's three steps — need `unwind(6)` at most), from
+    /// the drawn `StepCase` the body narrows; every outcome `controller_step_bounded` checks.
+    macro_rules! composed_step {
+        ($(#[$doc:meta])* fn $name:ident($case:ident) { $($narrow:tt)* }) => {
+            $(#[$doc])*
+            #[kani::proof]
+            #[kani::unwind(6)]
+            #[kani::stub(taut_core::tension::estimator::TensionEstimator::update, any_estimate)]
+            #[kani::stub(taut_core::tension::motor::SpeedEstimator::update, any_speed)]
+            #[kani::stub(taut_core::tension::law::Rsmc::step, any_law_output)]
+            #[kani::stub(taut_core::tension::law::Pd::step, any_pd_force)]
+            #[kani::stub(taut_core::tension::motor::ForceToDuty::command, any_pull_command)]
+            #[kani::stub(taut_core::tension::slip::SlipDamper::update, any_brake)]
+            #[kani::stub(
+                taut_core::tension::profile::Profile::observe_take_up,
+                any_take_up_observation
+            )]
+            fn $name() {
+                let mut $case: StepCase = kani::any();
+                $($narrow)*
+                kani::assume(controller_in(&$case).is_valid());
+                assert!(controller_step_bounded(&$case));
+                crate::harness_end_reached();
+            }
+        };
     }
+
+    composed_step!(
+        /// REQ-TEN-01/02/03, the composition: every valid controller state (law, estimator,
+        /// Hall filter, profile in every phase but the take-up, which the next harness takes),
+        /// every measurement, every behaviour of the parts within their proven guarantees.
+        fn verify_controller_step_bounded(case) {
+            case.lock = None;
+            kani::assume(case.profile.phase != PullPhase::TakeUp);
+        }
+    );
+
+    composed_step!(
+        /// REQ-TEN-01/02/03 with REQ-ID-06/07: the same composition in the take-up — the
+        /// velocity mode, the braking onset and its reciprocal, the identification within its
+        /// proven guarantee (`verify_take_up_observation_valid`) — split from the harness
+        /// above so each stays within two minutes (together they cover every phase).
+        fn verify_take_up_step_bounded(case) {
+            case.lock = None;
+            case.profile.phase = PullPhase::TakeUp;
+        }
+    );
+
+    composed_step!(
+        /// REQ-TEN-18 with REQ-TEN-01/02/03: the same composition with constant pull switched
+        /// off (the lock-out, only in the hold) at any Hall count — a split of the harness
+        /// above so each stays within two minutes: the locked step pulls, within `DUTY_MAX`,
+        /// and keeps the state valid.
+        fn verify_lock_out_step_bounded(case) {
+            case.lock = Some(kani::any());
+            case.profile.phase = PullPhase::Hold;
+        }
+    );
 }

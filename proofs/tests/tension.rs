@@ -27,6 +27,7 @@ use taut_proofs::tension::{
     EstimatorCase, LawCase, SlipCase, StepCase, controller_step_bounded, estimator_step_bounded,
     force_to_duty_bounded, hold_state, reciprocal_accurate, reciprocal_total,
     retarget_keeps_the_target_in_range, rsmc_step_bounded, slip_damper_bounded,
+    take_up_observation_keeps_the_profile_valid,
 };
 use taut_proofs::tension_reference::{TrackStep, coefficient_errors, law_tracks_reference};
 
@@ -229,6 +230,14 @@ proptest! {
         slip_damper_bounded(&case);
     }
 
+    /// Mirror of `verify_take_up_observation_valid` (Kani): any drawn profile state put in
+    /// the take-up, any speed and sample.
+    #[test]
+    fn take_up_observation_valid_sampled(state in profile_state(), speed in any::<i32>(), sample in any::<i32>()) {
+        let state = ProfileState { phase: PullPhase::TakeUp, ..state };
+        let _in_domain = take_up_observation_keeps_the_profile_valid(state, speed, sample);
+    }
+
     /// Mirror of `verify_controller_step_bounded` (Kani), steered into the valid domain.
     #[test]
     fn controller_step_bounded_sampled(case in step_case()) {
@@ -290,6 +299,43 @@ fn reciprocal_accurate_swept() {
     }
     println!("reciprocal_accurate_swept: {cases} values of x");
     assert!(cases > 100_000);
+}
+
+/// `verify_take_up_observation_valid` along whole take-ups: the carriage accelerating from
+/// rest to each speed limit in 40–400 ticks, the cell reading a rest level plus a gripper's
+/// inertial force (none, a plausible one, one past the bound, a falling one), so the rest sum,
+/// the window, both divisions and the bias's bound are all reached; every observation keeps
+/// the profile valid and writes only the identification.
+#[test]
+fn take_up_observation_valid_along_take_ups() {
+    let mut identified = 0;
+    for limit_mm_s in [5, 30, 60, 120] {
+        for ramp_ticks in [40_i32, 100, 400] {
+            for (rest, inertial) in [(0, 0), (-300, 40), (250, 200), (0, 5_000), (100, -80)] {
+                let mut state = ProfileState {
+                    phase: PullPhase::TakeUp,
+                    peak: Kgf::from_int(30),
+                    final_target: Kgf::from_int(30),
+                    goal: Kgf::from_int(30),
+                    speed_limit: MmPerSecond(Q16::const_from_int(limit_mm_s)),
+                    ..ProfileState::DEFAULT
+                };
+                for tick in 1..=ramp_ticks + 20 {
+                    state.ticks = tick.unsigned_abs();
+                    let speed = (limit_mm_s << 16) / ramp_ticks * tick.min(ramp_ticks);
+                    let accelerating = tick <= ramp_ticks;
+                    let sample = (rest + if accelerating { inertial } else { 0 }) * 65;
+                    state = take_up_observation_keeps_the_profile_valid(state, speed, sample)
+                        .expect("a take-up from rest is in the valid domain");
+                }
+                if state.braking_decel > Q16::ZERO {
+                    identified += 1;
+                }
+            }
+        }
+    }
+    // Every take-up that reaches three quarters of its limit identifies its braking.
+    assert_eq!(identified, 60, "every take-up identified its braking deceleration");
 }
 
 #[test]

@@ -403,6 +403,11 @@ pub struct AccuracyArgs {
     /// The machines' current-sensing board.
     #[arg(long, value_enum, default_value_t = SensingArg::Family)]
     pub sensing: SensingArg,
+    /// The standard deviation of the reference gauge the machines are calibrated against, kgf
+    /// (default: the family's, 0.02). 0 is an exact gauge: what the controller holds when
+    /// the calibration instrument is taken out of the error.
+    #[arg(long = "gauge-sigma", allow_negative_numbers = true, value_name = "KGF", value_parser = ranged_f64(0.0..=1.0))]
+    pub gauge_sigma: Option<f64>,
     /// Worker threads (default: the machine's cores).
     #[arg(long, allow_negative_numbers = true, value_parser = whole(1_u16, 256))]
     pub threads: Option<u16>,

@@ -109,6 +109,10 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["report", "accuracy", "--controllers", "taut,foo"], USAGE, "--controllers"),
     (&["report", "accuracy", "--sensing", "hall"], USAGE, "--sensing"),
     (&["report", "accuracy", "--threads", "0"], USAGE, "--threads"),
+    (&["report", "accuracy", "--gauge-sigma", "-0.01"], USAGE, "--gauge-sigma"),
+    (&["report", "accuracy", "--gauge-sigma", "1.5"], USAGE, "--gauge-sigma"),
+    (&["report", "accuracy", "--gauge-sigma", "nan"], USAGE, "--gauge-sigma"),
+    (&["report", "accuracy", "--gauge-sigma", "abc"], USAGE, "--gauge-sigma"),
     (&["report", "accuracy", "--json", "UNWRITABLE/a.json"], RUNTIME, "cannot write"),
     (&["report", "accuracy", "--svg", "UNWRITABLE/plots"], RUNTIME, "cannot write"),
     // ── report ablation ──

@@ -196,14 +196,45 @@ fn the_accuracy_plots() {
         panic!("report accuracy")
     };
     let lineup = accuracy::lineup(&args.controllers);
-    let results = accuracy::run_all(args.seed, args.scenarios, args.sensing, &lineup, 2);
-    let figures = accuracy::figures(args.seed, args.sensing, &results, &lineup);
+    let results =
+        accuracy::run_all(args.seed, args.scenarios, (args.sensing, args.gauge_sigma), &lineup, 2);
+    let figures = accuracy::figures(args.seed, (args.sensing, args.gauge_sigma), &results, &lineup);
     assert_eq!(figures.len(), 2, "the quantiles and one scenario");
     for (file, figure) in &figures {
         let stem = file.trim_end_matches(".svg");
         let name =
             if stem.starts_with("accuracy") { stem.to_owned() } else { format!("accuracy_{stem}") };
         check(&name, figure);
+    }
+}
+
+/// `--gauge-sigma` commissions the report's machines against the gauge it names: the same
+/// machines, strings and targets, a different calibration (every scenario's sensing offset
+/// moves), and the summary records which gauge it was.
+#[test]
+fn the_accuracy_report_calibrates_against_the_gauge_it_is_given() {
+    let run = |extra: &[&str]| {
+        let mut line = vec!["report", "accuracy", "--scenarios", "3"];
+        line.extend_from_slice(extra);
+        let cli = parse(&line);
+        let Some(Command::Report { which: ReportKind::Accuracy(args) }) = &cli.command else {
+            panic!("report accuracy")
+        };
+        let lineup = accuracy::lineup(&args.controllers);
+        let machines = (args.sensing, args.gauge_sigma);
+        let results = accuracy::run_all(args.seed, args.scenarios, machines, &lineup, 2);
+        let json = accuracy::to_json(args.seed, machines, &results, &lineup);
+        (results, json)
+    };
+    let (family, family_json) = run(&[]);
+    let (exact, exact_json) = run(&["--gauge-sigma", "0"]);
+    assert_eq!(family_json["reference_gauge_sigma_kgf"], 0.02, "the family's gauge");
+    assert_eq!(exact_json["reference_gauge_sigma_kgf"], 0.0);
+    for (f, e) in family.iter().zip(&exact) {
+        assert_eq!((f.index, f.target_kgf, f.string), (e.index, e.target_kgf, e.string));
+        let (f, e) = (&f.metrics[0], &e.metrics[0]);
+        assert!(f.failure.is_none() && e.failure.is_none(), "{f:?} {e:?}");
+        assert_ne!(f.sense_offset_kgf, e.sense_offset_kgf, "the calibration did not change");
     }
 }
 

@@ -70,10 +70,11 @@ pub fn main(args: &AblationArgs) -> Status {
         check_writable(path)?;
     }
     let lineup = lineup();
-    let results = run_all(args.seed, args.scenarios, args.sensing, &lineup, threads(args.threads));
+    let results =
+        run_all(args.seed, args.scenarios, (args.sensing, None), &lineup, threads(args.threads));
     println!("{}", markdown(&results, &lineup));
     if let Some(path) = &args.json {
-        write_json(path, &to_json(args.seed, args.sensing, &results, &lineup))?;
+        write_json(path, &to_json(args.seed, (args.sensing, None), &results, &lineup))?;
         println!("summary: {}", path.display());
     }
     Ok(true)

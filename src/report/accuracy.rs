@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use serde_json::{Value, json};
 use taut_core::sense::calibration::Calibration;
 use taut_core::tension::ControllerConfig;
-use taut_sim::bang_bang_reach_time;
+use taut_sim::{StringKind, TwinConfig, bang_bang_reach_time};
 
 use super::{
     AGGREGATE_HEADER, Failure, Metrics, ORACLE_LIMIT_MS, PULL_MS, Scenario, aggregate,
@@ -99,18 +99,19 @@ pub fn run_scenario(scenario: &Scenario, lineup: &[Entry]) -> ScenarioResult {
 }
 
 /// Runs `count` scenarios of seed `seed` for `lineup` on `threads` threads with a progress
-/// counter.
+/// counter, the machines calibrated against a reference gauge of standard deviation `gauge`
+/// kgf (`None`: the family's).
 #[must_use]
 pub fn run_all(
     seed: u64,
     count: u64,
-    sensing: SensingArg,
+    (sensing, gauge): (SensingArg, Option<f64>),
     lineup: &[Entry],
     threads: usize,
 ) -> Vec<ScenarioResult> {
     let progress = Progress::new(count as usize, "scenarios");
     parallel(count, threads, &progress, &|index| {
-        run_scenario(&Scenario::new(seed, index, sensing), lineup)
+        run_scenario(&Scenario::new(seed, index, sensing).with_gauge_sigma(gauge), lineup)
     })
 }
 
@@ -154,7 +155,7 @@ pub fn markdown(results: &[ScenarioResult], lineup: &[Entry]) -> String {
 #[must_use]
 pub fn to_json(
     seed: u64,
-    sensing: SensingArg,
+    (sensing, gauge): (SensingArg, Option<f64>),
     results: &[ScenarioResult],
     lineup: &[Entry],
 ) -> Value {
@@ -172,6 +173,7 @@ pub fn to_json(
         "seed": seed,
         "family": "TwinConfig::family",
         "sensing": format!("{sensing:?}").to_lowercase(),
+        "reference_gauge_sigma_kgf": gauge_sigma(gauge),
         "speed": 9,
         "targets_kgf": [super::TARGETS_KGF.0, super::TARGETS_KGF.1],
         "current_sensing": sensing_mix(results).into_iter().map(|(n, c)| json!({"board": n, "count": c})).collect::<Vec<_>>(),
@@ -210,12 +212,25 @@ pub fn detail(results: &[ScenarioResult], lineup: &[Entry]) -> String {
     out
 }
 
+/// The reference gauge's standard deviation the machines were calibrated with, kgf: `gauge`,
+/// or the family's.
+fn gauge_sigma(gauge: Option<f64>) -> f64 {
+    gauge.unwrap_or_else(|| {
+        TwinConfig::nominal(StringKind::TennisSynthetic).reference_gauge_sigma_kgf
+    })
+}
+
 /// The subtitle of the report's plots: what was run.
-fn what_was_run(seed: u64, sensing: SensingArg, results: &[ScenarioResult]) -> String {
+fn what_was_run(
+    seed: u64,
+    (sensing, gauge): (SensingArg, Option<f64>),
+    results: &[ScenarioResult],
+) -> String {
     format!(
-        "{} scenarios of the family (seed {seed}, sensing {}), speed 9, targets 8–35 kgf by string kind (badminton ≤ 16, tennis ≥ 15), the machine's own calibration; errors against the true tension",
+        "{} scenarios of the family (seed {seed}, sensing {}), speed 9, targets 8–35 kgf by string kind (badminton ≤ 16, tennis ≥ 15), the machine's own calibration (reference gauge σ {:.3} kgf); errors against the true tension",
         results.len(),
-        format!("{sensing:?}").to_lowercase()
+        format!("{sensing:?}").to_lowercase(),
+        gauge_sigma(gauge)
     )
 }
 
@@ -224,7 +239,7 @@ fn what_was_run(seed: u64, sensing: SensingArg, results: &[ScenarioResult]) -> S
 #[must_use]
 pub fn figures(
     seed: u64,
-    sensing: SensingArg,
+    (sensing, gauge): (SensingArg, Option<f64>),
     results: &[ScenarioResult],
     lineup: &[Entry],
 ) -> Vec<(String, Figure)> {
@@ -272,7 +287,7 @@ pub fn figures(
         "accuracy_quantiles.svg".to_owned(),
         Figure::new(
             "taut report accuracy: each scenario's error, sorted (empirical quantiles)",
-            &what_was_run(seed, sensing, results),
+            &what_was_run(seed, (sensing, gauge), results),
             "percentile of the scenarios that did not fail",
             vec![
                 Panel::new("hold error |true − target| (kgf, log)", hold).log(),
@@ -283,7 +298,7 @@ pub fn figures(
     )];
     if let Some(r) = results.iter().find(|r| r.metrics.first().is_some_and(|m| m.failure.is_none()))
     {
-        let scenario = Scenario::new(seed, r.index, sensing);
+        let scenario = Scenario::new(seed, r.index, sensing).with_gauge_sigma(gauge);
         if let Ok(calibration) = commissioned_calibration(&scenario.twin) {
             let mut tension = Vec::new();
             let mut error = Vec::new();
@@ -344,18 +359,19 @@ pub fn main(args: &AccuracyArgs) -> Status {
     controllers.dedup();
     let lineup = lineup(&controllers);
     let started = std::time::Instant::now();
-    let results = run_all(args.seed, args.scenarios, args.sensing, &lineup, threads(args.threads));
+    let machines = (args.sensing, args.gauge_sigma);
+    let results = run_all(args.seed, args.scenarios, machines, &lineup, threads(args.threads));
     if args.detail {
         print!("{}", detail(&results, &lineup));
     }
     println!("{}", markdown(&results, &lineup));
     println!("wall clock: {:.1} s", started.elapsed().as_secs_f64());
     if let Some(path) = &args.json {
-        write_json(path, &to_json(args.seed, args.sensing, &results, &lineup))?;
+        write_json(path, &to_json(args.seed, machines, &results, &lineup))?;
         println!("summary: {}", path.display());
     }
     if let Some(dir) = &args.svg {
-        for (name, figure) in figures(args.seed, args.sensing, &results, &lineup) {
+        for (name, figure) in figures(args.seed, machines, &results, &lineup) {
             let path = dir.join(name);
             write_file(&path, figure.to_svg())?;
             println!("plot: {}", path.display());

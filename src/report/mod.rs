@@ -177,6 +177,16 @@ impl Scenario {
         Self { index, twin, target_kgf }
     }
 
+    /// The same scenario calibrated against a reference gauge of standard deviation
+    /// `sigma_kgf` (`None`: the family's).
+    #[must_use]
+    pub fn with_gauge_sigma(mut self, sigma_kgf: Option<f64>) -> Self {
+        if let Some(sigma) = sigma_kgf {
+            self.twin.reference_gauge_sigma_kgf = sigma;
+        }
+        self
+    }
+
     /// A scenario on a given machine.
     #[must_use]
     pub const fn on(index: u64, twin: TwinConfig, target_kgf: f64) -> Self {

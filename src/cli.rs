@@ -457,6 +457,10 @@ pub struct RobustnessArgs {
     /// Seed of the scenario draw.
     #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = seed)]
     pub seed: u64,
+    /// The standard deviation of the reference gauge the machines are calibrated against, kgf
+    /// (default: the family's, 0.02); 0 is an exact gauge.
+    #[arg(long = "gauge-sigma", allow_negative_numbers = true, value_name = "KGF", value_parser = ranged_f64(0.0..=1.0))]
+    pub gauge_sigma: Option<f64>,
     /// Worker threads (default: the machine's cores).
     #[arg(long, allow_negative_numbers = true, value_parser = whole(1_u16, 256))]
     pub threads: Option<u16>,

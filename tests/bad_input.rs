@@ -125,6 +125,8 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["report", "robustness", "--scenarios", "0"], USAGE, "--scenarios"),
     (&["report", "robustness", "--points", "1"], USAGE, "--points"),
     (&["report", "robustness", "--points", "nan"], USAGE, "--points"),
+    (&["report", "robustness", "--gauge-sigma", "-1"], USAGE, "--gauge-sigma"),
+    (&["report", "robustness", "--gauge-sigma", "inf"], USAGE, "--gauge-sigma"),
     (&["report", "robustness", "--axes", "gravity"], USAGE, "not an axis"),
     (&["report", "robustness", "--seed", "-3"], USAGE, "--seed"),
     (&["report", "robustness", "--threads", "0"], USAGE, "--threads"),

@@ -6,11 +6,12 @@ use std::fmt::Write as _;
 use serde_json::{Value, json};
 use taut_core::sense::calibration::Calibration;
 use taut_core::tension::ControllerConfig;
-use taut_sim::{StringKind, TwinConfig, bang_bang_reach_time};
+use taut_sim::bang_bang_reach_time;
 
 use super::{
     AGGREGATE_HEADER, Failure, Metrics, ORACLE_LIMIT_MS, PULL_MS, Scenario, aggregate,
-    aggregate_json, aggregate_row, commissioned_calibration, failure_counts, metrics, pull_trace,
+    aggregate_json, aggregate_row, commissioned_calibration, failure_counts, gauge_sigma_kgf,
+    metrics, pull_trace,
 };
 use crate::cli::{AccuracyArgs, ControllerArg, SensingArg};
 use crate::output::{
@@ -173,7 +174,7 @@ pub fn to_json(
         "seed": seed,
         "family": "TwinConfig::family",
         "sensing": format!("{sensing:?}").to_lowercase(),
-        "reference_gauge_sigma_kgf": gauge_sigma(gauge),
+        "reference_gauge_sigma_kgf": gauge_sigma_kgf(gauge),
         "speed": 9,
         "targets_kgf": [super::TARGETS_KGF.0, super::TARGETS_KGF.1],
         "current_sensing": sensing_mix(results).into_iter().map(|(n, c)| json!({"board": n, "count": c})).collect::<Vec<_>>(),
@@ -212,14 +213,6 @@ pub fn detail(results: &[ScenarioResult], lineup: &[Entry]) -> String {
     out
 }
 
-/// The reference gauge's standard deviation the machines were calibrated with, kgf: `gauge`,
-/// or the family's.
-fn gauge_sigma(gauge: Option<f64>) -> f64 {
-    gauge.unwrap_or_else(|| {
-        TwinConfig::nominal(StringKind::TennisSynthetic).reference_gauge_sigma_kgf
-    })
-}
-
 /// The subtitle of the report's plots: what was run.
 fn what_was_run(
     seed: u64,
@@ -230,7 +223,7 @@ fn what_was_run(
         "{} scenarios of the family (seed {seed}, sensing {}), speed 9, targets 8–35 kgf by string kind (badminton ≤ 16, tennis ≥ 15), the machine's own calibration (reference gauge σ {:.3} kgf); errors against the true tension",
         results.len(),
         format!("{sensing:?}").to_lowercase(),
-        gauge_sigma(gauge)
+        gauge_sigma_kgf(gauge)
     )
 }
 

@@ -194,6 +194,15 @@ impl Scenario {
     }
 }
 
+/// The reference gauge's standard deviation a report's machines are calibrated with, kgf:
+/// `gauge`, or the family's.
+#[must_use]
+pub fn gauge_sigma_kgf(gauge: Option<f64>) -> f64 {
+    gauge.unwrap_or_else(|| {
+        TwinConfig::nominal(StringKind::TennisSynthetic).reference_gauge_sigma_kgf
+    })
+}
+
 /// The machine's calibration of `twin`: a commissioning session through the machine's own
 /// calibration states, or why it failed.
 ///

@@ -15,7 +15,7 @@ use taut_sim::{Axis, StringKind, TwinConfig, bang_bang_reach_time};
 
 use super::{
     Metrics, ORACLE_LIMIT_MS, PULL_MS, Scenario, cell, commissioned_calibration, draw_target,
-    failure_counts, metrics, number, pull_trace, scenario_seed,
+    failure_counts, gauge_sigma_kgf, metrics, number, pull_trace, scenario_seed,
 };
 use crate::cli::RobustnessArgs;
 use crate::output::{Progress, Status, check_writable, parallel, threads, write_file, write_json};
@@ -46,12 +46,14 @@ pub struct Point {
     pub metrics: Metrics,
 }
 
-/// Runs one point of the sweep.
+/// Runs one point of the sweep. The machine is calibrated against a reference gauge of standard deviation `gauge` kgf
+/// (`None`: the family's).
 #[must_use]
-pub fn run_point(axis: Axis, position: f64, index: u64, seed: u64) -> Point {
+pub fn run_point(axis: Axis, position: f64, index: u64, seed: u64, gauge: Option<f64>) -> Point {
     let string = STRINGS[(index % STRINGS.len() as u64) as usize];
     let target_kgf = draw_target(scenario_seed(seed, index), string);
-    let scenario = Scenario::on(index, TwinConfig::on_axis(axis, position, string), target_kgf);
+    let scenario = Scenario::on(index, TwinConfig::on_axis(axis, position, string), target_kgf)
+        .with_gauge_sigma(gauge);
     let metrics = match commissioned_calibration(&scenario.twin) {
         Err(failure) => Metrics::failed(failure),
         Ok(calibration) => {
@@ -173,6 +175,7 @@ pub fn to_json(args: &RobustnessArgs, axes: &[Axis], runs: &[Point]) -> Value {
         "seed": args.seed,
         "scenarios_per_point": args.scenarios,
         "points_per_axis": args.points,
+        "reference_gauge_sigma_kgf": gauge_sigma_kgf(args.gauge_sigma),
         "controller": "taut",
         "speed": 9,
         "axes": doc,
@@ -221,8 +224,10 @@ pub fn figure(args: &RobustnessArgs, axes: &[Axis], runs: &[Point]) -> Figure {
     Figure::new(
         "taut report robustness: each axis of the family alone, worst case per position",
         &format!(
-            "taut's controller, speed 9, {} scenario(s) per point (string kinds in turn, targets by kind within 8–35 kgf, seed {}), the machine's own calibration; 0 = the axis's low end, 1 = its high end",
-            args.scenarios, args.seed
+            "taut's controller, speed 9, {} scenario(s) per point (string kinds in turn, targets by kind within 8–35 kgf, seed {}), the machine's own calibration (reference gauge σ {:.3} kgf); 0 = the axis's low end, 1 = its high end",
+            args.scenarios,
+            args.seed,
+            gauge_sigma_kgf(args.gauge_sigma)
         ),
         "uncertainty axis",
         vec![
@@ -257,7 +262,7 @@ pub fn run_all(args: &RobustnessArgs) -> Vec<Point> {
     let progress = Progress::new(jobs.len(), "runs");
     parallel(jobs.len() as u64, threads(args.threads), &progress, &|i| {
         let (axis, position, index) = jobs[i as usize];
-        run_point(axis, position, index, args.seed)
+        run_point(axis, position, index, args.seed, args.gauge_sigma)
     })
 }
 

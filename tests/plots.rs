@@ -196,9 +196,8 @@ fn the_accuracy_plots() {
         panic!("report accuracy")
     };
     let lineup = accuracy::lineup(&args.controllers);
-    let results =
-        accuracy::run_all(args.seed, args.scenarios, (args.sensing, args.gauge_sigma), &lineup, 2);
-    let figures = accuracy::figures(args.seed, (args.sensing, args.gauge_sigma), &results, &lineup);
+    let results = accuracy::run_all(args.seed, args.scenarios, args.machines(), &lineup, 2);
+    let figures = accuracy::figures(args.seed, args.machines(), &results, &lineup);
     assert_eq!(figures.len(), 2, "the quantiles and one scenario");
     for (file, figure) in &figures {
         let stem = file.trim_end_matches(".svg");
@@ -221,7 +220,7 @@ fn the_accuracy_report_calibrates_against_the_gauge_it_is_given() {
             panic!("report accuracy")
         };
         let lineup = accuracy::lineup(&args.controllers);
-        let machines = (args.sensing, args.gauge_sigma);
+        let machines = args.machines();
         let results = accuracy::run_all(args.seed, args.scenarios, machines, &lineup, 2);
         let json = accuracy::to_json(args.seed, machines, &results, &lineup);
         (results, json)

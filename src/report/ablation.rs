@@ -4,6 +4,7 @@
 use taut_core::tension::ControllerConfig;
 use taut_core::tension::motor::DutyMap;
 
+use super::Machines;
 use super::accuracy::{Entry, markdown, run_all, to_json};
 use crate::cli::AblationArgs;
 use crate::output::{Status, check_writable, threads, write_json};
@@ -70,11 +71,11 @@ pub fn main(args: &AblationArgs) -> Status {
         check_writable(path)?;
     }
     let lineup = lineup();
-    let results =
-        run_all(args.seed, args.scenarios, (args.sensing, None), &lineup, threads(args.threads));
+    let machines = Machines { sensing: args.sensing, gauge_sigma: None };
+    let results = run_all(args.seed, args.scenarios, machines, &lineup, threads(args.threads));
     println!("{}", markdown(&results, &lineup));
     if let Some(path) = &args.json {
-        write_json(path, &to_json(args.seed, (args.sensing, None), &results, &lineup))?;
+        write_json(path, &to_json(args.seed, machines, &results, &lineup))?;
         println!("summary: {}", path.display());
     }
     Ok(true)

@@ -9,11 +9,11 @@ use taut_core::tension::ControllerConfig;
 use taut_sim::bang_bang_reach_time;
 
 use super::{
-    AGGREGATE_HEADER, Failure, Metrics, ORACLE_LIMIT_MS, PULL_MS, Scenario, aggregate,
+    AGGREGATE_HEADER, Failure, Machines, Metrics, ORACLE_LIMIT_MS, PULL_MS, Scenario, aggregate,
     aggregate_json, aggregate_row, commissioned_calibration, failure_counts, gauge_sigma_kgf,
     metrics, pull_trace,
 };
-use crate::cli::{AccuracyArgs, ControllerArg, SensingArg};
+use crate::cli::{AccuracyArgs, ControllerArg};
 use crate::output::{
     Progress, Status, check_writable, create_dir, parallel, threads, write_file, write_json,
 };
@@ -99,20 +99,27 @@ pub fn run_scenario(scenario: &Scenario, lineup: &[Entry]) -> ScenarioResult {
     result(metrics, t_min)
 }
 
-/// Runs `count` scenarios of seed `seed` for `lineup` on `threads` threads with a progress
-/// counter, the machines calibrated against a reference gauge of standard deviation `gauge`
-/// kgf (`None`: the family's).
+impl AccuracyArgs {
+    /// The machines the options draw: the sensing board and the reference gauge.
+    #[must_use]
+    pub const fn machines(&self) -> Machines {
+        Machines { sensing: self.sensing, gauge_sigma: self.gauge_sigma }
+    }
+}
+
+/// Runs `count` scenarios of seed `seed` on `machines` for `lineup` on `threads` threads with
+/// a progress counter.
 #[must_use]
 pub fn run_all(
     seed: u64,
     count: u64,
-    (sensing, gauge): (SensingArg, Option<f64>),
+    machines: Machines,
     lineup: &[Entry],
     threads: usize,
 ) -> Vec<ScenarioResult> {
     let progress = Progress::new(count as usize, "scenarios");
     parallel(count, threads, &progress, &|index| {
-        run_scenario(&Scenario::new(seed, index, sensing).with_gauge_sigma(gauge), lineup)
+        run_scenario(&machines.scenario(seed, index), lineup)
     })
 }
 
@@ -156,7 +163,7 @@ pub fn markdown(results: &[ScenarioResult], lineup: &[Entry]) -> String {
 #[must_use]
 pub fn to_json(
     seed: u64,
-    (sensing, gauge): (SensingArg, Option<f64>),
+    machines: Machines,
     results: &[ScenarioResult],
     lineup: &[Entry],
 ) -> Value {
@@ -173,8 +180,8 @@ pub fn to_json(
         "scenarios": results.len(),
         "seed": seed,
         "family": "TwinConfig::family",
-        "sensing": format!("{sensing:?}").to_lowercase(),
-        "reference_gauge_sigma_kgf": gauge_sigma_kgf(gauge),
+        "sensing": format!("{:?}", machines.sensing).to_lowercase(),
+        "reference_gauge_sigma_kgf": gauge_sigma_kgf(machines.gauge_sigma),
         "speed": 9,
         "targets_kgf": [super::TARGETS_KGF.0, super::TARGETS_KGF.1],
         "current_sensing": sensing_mix(results).into_iter().map(|(n, c)| json!({"board": n, "count": c})).collect::<Vec<_>>(),
@@ -214,16 +221,12 @@ pub fn detail(results: &[ScenarioResult], lineup: &[Entry]) -> String {
 }
 
 /// The subtitle of the report's plots: what was run.
-fn what_was_run(
-    seed: u64,
-    (sensing, gauge): (SensingArg, Option<f64>),
-    results: &[ScenarioResult],
-) -> String {
+fn what_was_run(seed: u64, machines: Machines, results: &[ScenarioResult]) -> String {
     format!(
         "{} scenarios of the family (seed {seed}, sensing {}), speed 9, targets 8–35 kgf by string kind (badminton ≤ 16, tennis ≥ 15), the machine's own calibration (reference gauge σ {:.3} kgf); errors against the true tension",
         results.len(),
-        format!("{sensing:?}").to_lowercase(),
-        gauge_sigma_kgf(gauge)
+        format!("{:?}", machines.sensing).to_lowercase(),
+        gauge_sigma_kgf(machines.gauge_sigma)
     )
 }
 
@@ -232,7 +235,7 @@ fn what_was_run(
 #[must_use]
 pub fn figures(
     seed: u64,
-    (sensing, gauge): (SensingArg, Option<f64>),
+    machines: Machines,
     results: &[ScenarioResult],
     lineup: &[Entry],
 ) -> Vec<(String, Figure)> {
@@ -280,7 +283,7 @@ pub fn figures(
         "accuracy_quantiles.svg".to_owned(),
         Figure::new(
             "taut report accuracy: each scenario's error, sorted (empirical quantiles)",
-            &what_was_run(seed, (sensing, gauge), results),
+            &what_was_run(seed, machines, results),
             "percentile of the scenarios that did not fail",
             vec![
                 Panel::new("hold error |true − target| (kgf, log)", hold).log(),
@@ -291,7 +294,7 @@ pub fn figures(
     )];
     if let Some(r) = results.iter().find(|r| r.metrics.first().is_some_and(|m| m.failure.is_none()))
     {
-        let scenario = Scenario::new(seed, r.index, sensing).with_gauge_sigma(gauge);
+        let scenario = machines.scenario(seed, r.index);
         if let Ok(calibration) = commissioned_calibration(&scenario.twin) {
             let mut tension = Vec::new();
             let mut error = Vec::new();
@@ -352,7 +355,7 @@ pub fn main(args: &AccuracyArgs) -> Status {
     controllers.dedup();
     let lineup = lineup(&controllers);
     let started = std::time::Instant::now();
-    let machines = (args.sensing, args.gauge_sigma);
+    let machines = args.machines();
     let results = run_all(args.seed, args.scenarios, machines, &lineup, threads(args.threads));
     if args.detail {
         print!("{}", detail(&results, &lineup));

@@ -194,6 +194,24 @@ impl Scenario {
     }
 }
 
+/// How a Monte-Carlo report's machines are drawn besides the seed: the current-sensing board
+/// and the reference gauge they are commissioned against.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Machines {
+    /// The current-sensing board.
+    pub sensing: SensingArg,
+    /// The reference gauge's standard deviation, kgf (`None`: the family's).
+    pub gauge_sigma: Option<f64>,
+}
+
+impl Machines {
+    /// Scenario `index` of the run seeded `seed` on these machines.
+    #[must_use]
+    pub fn scenario(self, seed: u64, index: u64) -> Scenario {
+        Scenario::new(seed, index, self.sensing).with_gauge_sigma(self.gauge_sigma)
+    }
+}
+
 /// The reference gauge's standard deviation a report's machines are calibrated with, kgf:
 /// `gauge`, or the family's.
 #[must_use]

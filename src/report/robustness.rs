@@ -46,8 +46,8 @@ pub struct Point {
     pub metrics: Metrics,
 }
 
-/// Runs one point of the sweep. The machine is calibrated against a reference gauge of standard deviation `gauge` kgf
-/// (`None`: the family's).
+/// Runs one point of the sweep, the machine commissioned against a reference gauge of
+/// standard deviation `gauge` kgf (`None`: the family's).
 #[must_use]
 pub fn run_point(axis: Axis, position: f64, index: u64, seed: u64, gauge: Option<f64>) -> Point {
     let string = STRINGS[(index % STRINGS.len() as u64) as usize];

@@ -134,7 +134,7 @@ fn percent_in_fives(max: u8) -> impl Fn(&str) -> Result<u8, String> + Clone {
     move |text: &str| {
         let value: u8 =
             text.trim().parse().map_err(|_| format!("`{text}` is not 0–{max} in steps of 5"))?;
-        if value > max || value % 5 != 0 {
+        if value > max || !value.is_multiple_of(5) {
             return Err(format!("{value} is not 0–{max} in steps of 5"));
         }
         Ok(value)

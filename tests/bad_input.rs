@@ -13,7 +13,20 @@
 )]
 
 use std::path::PathBuf;
-use std::process::{Command, Stdio};
+use std::process::{Child, Command, Stdio};
+use std::sync::{Mutex, PoisonError};
+
+/// Held while this binary starts a child. Between its fork and its exec a child holds a
+/// copy of every descriptor of this process — the tests run on parallel threads, so one
+/// test's child could keep another test's pipe open. With the lock, a pipe that one test
+/// closes is closed everywhere (`spawn` returns only after the child's exec has run).
+static SPAWNING: Mutex<()> = Mutex::new(());
+
+/// Starts `command` under [`SPAWNING`].
+fn spawn(command: &mut Command) -> Child {
+    let _alone = SPAWNING.lock().unwrap_or_else(PoisonError::into_inner);
+    command.spawn().expect("starts")
+}
 
 /// A usage error (clap's, or a script's syntax).
 const USAGE: i32 = 2;
@@ -166,11 +179,15 @@ fn every_bad_input_is_refused_with_a_message_and_the_right_status() {
                     .replace("SCRIPTS", &dir.to_string_lossy())
             })
             .collect();
-        let output = Command::new(env!("CARGO_BIN_EXE_taut"))
-            .args(&args)
-            .stdin(Stdio::null())
-            .output()
-            .expect("runs");
+        let output = spawn(
+            Command::new(env!("CARGO_BIN_EXE_taut"))
+                .args(&args)
+                .stdin(Stdio::null())
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped()),
+        )
+        .wait_with_output()
+        .expect("runs");
         let stderr = String::from_utf8_lossy(&output.stderr);
         let code = output.status.code();
         let first = stderr.lines().find(|l| l.starts_with("error:")).unwrap_or("");
@@ -245,14 +262,20 @@ fn the_table_covers_every_subcommand_and_every_value_taking_option() {
 /// backtrace on the terminal.
 #[test]
 fn a_closed_pipe_ends_the_output_quietly() {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_taut"))
+    // The reader is gone before the tool starts: closing it after `spawn` would race the
+    // tool, which on a loaded machine can print its whole table into the pipe's buffer
+    // first (CI once saw status 0). The lock keeps a sibling test's child, forked but not
+    // yet exec'd, from holding a copy of the reader.
+    let alone = SPAWNING.lock().unwrap_or_else(PoisonError::into_inner);
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let child = Command::new(env!("CARGO_BIN_EXE_taut"))
         .args(["paper"])
-        .stdout(Stdio::piped())
+        .stdout(writer)
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    // Close the reading end before the tool has written anything.
-    drop(child.stdout.take());
+    drop(alone);
     let out = child.wait_with_output().unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     println!("status {:?}, stderr {stderr:?}", out.status.code());

@@ -375,7 +375,7 @@ fn pull_timeout_after(speed: u8) -> u32 {
         inputs.now_ms = now;
         now += 1;
         ticks += 1;
-        if ticks % 8 == 0 {
+        if ticks.is_multiple_of(8) {
             inputs.drive.steps += 1;
             inputs.drive.quiet_for = taut_core::drive::DriveTime(0);
         }

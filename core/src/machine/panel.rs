@@ -418,8 +418,8 @@ impl Beep {
         match self {
             Self::Click => elapsed < 15,
             Self::AtTension => elapsed < 400,
-            Self::Fault => elapsed < 1_000 && (elapsed / 200) % 2 == 0,
-            Self::Refused => elapsed < 300 && (elapsed / 100) % 2 == 0,
+            Self::Fault => elapsed < 1_000 && (elapsed / 200).is_multiple_of(2),
+            Self::Refused => elapsed < 300 && (elapsed / 100).is_multiple_of(2),
         }
     }
 }

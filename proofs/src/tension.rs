@@ -17,7 +17,7 @@
 //! | [`estimator_step_bounded`] | `verify_estimator_step_bounded` | no panic, stiffness kept, the spike clip's per-tick limit |
 //! | [`slip_damper_bounded`] | `verify_slip_damper_bounded` | no panic, a braking force ≥ 0 only for a forward residual, learning within bounds |
 //! | [`reciprocal_total`] | `verify_reciprocal_total` | no panic for any `x`, zero for `x ≤ 0` (accuracy: [`reciprocal_accurate`], swept under `cargo test`) |
-//! | [`controller_step_bounded`] | `verify_controller_step_bounded`, `verify_take_up_step_bounded` | the composition: duty ≤ `DUTY_MAX`, `is_valid()` kept, every phase (the take-up in the second) |
+//! | [`controller_step_bounded`] | `verify_controller_step_bounded`, `verify_take_up_step_bounded`, `verify_braking_onset_step_bounded`, `verify_lock_out_step_bounded` | the composition: duty ≤ `DUTY_MAX`, `is_valid()` kept, every phase (the take-up's two branches in the second and third, the constant-pull lock-out in the fourth) |
 //!
 //! # Why the harnesses are small enough for CBMC
 //!
@@ -479,9 +479,15 @@ pub fn retarget_keeps_the_target_in_range(state: ProfileState, target: Kgf) -> b
 /// duty is within `DUTY_MAX`, within a pull it never reverses, and the state stays valid.
 /// Returns whether the case was in the domain (the state was valid).
 pub fn controller_step_bounded(case: &StepCase) -> bool {
+    controller_step_checked(case).is_some()
+}
+
+/// [`controller_step_bounded`]'s checks, returning the phase the step left the controller
+/// in (`None` outside the domain) — so a test can tell which branch a case took.
+pub fn controller_step_checked(case: &StepCase) -> Option<PullPhase> {
     let mut controller = controller_in(case);
     if !controller.is_valid() {
-        return false;
+        return None;
     }
     let phase = controller.phase();
     let measurement = Measurement {
@@ -519,7 +525,7 @@ pub fn controller_step_bounded(case: &StepCase) -> bool {
         }
     }
     assert!(controller.is_valid(), "REQ-TEN-03: the step broke the invariant: {case:?}");
-    true
+    Some(controller.phase())
 }
 
 #[cfg(kani)]
@@ -641,6 +647,14 @@ mod verification {
         (DriveCommand::Drive { direction: Direction::Pull, duty }, kani::any())
     }
 
+    /// The reciprocal: zero for `x ≤ 0`, any value otherwise — the guarantee
+    /// `verify_reciprocal_total` proves (its accuracy, swept under `cargo test`, is not
+    /// needed: every caller clamps what it makes of the result). Three calls in the braking
+    /// onset's tick (the bus scale, the stiffness, the plant scale), each six products.
+    fn any_reciprocal(x: i32) -> i32 {
+        if x <= 0 { 0 } else { kani::any() }
+    }
+
     /// The slip damper: any non-negative brake.
     fn any_brake(_damper: &mut SlipDamper, _current: Amps, _moved: i32, _active: bool) -> Kgf {
         let bits: i32 = kani::any();
@@ -680,8 +694,8 @@ mod verification {
     }
 
     /// A composed-step harness: the controller's step with its parts replaced by their
-    /// proven guarantees (the stubs above; the estimator's four-step loop is stubbed, the
-    /// construction's loops — the reciprocal's three steps — need `unwind(6)` at most), from
+    /// proven guarantees (the stubs above; the estimator's four-step loop and the
+    /// reciprocal's three Newton steps are stubbed; `unwind(6)` bounds whatever loop remains), from
     /// the drawn `StepCase` the body narrows; every outcome `controller_step_bounded` checks.
     macro_rules! composed_step {
         ($(#[$doc:meta])* fn $name:ident($case:ident) { $($narrow:tt)* }) => {
@@ -694,6 +708,7 @@ mod verification {
             #[kani::stub(taut_core::tension::law::Pd::step, any_pd_force)]
             #[kani::stub(taut_core::tension::motor::ForceToDuty::command, any_pull_command)]
             #[kani::stub(taut_core::tension::slip::SlipDamper::update, any_brake)]
+            #[kani::stub(taut_core::fixed::reciprocal_q24, any_reciprocal)]
             #[kani::stub(
                 taut_core::tension::profile::Profile::observe_take_up,
                 any_take_up_observation
@@ -718,12 +733,35 @@ mod verification {
         }
     );
 
+    /// The take-up's branch: the braking is not due this tick (the velocity mode runs).
+    fn braking_not_due(_profile: &Profile, _est: &Estimate) -> bool {
+        false
+    }
+
+    /// The take-up's branch: the braking is due this tick (the onset runs).
+    fn braking_due_now(_profile: &Profile, _est: &Estimate) -> bool {
+        true
+    }
+
     composed_step!(
-        /// REQ-TEN-01/02/03 with REQ-ID-06/07: the same composition in the take-up — the
-        /// velocity mode, the braking onset and its reciprocal, the identification within its
-        /// proven guarantee (`verify_take_up_observation_valid`) — split from the harness
-        /// above so each stays within two minutes (together they cover every phase).
+        /// REQ-TEN-01/02/03 with REQ-ID-06/07: the same composition in the take-up at its
+        /// speed limit — the velocity mode under the current limit, the identification within
+        /// its proven guarantee (`verify_take_up_observation_valid`). `Profile::braking_due`
+        /// answers "not yet" for every state, so the next harness, where it answers "now",
+        /// covers the other branch: split so each stays within two minutes.
+        #[kani::stub(taut_core::tension::profile::Profile::braking_due, braking_not_due)]
         fn verify_take_up_step_bounded(case) {
+            case.lock = None;
+            case.profile.phase = PullPhase::TakeUp;
+        }
+    );
+
+    composed_step!(
+        /// REQ-TEN-01/02/03 with REQ-ID-06/07: the take-up's tick on which the braking starts,
+        /// from every take-up state — the stiffness identified, the parabola planned, the
+        /// law's plant scaled and reset, the first closed-loop step.
+        #[kani::stub(taut_core::tension::profile::Profile::braking_due, braking_due_now)]
+        fn verify_braking_onset_step_bounded(case) {
             case.lock = None;
             case.profile.phase = PullPhase::TakeUp;
         }

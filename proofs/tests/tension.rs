@@ -24,9 +24,9 @@ use taut_core::tension::profile::{GRIPPER_BIAS_MAX, ProfileState};
 use taut_core::tension::slip::SlipState;
 use taut_core::units::{Kgf, KgfPerSecond, Q16};
 use taut_proofs::tension::{
-    EstimatorCase, LawCase, SlipCase, StepCase, controller_step_bounded, estimator_step_bounded,
-    force_to_duty_bounded, hold_state, reciprocal_accurate, reciprocal_total,
-    retarget_keeps_the_target_in_range, rsmc_step_bounded, slip_damper_bounded,
+    EstimatorCase, LawCase, SlipCase, StepCase, controller_step_bounded, controller_step_checked,
+    estimator_step_bounded, force_to_duty_bounded, hold_state, reciprocal_accurate,
+    reciprocal_total, retarget_keeps_the_target_in_range, rsmc_step_bounded, slip_damper_bounded,
     take_up_observation_keeps_the_profile_valid,
 };
 use taut_proofs::tension_reference::{TrackStep, coefficient_errors, law_tracks_reference};
@@ -361,6 +361,38 @@ fn step_properties_coverage() {
         STEP_CASES.load(Ordering::Relaxed)
     );
     assert!(valid > 4_000, "the generator must mostly produce valid states");
+}
+
+#[test]
+fn take_up_step_bounded_in_both_branches() {
+    // Mirror of `verify_take_up_step_bounded` and `verify_braking_onset_step_bounded`
+    // (Kani), which split the take-up's tick on `Profile::braking_due`: sampled take-up
+    // states, each stepped with the real predicate, must reach both branches — the carriage
+    // still at its speed limit, and the braking started (the step leaves the take-up).
+    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig::with_cases(5_000));
+    let (cruising, braking) = (AtomicU64::new(0), AtomicU64::new(0));
+    let take_up = step_case().prop_map(|mut case| {
+        case.lock = None;
+        case.profile.phase = PullPhase::TakeUp;
+        case
+    });
+    runner
+        .run(&take_up, |case| {
+            match controller_step_checked(&case) {
+                Some(PullPhase::TakeUp) => cruising.fetch_add(1, Ordering::Relaxed),
+                // The approach, or past it: a parabola can end on its first tick.
+                Some(_) => braking.fetch_add(1, Ordering::Relaxed),
+                None => 0,
+            };
+            Ok(())
+        })
+        .unwrap();
+    let (cruising, braking) = (cruising.into_inner(), braking.into_inner());
+    println!(
+        "take_up_step_bounded_in_both_branches: {cruising} take-up ticks at the speed limit, \
+         {braking} braking onsets, of 5 000 sampled"
+    );
+    assert!(cruising >= 500 && braking >= 500, "both branches sampled: {cruising}, {braking}");
 }
 
 #[test]

@@ -575,6 +575,11 @@ pub struct EncoderParams {
     pub scale_error: f64,
 }
 
+/// The reference gauge every machine of the family is commissioned with: a good digital
+/// tension calibrator, σ = 0.02 kgf per reading (issue 8; `sim/README.md`). The reports'
+/// `--gauge-sigma` replaces it.
+pub const REFERENCE_GAUGE_SIGMA_KGF: f64 = 0.02;
+
 /// Everything that defines one twin: the machine, the string, the sensors, the seed.
 #[derive(Clone, Copy, PartialEq, Debug)]
 pub struct TwinConfig {
@@ -947,7 +952,7 @@ impl TwinConfig {
             bus_sense: BusSenseParams::nominal(),
             hall: HallParams::nominal(),
             encoder: EncoderParams::nominal(),
-            reference_gauge_sigma_kgf: 0.02,
+            reference_gauge_sigma_kgf: REFERENCE_GAUGE_SIGMA_KGF,
         }
     }
 

@@ -216,9 +216,7 @@ impl Machines {
 /// `gauge`, or the family's.
 #[must_use]
 pub fn gauge_sigma_kgf(gauge: Option<f64>) -> f64 {
-    gauge.unwrap_or_else(|| {
-        TwinConfig::nominal(StringKind::TennisSynthetic).reference_gauge_sigma_kgf
-    })
+    gauge.unwrap_or(taut_sim::params::REFERENCE_GAUGE_SIGMA_KGF)
 }
 
 /// The machine's calibration of `twin`: a commissioning session through the machine's own

@@ -29,10 +29,14 @@ use core::fmt;
 use core::str::FromStr;
 
 use crate::params::{
-    CurrentSenseParams, GripperParams, HumParams, MotorParams, StringKind, TwinConfig,
+    ConfigError, CurrentSenseParams, GripperParams, HumParams, MotorParams, StringKind, TwinConfig,
     motor_nominal,
 };
 use crate::rng::SimRng;
+
+/// How far past either end of a span [`Span::beyond`] and [`TwinConfig::beyond_axis`] go:
+/// one span's width.
+pub const BEYOND_MAX: f64 = 1.0;
 
 /// A range of one parameter: its low and high end and how a draw spreads between them.
 #[derive(Clone, Copy, PartialEq, Debug)]
@@ -62,7 +66,17 @@ impl Span {
     /// The value at `position` (clamped to 0 ..= 1) between the ends.
     #[must_use]
     pub fn at(&self, position: f64) -> f64 {
-        let p = position.clamp(0.0, 1.0);
+        self.beyond(position.clamp(0.0, 1.0))
+    }
+
+    /// The value at `position` continued past the ends the same way (linearly, or in the
+    /// logarithm), the position clamped to `−BEYOND_MAX ..= 1 + BEYOND_MAX`: −0.5 lies half
+    /// the span below the low end. For `taut report robustness --beyond`, which asks how far
+    /// past the family's ranges the controller still holds; whether such a value is physical
+    /// is [`TwinConfig::check`]'s to say.
+    #[must_use]
+    pub fn beyond(&self, position: f64) -> f64 {
+        let p = position.clamp(-BEYOND_MAX, 1.0 + BEYOND_MAX);
         if self.logarithmic {
             self.low * (self.high / self.low).powf(p)
         } else {
@@ -587,7 +601,7 @@ impl Axis {
     /// or `current-sensing: per-phase/bidirectional`.
     #[must_use]
     pub fn describe_at(self, position: f64, kind: StringKind) -> String {
-        let p = position.clamp(0.0, 1.0);
+        let p = position.clamp(-BEYOND_MAX, 1.0 + BEYOND_MAX);
         match self {
             Self::CurrentSensing => {
                 format!("{}: {}", self.name(), sensing_board(sensing_index(p)).name())
@@ -596,20 +610,20 @@ impl Axis {
                 "{}: largest spike at 3 A {:.2} kgf, {:.1} % of switching samples",
                 self.name(),
                 largest_spike_kgf(p, 3.0),
-                100.0 * Span::linear(0.0, ranges::SPIKE_PWM_PROBABILITY.high).at(p)
+                100.0 * Span::linear(0.0, ranges::SPIKE_PWM_PROBABILITY.high).beyond(p)
             ),
             Self::LoadCellNoiseHum => format!(
                 "{}: noise {:.2} mV rms, hum {:.2} mV peak",
                 self.name(),
-                ranges::NOISE_VOLTS.at(p) * 1e3,
-                ranges::HUM_VOLTS.at(p) * 1e3
+                ranges::NOISE_VOLTS.beyond(p) * 1e3,
+                ranges::HUM_VOLTS.beyond(p) * 1e3
             ),
             _ => {
                 let span = self.span_for(kind);
                 let value = if self.logarithmic() {
-                    Span::log(span.at_low_end, span.at_high_end).at(p)
+                    Span::log(span.at_low_end, span.at_high_end).beyond(p)
                 } else {
-                    Span::linear(span.at_low_end, span.at_high_end).at(p)
+                    Span::linear(span.at_low_end, span.at_high_end).beyond(p)
                 };
                 format!("{}: {} {value:.4} {}", self.name(), span.quantity, span.unit)
             }
@@ -633,8 +647,8 @@ impl Axis {
 /// The largest spike (before the random 0.3–1 factor) at `amps` with the spike spans at
 /// `position`, kgf at the nominal sensitivity.
 fn largest_spike_kgf(position: f64, amps: f64) -> f64 {
-    let volts =
-        ranges::SPIKE_BASE_VOLTS.at(position) + ranges::SPIKE_VOLTS_PER_AMP.at(position) * amps;
+    let volts = ranges::SPIKE_BASE_VOLTS.beyond(position)
+        + ranges::SPIKE_VOLTS_PER_AMP.beyond(position) * amps;
     volts / 0.092
 }
 
@@ -811,8 +825,25 @@ impl TwinConfig {
     /// [`TwinConfig::with_seed`] for the run's noise).
     #[must_use]
     pub fn on_axis(axis: Axis, position: f64, kind: StringKind) -> Self {
+        Self::axis_point(axis, position.clamp(0.0, 1.0), kind)
+    }
+
+    /// [`TwinConfig::on_axis`] past the family's ends: every span of `axis` continued to
+    /// `position` ([`Span::beyond`]; clamped to `−BEYOND_MAX ..= 1 + BEYOND_MAX`), for
+    /// asking how far outside the family the controller still holds. The current-sensing
+    /// axis has no values beyond its boards (it stays at the nearer end).
+    ///
+    /// # Errors
+    /// The continued machine is not physical ([`TwinConfig::check`]): an efficiency above 1,
+    /// a negative mass, backlash, slack or probability, static friction below kinetic…
+    pub fn beyond_axis(axis: Axis, position: f64, kind: StringKind) -> Result<Self, ConfigError> {
+        let c = Self::axis_point(axis, position.clamp(-BEYOND_MAX, 1.0 + BEYOND_MAX), kind);
+        c.check().map(|()| c)
+    }
+
+    /// The centre machine with `axis` at `p` (any value [`Span::beyond`] takes).
+    fn axis_point(axis: Axis, p: f64, kind: StringKind) -> Self {
         use ranges as r;
-        let p = position.clamp(0.0, 1.0);
         let mut c = Self::family_centre(kind);
         let nominal = MotorParams::nominal();
         // A motor axis re-derives the motor with the one input moved.
@@ -834,70 +865,75 @@ impl TwinConfig {
         );
         match axis {
             Axis::Inertia => {
-                let scale = r::INERTIA_SCALE.at(p);
+                let scale = r::INERTIA_SCALE.beyond(p);
                 c.motor.rotor_inertia_kg_m2 *= scale;
                 c.mechanics.gear_inertia_kg_m2 *= scale;
             }
             Axis::Friction => {
                 let k = &mut c.mechanics;
-                k.efficiency_forward = r::EFFICIENCY_FORWARD.at(p);
+                k.efficiency_forward = r::EFFICIENCY_FORWARD.beyond(p);
                 k.efficiency_backward = back_driven_efficiency(k.efficiency_forward, p);
-                k.drag_torque_nm = r::DRAG_NM.at(p);
-                k.slide_friction_n = r::SLIDE_N.at(p);
-                k.stiction_ratio = r::STICTION.at(p);
+                k.drag_torque_nm = r::DRAG_NM.beyond(p);
+                k.slide_friction_n = r::SLIDE_N.beyond(p);
+                k.stiction_ratio = r::STICTION.beyond(p);
             }
-            Axis::Backlash => c.mechanics.backlash_mm = r::BACKLASH_MM.at(p),
-            Axis::MotorResistance => c.motor = motor(r::WINDING_OHM.at(p), inductance, rpm, ramp),
+            Axis::Backlash => c.mechanics.backlash_mm = r::BACKLASH_MM.beyond(p),
+            Axis::MotorResistance => {
+                c.motor = motor(r::WINDING_OHM.beyond(p), inductance, rpm, ramp)
+            }
             Axis::MotorSpeedConstant => {
-                c.motor = motor(winding, inductance, r::NO_LOAD_RPM.at(p), ramp);
+                c.motor = motor(winding, inductance, r::NO_LOAD_RPM.beyond(p), ramp);
             }
             Axis::MotorInductance => {
-                c.motor = motor(winding, r::INDUCTANCE_H.at(p), rpm, ramp);
+                c.motor = motor(winding, r::INDUCTANCE_H.beyond(p), rpm, ramp);
             }
-            Axis::BackEmfShape => c.motor = motor(winding, inductance, rpm, r::EMF_RAMP_DEG.at(p)),
-            Axis::Cogging => c.motor.cogging_torque_nm = r::COGGING_NM.at(p),
-            Axis::LoadCellGain => c.load_cell.volts_per_kgf = r::SENSITIVITY.at(p),
-            Axis::LoadCellZero => c.load_cell.zero_volts = r::ZERO_VOLTS.at(p),
+            Axis::BackEmfShape => {
+                c.motor = motor(winding, inductance, rpm, r::EMF_RAMP_DEG.beyond(p))
+            }
+            Axis::Cogging => c.motor.cogging_torque_nm = r::COGGING_NM.beyond(p),
+            Axis::LoadCellGain => c.load_cell.volts_per_kgf = r::SENSITIVITY.beyond(p),
+            Axis::LoadCellZero => c.load_cell.zero_volts = r::ZERO_VOLTS.beyond(p),
             Axis::LoadCellNonlinearity => {
                 let l = &mut c.load_cell;
-                l.low_load_deficit = r::LOW_LOAD_DEFICIT.at(p);
-                l.low_load_scale_kgf = r::LOW_LOAD_SCALE_KGF.at(p);
-                l.quadratic_at_50_kgf = r::QUADRATIC.at(p);
+                l.low_load_deficit = r::LOW_LOAD_DEFICIT.beyond(p);
+                l.low_load_scale_kgf = r::LOW_LOAD_SCALE_KGF.beyond(p);
+                l.quadratic_at_50_kgf = r::QUADRATIC.beyond(p);
             }
-            Axis::LoadCellBandwidth => c.load_cell.bandwidth_hz = r::BANDWIDTH_HZ.at(p),
+            Axis::LoadCellBandwidth => c.load_cell.bandwidth_hz = r::BANDWIDTH_HZ.beyond(p),
             Axis::LoadCellNoiseHum => {
-                c.load_cell.noise_volts = r::NOISE_VOLTS.at(p);
-                c.load_cell.hum.volts = r::HUM_VOLTS.at(p);
+                c.load_cell.noise_volts = r::NOISE_VOLTS.beyond(p);
+                c.load_cell.hum.volts = r::HUM_VOLTS.beyond(p);
             }
             Axis::Spikes => {
                 let spikes = &mut c.load_cell.spikes;
-                spikes.pwm_probability = r::SPIKE_PWM_PROBABILITY.at(p);
+                spikes.pwm_probability = r::SPIKE_PWM_PROBABILITY.beyond(p);
                 spikes.commutation_probability =
-                    Span::linear(0.0, r::SPIKE_COMMUTATION_PROBABILITY.high).at(p);
-                spikes.base_volts = r::SPIKE_BASE_VOLTS.at(p);
-                spikes.volts_per_amp = r::SPIKE_VOLTS_PER_AMP.at(p);
+                    Span::linear(0.0, r::SPIKE_COMMUTATION_PROBABILITY.high).beyond(p);
+                spikes.base_volts = r::SPIKE_BASE_VOLTS.beyond(p);
+                spikes.volts_per_amp = r::SPIKE_VOLTS_PER_AMP.beyond(p);
             }
-            Axis::GripperMass => c.mechanics.gripper.mass_kg = r::GRIPPER_KG.at(p),
-            Axis::HallError => c.hall.offset_deg = r::HALL_EDGE_DEG.at(p),
+            Axis::GripperMass => c.mechanics.gripper.mass_kg = r::GRIPPER_KG.beyond(p),
+            Axis::HallError => c.hall.offset_deg = r::HALL_EDGE_DEG.beyond(p),
             Axis::BusSupply => {
-                let supply = r::SUPPLY_VOLTS.at(p);
+                let supply = r::SUPPLY_VOLTS.beyond(p);
                 c.bridge.bus_volts = supply;
                 c.bridge.clamp_volts =
                     c.bridge.clamp_volts.map(|clamp| clamp.max(r::CLAMP_OVER_SUPPLY * supply));
             }
-            Axis::BusClamp => c.bridge.clamp_volts = Some(r::CLAMP_VOLTS.at(p)),
-            Axis::BusCapacitance => c.bridge.bus_capacitance_f = r::BUS_CAPACITANCE_F.at(p),
+            Axis::BusClamp => c.bridge.clamp_volts = Some(r::CLAMP_VOLTS.beyond(p)),
+            Axis::BusCapacitance => c.bridge.bus_capacitance_f = r::BUS_CAPACITANCE_F.beyond(p),
             Axis::CurrentSensing => c.current_sense = sensing_board(sensing_index(p)),
             Axis::StringStiffness => {
                 if let Some(spec) = kind.spec() {
                     let (low, high) = spec.stiffness_range_kgf_per_cm;
-                    c.string.stiffness_kgf_per_cm = Span::linear(low, high).at(p);
+                    c.string.stiffness_kgf_per_cm = Span::linear(low, high).beyond(p);
                 }
             }
             Axis::Creep => {
-                let fraction = r::RELAXATION_FRACTION_SCALE.at(p);
+                let fraction = r::RELAXATION_FRACTION_SCALE.beyond(p);
                 let time =
-                    Span::linear(r::RELAXATION_TIME_SCALE.high, r::RELAXATION_TIME_SCALE.low).at(p);
+                    Span::linear(r::RELAXATION_TIME_SCALE.high, r::RELAXATION_TIME_SCALE.low)
+                        .beyond(p);
                 for arm in &mut c.string.relaxation {
                     arm.fraction *= fraction;
                     arm.time_constant_s *= time;
@@ -905,7 +941,7 @@ impl TwinConfig {
             }
             Axis::Slack => {
                 if c.string.present() {
-                    c.string.slack_mm = r::SLACK_MM.at(p);
+                    c.string.slack_mm = r::SLACK_MM.beyond(p);
                 }
             }
         }
@@ -928,6 +964,59 @@ mod tests {
             }
         }
         assert!((ranges::INERTIA_SCALE.at(0.5) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn beyond_continues_the_spans_and_refuses_what_is_not_physical() {
+        // Inside the family the continued spans are the family's own.
+        for axis in Axis::ALL {
+            for p in [0.0, 0.3, 1.0] {
+                let kind = StringKind::TennisGut;
+                assert_eq!(
+                    TwinConfig::beyond_axis(axis, p, kind),
+                    Ok(TwinConfig::on_axis(axis, p, kind))
+                );
+            }
+        }
+        // Past the ends: linearly, or in the logarithm, by the span's width.
+        assert!((ranges::INERTIA_SCALE.beyond(1.5) - 4.0).abs() < 1e-12);
+        assert!((ranges::INERTIA_SCALE.beyond(-0.5) - 0.25).abs() < 1e-12);
+        assert!((ranges::SUPPLY_VOLTS.beyond(1.5) - 35.0).abs() < 1e-12);
+        assert!(
+            (ranges::SUPPLY_VOLTS.beyond(9.0) - 40.0).abs() < 1e-12,
+            "clamped at 1 + BEYOND_MAX"
+        );
+        assert!((ranges::SUPPLY_VOLTS.at(1.5) - 30.0).abs() < 1e-12, "`at` stays in the span");
+        let far = TwinConfig::beyond_axis(Axis::Inertia, 1.5, StringKind::TennisGut);
+        let centre = TwinConfig::family_centre(StringKind::TennisGut);
+        let ratio = far.map(|c| c.motor.rotor_inertia_kg_m2 / centre.motor.rotor_inertia_kg_m2);
+        assert!(ratio.is_ok_and(|r| (r - 4.0).abs() < 1e-9));
+        assert!(Axis::Inertia.describe_at(1.5, StringKind::TennisGut).contains("4.0000"));
+        // What a continued span cannot physically be is refused, with the reason.
+        let kind = StringKind::TennisSynthetic;
+        assert_eq!(
+            TwinConfig::beyond_axis(Axis::Backlash, -0.5, kind),
+            Err(ConfigError::OutOfRange("backlash"))
+        );
+        assert_eq!(
+            TwinConfig::beyond_axis(Axis::Friction, -0.5, kind),
+            Err(ConfigError::Efficiency)
+        );
+        assert_eq!(
+            TwinConfig::beyond_axis(Axis::GripperMass, -0.5, kind),
+            Err(ConfigError::OutOfRange("gripper mass"))
+        );
+        assert_eq!(
+            TwinConfig::beyond_axis(Axis::Slack, -0.5, kind),
+            Err(ConfigError::OutOfRange("slack"))
+        );
+        assert_eq!(
+            TwinConfig::beyond_axis(Axis::Spikes, -0.5, kind),
+            Err(ConfigError::OutOfRange("load-cell spikes"))
+        );
+        let mut sticky = TwinConfig::family_centre(kind);
+        sticky.mechanics.stiction_ratio = 0.9;
+        assert!(matches!(sticky.check(), Err(ConfigError::OutOfRange(_))));
     }
 
     #[test]

@@ -1113,7 +1113,9 @@ impl TwinConfig {
             )?;
         }
         let k = &self.mechanics;
+        in_range(k.stiction_ratio >= 1.0, "stiction ratio (static below kinetic friction)")?;
         in_range(finite_non_negative(k.backlash_mm), "backlash")?;
+        in_range(!self.string.present() || finite_non_negative(self.string.slack_mm), "slack")?;
         let g = &k.gripper;
         in_range(finite_non_negative(g.mass_kg), "gripper mass")?;
         in_range(
@@ -1121,6 +1123,20 @@ impl TwinConfig {
             "load-cell stiffness",
         )?;
         in_range((0.0..1.0).contains(&g.damping_ratio), "gripper damping ratio")?;
+        let cell = &self.load_cell;
+        in_range(
+            finite_non_negative(cell.noise_volts) && (0.0..1.0).contains(&cell.low_load_deficit),
+            "load-cell noise and low-load deficit",
+        )?;
+        let spikes = &cell.spikes;
+        let probability = |p: f64| (0.0..=1.0).contains(&p);
+        in_range(
+            probability(spikes.pwm_probability)
+                && probability(spikes.commutation_probability)
+                && finite_non_negative(spikes.base_volts)
+                && finite_non_negative(spikes.volts_per_amp),
+            "load-cell spikes",
+        )?;
         let hum = &self.load_cell.hum;
         in_range(
             finite_non_negative(hum.volts) && hum.frequency_hz > 0.0 && hum.phase_deg.is_finite(),

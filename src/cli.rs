@@ -244,6 +244,17 @@ pub enum SensingArg {
 }
 
 impl SensingArg {
+    /// The board as the command line names it (`family`, `dc-link`, `per-phase`), which the
+    /// reports print and write to JSON.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Family => "family",
+            Self::DcLink => "dc-link",
+            Self::PerPhase => "per-phase",
+        }
+    }
+
     /// `config` with this board.
     #[must_use]
     pub fn apply(self, mut config: TwinConfig) -> TwinConfig {
@@ -377,6 +388,11 @@ pub struct PullArgs {
     /// Re-run scenario N of `taut report accuracy` (seed 1): its machine, string and target.
     #[arg(long, allow_negative_numbers = true, value_name = "N", value_parser = seed)]
     pub scenario: Option<u64>,
+    /// The machine of `taut report robustness` at one point of one axis, the rest of the
+    /// family at its centre: `NAME=POSITION`, the position 0 (the axis's low end) to 1 (its
+    /// high end), e.g. `friction=1` (with `--string` and `--tension`).
+    #[arg(long, value_name = "NAME=POSITION", value_parser = parse_axis_point, conflicts_with_all = ["scenario", "seed"])]
+    pub axis: Option<(taut_sim::Axis, f64)>,
     /// Write a plot (tension, hold error, carriage, duty, current) here.
     #[arg(long, value_name = "FILE")]
     pub svg: Option<PathBuf>,
@@ -454,6 +470,11 @@ pub struct RobustnessArgs {
     /// Only these axes (comma-separated names, e.g. inertia,friction); default all.
     #[arg(long, value_delimiter = ',', value_parser = parse_axis)]
     pub axes: Vec<taut_sim::Axis>,
+    /// Also run each axis this fraction of its width past either end (0–1: 0.5 runs
+    /// positions −0.5 and 1.5), a margin beyond the family, in a table of its own; a
+    /// machine that is not physical there is listed, not run.
+    #[arg(long, allow_negative_numbers = true, value_name = "FRACTION", default_value_t = 0.0, value_parser = ranged_f64(0.0..=taut_sim::family::BEYOND_MAX))]
+    pub beyond: f64,
     /// Seed of the scenario draw.
     #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = seed)]
     pub seed: u64,
@@ -478,6 +499,16 @@ fn parse_axis(text: &str) -> Result<taut_sim::Axis, String> {
         let names: Vec<&str> = taut_sim::Axis::ALL.iter().map(|a| a.name()).collect();
         format!("`{text}` is not an axis (one of: {})", names.join(", "))
     })
+}
+
+/// One point of an uncertainty axis: `NAME=POSITION`, the position in 0–1.
+fn parse_axis_point(text: &str) -> Result<(taut_sim::Axis, f64), String> {
+    let (name, position) = text
+        .split_once('=')
+        .ok_or_else(|| format!("`{text}` is not NAME=POSITION (e.g. friction=1)"))?;
+    let axis = parse_axis(name)?;
+    let position = ranged_f64(0.0..=1.0)(position)?;
+    Ok((axis, position))
 }
 
 /// `taut report machine` options.
@@ -543,6 +574,15 @@ mod tests {
         assert_eq!(parse("5"), Ok(5.0));
         for bad in ["nan", "inf", "-inf", "-1", "120.5", "abc", ""] {
             assert!(parse(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn sensing_boards_are_named_as_the_command_line_takes_them() {
+        for board in SensingArg::value_variants() {
+            let typed = board.to_possible_value().map(|v| v.get_name().to_owned());
+            assert_eq!(typed.as_deref(), Some(board.name()));
+            assert_eq!(SensingArg::from_str(board.name(), false), Ok(*board));
         }
     }
 

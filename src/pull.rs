@@ -41,11 +41,18 @@ pub fn setup(args: &PullArgs) -> PullSetup {
         };
     }
     let string: StringKind = args.string.map_or(StringKind::TennisSynthetic, Into::into);
+    let target_kgf = args.tension.map_or(25.0, |sp| kgf(sp.to_kgf()));
+    if let Some((axis, position)) = args.axis {
+        return PullSetup {
+            twin: TwinConfig::on_axis(axis, position, string),
+            target_kgf,
+            machine: format!("the family's centre, {}", axis.describe_at(position, string)),
+        };
+    }
     let (twin, machine) = args.seed.map_or_else(
         || (TwinConfig::nominal(string), "nominal machine".to_owned()),
         |seed| (TwinConfig::family_kind(string, seed), format!("family machine {seed}")),
     );
-    let target_kgf = args.tension.map_or(25.0, |sp| kgf(sp.to_kgf()));
     PullSetup { twin, target_kgf, machine }
 }
 

@@ -247,3 +247,55 @@ fn the_robustness_plot() {
     let axes = taut::report::robustness::axes(args);
     check("robustness", &taut::report::robustness::figure(args, &axes, &runs));
 }
+
+#[test]
+fn robustness_beyond_the_family_is_reported_apart() {
+    let cli = parse(&[
+        "report",
+        "robustness",
+        "--scenarios",
+        "1",
+        "--points",
+        "2",
+        "--axes",
+        "backlash",
+        "--beyond",
+        "0.5",
+    ]);
+    let Some(Command::Report { which: ReportKind::Robustness(args) }) = &cli.command else {
+        panic!("report robustness")
+    };
+    let runs = taut::report::robustness::run_all(args);
+    let axes = taut::report::robustness::axes(args);
+    let positions: Vec<f64> = runs.iter().map(|p| p.position).collect();
+    assert_eq!(positions, [0.0, 1.0, -0.5, 1.5]);
+    // −0.5 is negative backlash: listed, not run; 1.5 (0.3 mm) is run.
+    let below = &runs[2];
+    assert!(below.unphysical.as_deref().is_some_and(|why| why.contains("backlash")), "{below:?}");
+    let above = &runs[3];
+    assert!(above.unphysical.is_none() && above.metrics.failure.is_none(), "{above:?}");
+    let table = taut::report::robustness::beyond_markdown(&axes, &runs, args.beyond);
+    assert!(table.contains("| backlash | -0.50 | backlash -0.1000 mm | not physical"), "{table}");
+    assert!(table.contains("| backlash | 1.50 | backlash 0.3000 mm | 0."), "{table}");
+    // The family's own table and worst figures leave the points beyond out.
+    let family = taut::report::robustness::markdown(&axes, &runs);
+    assert!(family.contains("| 0 of 2 |"), "{family}");
+    let json = taut::report::robustness::to_json(args, &axes, &runs);
+    let entry = &json["axes"]["backlash"];
+    assert_eq!(entry["runs"], 2);
+    assert_eq!(entry["beyond"][0]["position"], -0.5);
+    assert!(entry["beyond"][0]["unphysical"].is_string());
+    assert_eq!(entry["beyond"][1]["runs"], 1);
+    assert_eq!(json["beyond"], 0.5);
+}
+
+#[test]
+fn a_pull_re_runs_one_point_of_the_robustness_sweep() {
+    let cli = parse(&["pull", "--axis", "backlash=1", "--string", "tennis-gut", "--tension", "20"]);
+    let Some(Command::Pull(args)) = &cli.command else { panic!("pull") };
+    let setup = taut::pull::setup(args);
+    let kind = taut_sim::StringKind::TennisGut;
+    assert_eq!(setup.twin, taut_sim::TwinConfig::on_axis(taut_sim::Axis::Backlash, 1.0, kind));
+    assert!((setup.target_kgf - 20.0).abs() < 1e-9);
+    assert!(setup.machine.contains("backlash 0.2000 mm"), "{}", setup.machine);
+}

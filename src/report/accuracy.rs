@@ -180,7 +180,7 @@ pub fn to_json(
         "scenarios": results.len(),
         "seed": seed,
         "family": "TwinConfig::family",
-        "sensing": format!("{:?}", machines.sensing).to_lowercase(),
+        "sensing": machines.sensing.name(),
         "reference_gauge_sigma_kgf": gauge_sigma_kgf(machines.gauge_sigma),
         "speed": 9,
         "targets_kgf": [super::TARGETS_KGF.0, super::TARGETS_KGF.1],
@@ -225,7 +225,7 @@ fn what_was_run(seed: u64, machines: Machines, results: &[ScenarioResult]) -> St
     format!(
         "{} scenarios of the family (seed {seed}, sensing {}), speed 9, targets 8–35 kgf by string kind (badminton ≤ 16, tennis ≥ 15), the machine's own calibration (reference gauge σ {:.3} kgf); errors against the true tension",
         results.len(),
-        format!("{:?}", machines.sensing).to_lowercase(),
+        machines.sensing.name(),
         gauge_sigma_kgf(machines.gauge_sigma)
     )
 }

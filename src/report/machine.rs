@@ -407,7 +407,7 @@ pub fn to_json(args: &MachineArgs, f: &Findings) -> Value {
     json!({
         "cycles": f.cycles,
         "seed": args.seed,
-        "sensing": format!("{:?}", args.sensing).to_lowercase(),
+        "sensing": args.sensing.name(),
         "break_every": args.break_every,
         "fault_every": args.fault_every,
         "completed": f.completed,

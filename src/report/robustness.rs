@@ -7,6 +7,12 @@
 //! and pulled by taut's controller (speed 9), and keeps per axis the worst hold error,
 //! overshoot and settle/t_min of the runs that did not fail, and the failures (see
 //! [`super`] for the figures).
+//!
+//! `--beyond F` also runs every axis at `−F` and `1 + F`: its spans continued past the
+//! family's ends ([`TwinConfig::beyond_axis`]), a margin the family does not promise. A
+//! continued machine that is not physical (an efficiency above 1, a negative mass…) is
+//! listed as such and not run. Those points have their own table and JSON section; the
+//! sweep's table, plot and worst figures stay the family's.
 
 use std::fmt::Write as _;
 
@@ -36,7 +42,7 @@ pub const STRINGS: [StringKind; 5] = [
 pub struct Point {
     /// The axis.
     pub axis: Axis,
-    /// Its position, 0–1.
+    /// Its position, 0–1 (beyond the family: below 0 or above 1).
     pub position: f64,
     /// The string.
     pub string: StringKind,
@@ -44,6 +50,16 @@ pub struct Point {
     pub target_kgf: f64,
     /// The figures.
     pub metrics: Metrics,
+    /// Why a point beyond the family was not run: its machine is not physical.
+    pub unphysical: Option<String>,
+}
+
+impl Point {
+    /// Whether the point lies within the family's ranges (position 0–1).
+    #[must_use]
+    pub fn in_family(&self) -> bool {
+        (0.0..=1.0).contains(&self.position)
+    }
 }
 
 /// Runs one point of the sweep, the machine commissioned against a reference gauge of
@@ -52,8 +68,19 @@ pub struct Point {
 pub fn run_point(axis: Axis, position: f64, index: u64, seed: u64, gauge: Option<f64>) -> Point {
     let string = STRINGS[(index % STRINGS.len() as u64) as usize];
     let target_kgf = draw_target(scenario_seed(seed, index), string);
-    let scenario = Scenario::on(index, TwinConfig::on_axis(axis, position, string), target_kgf)
-        .with_gauge_sigma(gauge);
+    let twin = if (0.0..=1.0).contains(&position) {
+        TwinConfig::on_axis(axis, position, string)
+    } else {
+        match TwinConfig::beyond_axis(axis, position, string) {
+            Ok(twin) => twin,
+            Err(why) => {
+                let metrics = Metrics::default();
+                let unphysical = Some(why.to_string());
+                return Point { axis, position, string, target_kgf, metrics, unphysical };
+            }
+        }
+    };
+    let scenario = Scenario::on(index, twin, target_kgf).with_gauge_sigma(gauge);
     let metrics = match commissioned_calibration(&scenario.twin) {
         Err(failure) => Metrics::failed(failure),
         Ok(calibration) => {
@@ -64,7 +91,7 @@ pub fn run_point(axis: Axis, position: f64, index: u64, seed: u64, gauge: Option
             }
         }
     };
-    Point { axis, position, string, target_kgf, metrics }
+    Point { axis, position, string, target_kgf, metrics, unphysical: None }
 }
 
 /// The worst figures of some runs.
@@ -113,6 +140,13 @@ pub fn positions(points: u64) -> Vec<f64> {
     (0..points).map(|i| i as f64 / last).collect()
 }
 
+/// The positions past the family's ends that `--beyond` adds: `−beyond` and `1 + beyond`
+/// (none for 0, and none on the current-sensing axis, whose boards have nothing beyond).
+#[must_use]
+pub fn beyond_positions(axis: Axis, beyond: f64) -> Vec<f64> {
+    if beyond > 0.0 && axis != Axis::CurrentSensing { vec![-beyond, 1.0 + beyond] } else { vec![] }
+}
+
 /// The sweep's table: per axis its span, the worst figures, failures and their reasons.
 #[must_use]
 pub fn markdown(axes: &[Axis], runs: &[Point]) -> String {
@@ -120,7 +154,7 @@ pub fn markdown(axes: &[Axis], runs: &[Point]) -> String {
         "| axis | low … high | worst hold kgf | worst overshoot kgf | worst settle/t_min | failed | failures |\n|---|---|---|---|---|---|---|\n",
     );
     for &axis in axes {
-        let mine: Vec<&Point> = runs.iter().filter(|p| p.axis == axis).collect();
+        let mine: Vec<&Point> = runs.iter().filter(|p| p.axis == axis && p.in_family()).collect();
         let w = worst(mine.iter().copied());
         let reasons: Vec<String> = failure_counts(mine.iter().map(|p| &p.metrics))
             .into_iter()
@@ -138,6 +172,48 @@ pub fn markdown(axes: &[Axis], runs: &[Point]) -> String {
             w.runs,
             if reasons.is_empty() { "—".to_owned() } else { reasons.join(", ") }
         );
+    }
+    out
+}
+
+/// The table of the points past the family's ends: per axis and end, the continued value
+/// and the worst figures, or why the machine there is not physical.
+#[must_use]
+pub fn beyond_markdown(axes: &[Axis], runs: &[Point], beyond: f64) -> String {
+    let mut out = String::from(
+        "| axis | position | value | worst hold kgf | worst overshoot kgf | worst settle/t_min | failed | failures |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    for &axis in axes {
+        for position in beyond_positions(axis, beyond) {
+            let mine: Vec<&Point> =
+                runs.iter().filter(|p| p.axis == axis && p.position == position).collect();
+            let described = axis.describe_at(position, StringKind::TennisSynthetic);
+            let value = described.split_once(": ").map_or(described.as_str(), |(_, v)| v).trim();
+            if let Some(why) = mine.iter().find_map(|p| p.unphysical.as_ref()) {
+                let _ = writeln!(
+                    out,
+                    "| {} | {position:.2} | {value} | not physical: {why} | | | | |",
+                    axis.name()
+                );
+                continue;
+            }
+            let w = worst(mine.iter().copied());
+            let reasons: Vec<String> = failure_counts(mine.iter().map(|p| &p.metrics))
+                .into_iter()
+                .map(|(n, c)| format!("{c} {n}"))
+                .collect();
+            let _ = writeln!(
+                out,
+                "| {} | {position:.2} | {value} | {} | {} | {} | {} of {} | {} |",
+                axis.name(),
+                cell(w.hold_kgf, 3),
+                cell(w.overshoot_kgf, 3),
+                cell(w.settle_ratio, 2),
+                w.failed,
+                w.runs,
+                if reasons.is_empty() { "—".to_owned() } else { reasons.join(", ") }
+            );
+        }
     }
     out
 }
@@ -166,15 +242,32 @@ pub fn to_json(args: &RobustnessArgs, axes: &[Axis], runs: &[Point]) -> Value {
                 v
             })
             .collect();
-        let mut entry = worst_json(&worst(runs.iter().filter(|p| p.axis == axis)));
+        let mut entry = worst_json(&worst(runs.iter().filter(|p| p.axis == axis && p.in_family())));
         entry["span"] = json!(axis.span().to_string());
         entry["points"] = Value::Array(points);
+        let beyond: Vec<Value> = beyond_positions(axis, args.beyond)
+            .into_iter()
+            .map(|position| {
+                let mine = || runs.iter().filter(|p| p.axis == axis && p.position == position);
+                let mut v = match mine().find_map(|p| p.unphysical.as_ref()) {
+                    Some(why) => json!({ "unphysical": why }),
+                    None => worst_json(&worst(mine())),
+                };
+                v["position"] = json!(position);
+                v["at"] = json!(axis.describe_at(position, StringKind::TennisSynthetic));
+                v
+            })
+            .collect();
+        if !beyond.is_empty() {
+            entry["beyond"] = Value::Array(beyond);
+        }
         doc.insert(axis.name().to_owned(), entry);
     }
     json!({
         "seed": args.seed,
         "scenarios_per_point": args.scenarios,
         "points_per_axis": args.points,
+        "beyond": args.beyond,
         "reference_gauge_sigma_kgf": gauge_sigma_kgf(args.gauge_sigma),
         "controller": "taut",
         "speed": 9,
@@ -253,7 +346,9 @@ pub fn axes(args: &RobustnessArgs) -> Vec<Axis> {
 pub fn run_all(args: &RobustnessArgs) -> Vec<Point> {
     let mut jobs: Vec<(Axis, f64, u64)> = Vec::new();
     for axis in axes(args) {
-        for &position in &positions(args.points) {
+        for position in
+            positions(args.points).into_iter().chain(beyond_positions(axis, args.beyond))
+        {
             for index in 0..args.scenarios {
                 jobs.push((axis, position, index));
             }
@@ -279,12 +374,25 @@ pub fn main(args: &RobustnessArgs) -> Status {
     let started = std::time::Instant::now();
     let runs = run_all(args);
     println!("{}", markdown(&axes, &runs));
+    let beyond_runs = runs.iter().filter(|p| !p.in_family()).count();
+    if beyond_runs > 0 {
+        println!(
+            "Beyond the family: each axis's spans continued {:.2} of their width past either end (a margin, not a promise)\n",
+            args.beyond
+        );
+        println!("{}", beyond_markdown(&axes, &runs, args.beyond));
+    }
     println!(
-        "{} runs ({} axes × {} points × {} scenarios), wall clock {:.1} s",
+        "{} runs ({} axes × {} points × {} scenarios{}), wall clock {:.1} s",
         runs.len(),
         axes.len(),
         positions.len(),
         args.scenarios,
+        if beyond_runs > 0 {
+            format!(", and {beyond_runs} beyond the family")
+        } else {
+            String::new()
+        },
         started.elapsed().as_secs_f64()
     );
     if let Some(path) = &args.json {

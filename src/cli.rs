@@ -503,11 +503,27 @@ fn parse_axis(text: &str) -> Result<taut_sim::Axis, String> {
 
 /// One point of an uncertainty axis: `NAME=POSITION`, the position in 0–1.
 fn parse_axis_point(text: &str) -> Result<(taut_sim::Axis, f64), String> {
+    axis_point_within(text, 0.0..=1.0)
+}
+
+/// One point of an uncertainty axis, past its ends too: `NAME=POSITION`, the position in
+/// `−BEYOND_MAX ..= 1 + BEYOND_MAX` (whether the machine there is physical is checked when
+/// it is built).
+fn parse_axis_point_beyond(text: &str) -> Result<(taut_sim::Axis, f64), String> {
+    let beyond = taut_sim::family::BEYOND_MAX;
+    axis_point_within(text, -beyond..=1.0 + beyond)
+}
+
+/// `NAME=POSITION` with the position in `range`.
+fn axis_point_within(
+    text: &str,
+    range: RangeInclusive<f64>,
+) -> Result<(taut_sim::Axis, f64), String> {
     let (name, position) = text
         .split_once('=')
         .ok_or_else(|| format!("`{text}` is not NAME=POSITION (e.g. friction=1)"))?;
     let axis = parse_axis(name)?;
-    let position = ranged_f64(0.0..=1.0)(position)?;
+    let position = ranged_f64(range)(position)?;
     Ok((axis, position))
 }
 
@@ -530,6 +546,11 @@ pub struct MachineArgs {
     /// The machines' current-sensing board.
     #[arg(long, value_enum, default_value_t = SensingArg::Family)]
     pub sensing: SensingArg,
+    /// Every cycle on the machine of `taut report robustness` at one point of one axis (the
+    /// string kinds in turn, the rest of the family at its centre) instead of the family's
+    /// draws: `NAME=POSITION`, 0 the axis's low end, 1 its high end, −1 … 2 past them.
+    #[arg(long, value_name = "NAME=POSITION", allow_negative_numbers = true, value_parser = parse_axis_point_beyond)]
+    pub axis: Option<(taut_sim::Axis, f64)>,
     /// Worker threads (default: the machine's cores).
     #[arg(long, allow_negative_numbers = true, value_parser = whole(1_u16, 256))]
     pub threads: Option<u16>,

@@ -163,6 +163,10 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["report", "machine", "--fault-every", "abc"], USAGE, "--fault-every"),
     (&["report", "machine", "--sensing", "hall"], USAGE, "--sensing"),
     (&["report", "machine", "--threads", "0"], USAGE, "--threads"),
+    (&["report", "machine", "--axis", "inertia"], USAGE, "NAME=POSITION"),
+    (&["report", "machine", "--axis", "gravity=1"], USAGE, "not an axis"),
+    (&["report", "machine", "--axis", "inertia=2.5"], USAGE, "not in -1–2"),
+    (&["report", "machine", "--axis", "backlash=-0.5"], USAGE, "not a physical machine"),
     (&["report", "machine", "--json", "UNWRITABLE/m.json"], RUNTIME, "cannot write"),
     // ── report string ──
     (&["report", "string", "--seeds", "-1"], USAGE, "--seeds"),

@@ -593,3 +593,37 @@ fn press(machine: &mut Machine, inputs: &mut Inputs, now: &mut u32, key: Key) {
         machine.tick(inputs);
     }
 }
+
+/// `report machine --axis`: every cycle on the sweep's machine at that point, past the
+/// family's ends too, the string kinds in turn; a healthy cycle there completes unfaulted.
+#[test]
+fn machine_cycles_run_on_one_point_of_an_axis() {
+    use clap::Parser as _;
+    let cli = taut::cli::Cli::try_parse_from([
+        "taut",
+        "report",
+        "machine",
+        "--cycles",
+        "1",
+        "--axis",
+        "inertia=1.5",
+    ])
+    .expect("the command line parses");
+    let Some(taut::cli::Command::Report { which: taut::cli::ReportKind::Machine(args) }) =
+        &cli.command
+    else {
+        panic!("report machine")
+    };
+    let kind = StringKind::TennisSynthetic;
+    let machine = taut::report::machine::axis_machine((taut_sim::Axis::Inertia, 1.5), kind)
+        .expect("4 × the inertia is a physical machine");
+    let centre = TwinConfig::family_centre(kind);
+    let ratio = machine.motor.rotor_inertia_kg_m2 / centre.motor.rotor_inertia_kg_m2;
+    assert!((ratio - 4.0).abs() < 1e-9, "{ratio}");
+    let cycle = taut::report::machine::run_cycle(args, 1);
+    assert!(cycle.completed && cycle.fault.is_none(), "{cycle:?}");
+    assert!(
+        taut::report::machine::axis_machine((taut_sim::Axis::Backlash, -0.5), kind)
+            .is_err_and(|why| why.contains("not a physical machine")),
+    );
+}

@@ -36,15 +36,15 @@ use taut_core::drive::Phase;
 use taut_core::machine::{FaultCode, MachineState};
 use taut_core::settings::{SetPoint, Settings, Unit};
 use taut_core::store::Record;
-use taut_sim::StringKind;
 use taut_sim::bench::{Bench, Session, fault_name, run_session};
 use taut_sim::operator::{Operator, Plan};
 use taut_sim::twin::Fault;
-use taut_sim::{SimRng, TwinConfig};
+use taut_sim::{Axis, SimRng, StringKind, TwinConfig};
 
+use super::robustness::STRINGS;
 use super::{cell, number, percentile, scenario_seed, target_range};
 use crate::cli::MachineArgs;
-use crate::output::{Progress, Status, check_writable, parallel, threads, write_json};
+use crate::output::{Failure, Progress, Status, check_writable, parallel, threads, write_json};
 
 /// How long the operator holds before releasing, ms.
 pub const HOLD_MS: u32 = 2_000;
@@ -160,11 +160,37 @@ pub fn settings(seed: u64, kind: StringKind) -> Settings {
         .unwrap_or_default()
 }
 
+/// Cycle `index`'s machine: the family's draw for `seed`, or with `--axis` the sweep's
+/// machine at that point with the string kinds in turn (and `seed` for its noise). A point
+/// whose machine is not physical ([`axis_machine`] refuses it before any cycle runs) falls
+/// back to the family's centre.
+fn machine(args: &MachineArgs, index: u64, seed: u64) -> TwinConfig {
+    match args.axis {
+        None => TwinConfig::family(seed),
+        Some(point) => {
+            let kind = STRINGS[(index % STRINGS.len() as u64) as usize];
+            axis_machine(point, kind)
+                .unwrap_or_else(|_| TwinConfig::family_centre(kind))
+                .with_seed(seed)
+        }
+    }
+}
+
+/// The machine of `--axis NAME=POSITION` for `kind`.
+///
+/// # Errors
+/// Past the axis's ends, the machine is not physical (why, in words).
+pub fn axis_machine((axis, position): (Axis, f64), kind: StringKind) -> Result<TwinConfig, String> {
+    TwinConfig::beyond_axis(axis, position, kind).map_err(|why| {
+        format!("{}: not a physical machine ({why})", axis.describe_at(position, kind))
+    })
+}
+
 /// Runs cycle `index`.
 #[must_use]
 pub fn run_cycle(args: &MachineArgs, index: u64) -> Cycle {
     let seed = scenario_seed(args.seed, index);
-    let config = args.sensing.apply(TwinConfig::family(seed));
+    let config = args.sensing.apply(machine(args, index, seed));
     let injection = Injection::for_cycle(index, args.break_every, args.fault_every);
     let mut bench = Bench::power_up(&config, &Record::default().encode());
     let plan = Plan {
@@ -408,6 +434,7 @@ pub fn to_json(args: &MachineArgs, f: &Findings) -> Value {
         "cycles": f.cycles,
         "seed": args.seed,
         "sensing": args.sensing.name(),
+        "axis": args.axis.map(|(axis, position)| json!({ "name": axis.name(), "position": position })),
         "break_every": args.break_every,
         "fault_every": args.fault_every,
         "completed": f.completed,
@@ -437,6 +464,15 @@ pub fn to_json(args: &MachineArgs, f: &Findings) -> Value {
 pub fn main(args: &MachineArgs) -> Status {
     if let Some(path) = &args.json {
         check_writable(path)?;
+    }
+    if let Some(point) = args.axis {
+        for kind in STRINGS {
+            axis_machine(point, kind).map_err(Failure::Usage)?;
+        }
+        println!(
+            "every cycle on the family's centre with {}\n",
+            point.0.describe_at(point.1, StringKind::TennisSynthetic)
+        );
     }
     let started = std::time::Instant::now();
     let progress = Progress::new(args.cycles as usize, "cycles");

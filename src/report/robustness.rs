@@ -155,25 +155,27 @@ pub fn markdown(axes: &[Axis], runs: &[Point]) -> String {
     );
     for &axis in axes {
         let mine: Vec<&Point> = runs.iter().filter(|p| p.axis == axis && p.in_family()).collect();
-        let w = worst(mine.iter().copied());
-        let reasons: Vec<String> = failure_counts(mine.iter().map(|p| &p.metrics))
-            .into_iter()
-            .map(|(n, c)| format!("{c} {n}"))
-            .collect();
-        let _ = writeln!(
-            out,
-            "| {} | {} | {} | {} | {} | {} of {} | {} |",
-            axis.name(),
-            axis.span(),
-            cell(w.hold_kgf, 3),
-            cell(w.overshoot_kgf, 3),
-            cell(w.settle_ratio, 2),
-            w.failed,
-            w.runs,
-            if reasons.is_empty() { "—".to_owned() } else { reasons.join(", ") }
-        );
+        let _ = writeln!(out, "| {} | {} | {} |", axis.name(), axis.span(), figure_cells(&mine));
     }
     out
+}
+
+/// The worst figures, failures and their reasons of `points` as table cells.
+fn figure_cells(points: &[&Point]) -> String {
+    let w = worst(points.iter().copied());
+    let reasons: Vec<String> = failure_counts(points.iter().map(|p| &p.metrics))
+        .into_iter()
+        .map(|(n, c)| format!("{c} {n}"))
+        .collect();
+    format!(
+        "{} | {} | {} | {} of {} | {}",
+        cell(w.hold_kgf, 3),
+        cell(w.overshoot_kgf, 3),
+        cell(w.settle_ratio, 2),
+        w.failed,
+        w.runs,
+        if reasons.is_empty() { "—".to_owned() } else { reasons.join(", ") }
+    )
 }
 
 /// The table of the points past the family's ends: per axis and end, the continued value
@@ -197,21 +199,11 @@ pub fn beyond_markdown(axes: &[Axis], runs: &[Point], beyond: f64) -> String {
                 );
                 continue;
             }
-            let w = worst(mine.iter().copied());
-            let reasons: Vec<String> = failure_counts(mine.iter().map(|p| &p.metrics))
-                .into_iter()
-                .map(|(n, c)| format!("{c} {n}"))
-                .collect();
             let _ = writeln!(
                 out,
-                "| {} | {position:.2} | {value} | {} | {} | {} | {} of {} | {} |",
+                "| {} | {position:.2} | {value} | {} |",
                 axis.name(),
-                cell(w.hold_kgf, 3),
-                cell(w.overshoot_kgf, 3),
-                cell(w.settle_ratio, 2),
-                w.failed,
-                w.runs,
-                if reasons.is_empty() { "—".to_owned() } else { reasons.join(", ") }
+                figure_cells(&mine)
             );
         }
     }

@@ -10,6 +10,12 @@
 //! states, keys a target drawn from the string kind's stringing range (badminton 8–15/16 kg, tennis 15–35 kg) and a speed drawn from 1–9, presses Start, holds
 //! for [`HOLD_MS`] and releases: boot, homing, calibration, set, pull, hold, release.
 //!
+//! With `--axis NAME=POSITION` every cycle runs instead on the robustness sweep's machine at
+//! that point — the family's centre with one axis moved, the string kinds in turn — and the
+//! position may lie past the axis's ends (−1 … 2, [`TwinConfig::beyond_axis`]): whether the
+//! machine's fault detection holds on a machine the family does not contain. A point whose
+//! machine is not physical is refused before any cycle runs.
+//!
 //! # Injections (deterministic by cycle index)
 //!
 //! - every `--break-every`th cycle (index `k−1`, `2k−1`, …): the string breaks

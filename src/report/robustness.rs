@@ -366,8 +366,9 @@ pub fn main(args: &RobustnessArgs) -> Status {
     let started = std::time::Instant::now();
     let runs = run_all(args);
     println!("{}", markdown(&axes, &runs));
-    let beyond_runs = runs.iter().filter(|p| !p.in_family()).count();
-    if beyond_runs > 0 {
+    let beyond = runs.iter().filter(|p| !p.in_family()).count();
+    let refused = runs.iter().filter(|p| p.unphysical.is_some()).count();
+    if beyond > 0 {
         println!(
             "Beyond the family: each axis's spans continued {:.2} of their width past either end (a margin, not a promise)\n",
             args.beyond
@@ -376,12 +377,15 @@ pub fn main(args: &RobustnessArgs) -> Status {
     }
     println!(
         "{} runs ({} axes × {} points × {} scenarios{}), wall clock {:.1} s",
-        runs.len(),
+        runs.len() - beyond,
         axes.len(),
         positions.len(),
         args.scenarios,
-        if beyond_runs > 0 {
-            format!(", and {beyond_runs} beyond the family")
+        if beyond > 0 {
+            format!(
+                "; past the ends {} more, and {refused} not run as not physical",
+                beyond - refused
+            )
         } else {
             String::new()
         },

@@ -47,7 +47,7 @@ use taut_sim::operator::{Operator, Plan};
 use taut_sim::twin::Fault;
 use taut_sim::{Axis, SimRng, StringKind, TwinConfig};
 
-use super::robustness::STRINGS;
+use super::robustness::{STRINGS, string_for};
 use super::{cell, number, percentile, scenario_seed, target_range};
 use crate::cli::MachineArgs;
 use crate::output::{Failure, Progress, Status, check_writable, parallel, threads, write_json};
@@ -174,7 +174,7 @@ fn machine(args: &MachineArgs, index: u64, seed: u64) -> TwinConfig {
     match args.axis {
         None => TwinConfig::family(seed),
         Some(point) => {
-            let kind = STRINGS[(index % STRINGS.len() as u64) as usize];
+            let kind = string_for(index);
             axis_machine(point, kind)
                 .unwrap_or_else(|_| TwinConfig::family_centre(kind))
                 .with_seed(seed)

@@ -37,6 +37,12 @@ pub const STRINGS: [StringKind; 5] = [
     StringKind::BadmintonHard,
 ];
 
+/// The string kind of scenario `index` of a sweep point: [`STRINGS`] in turn.
+#[must_use]
+pub fn string_for(index: u64) -> StringKind {
+    STRINGS[(index % STRINGS.len() as u64) as usize]
+}
+
 /// One run of the sweep.
 #[derive(Clone, Debug)]
 pub struct Point {
@@ -66,7 +72,7 @@ impl Point {
 /// standard deviation `gauge` kgf (`None`: the family's).
 #[must_use]
 pub fn run_point(axis: Axis, position: f64, index: u64, seed: u64, gauge: Option<f64>) -> Point {
-    let string = STRINGS[(index % STRINGS.len() as u64) as usize];
+    let string = string_for(index);
     let target_kgf = draw_target(scenario_seed(seed, index), string);
     let twin = if (0.0..=1.0).contains(&position) {
         TwinConfig::on_axis(axis, position, string)

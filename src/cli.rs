@@ -390,9 +390,10 @@ pub struct PullArgs {
     pub scenario: Option<u64>,
     /// The machine of `taut report robustness` at one point of one axis, the rest of the
     /// family at its centre: `NAME=POSITION`, the position 0 (the axis's low end) to 1 (its
-    /// high end), e.g. `friction=1` (with `--string` and `--tension`).
+    /// high end), e.g. `friction=1` (with `--string` and `--tension`). Given again with
+    /// another axis, a corner of the family: every named axis moved at once.
     #[arg(long, value_name = "NAME=POSITION", value_parser = parse_axis_point, conflicts_with_all = ["scenario", "seed"])]
-    pub axis: Option<(taut_sim::Axis, f64)>,
+    pub axis: Vec<(taut_sim::Axis, f64)>,
     /// Write a plot (tension, hold error, carriage, duty, current) here.
     #[arg(long, value_name = "FILE")]
     pub svg: Option<PathBuf>,
@@ -549,8 +550,9 @@ pub struct MachineArgs {
     /// Every cycle on the machine of `taut report robustness` at one point of one axis (the
     /// string kinds in turn, the rest of the family at its centre) instead of the family's
     /// draws: `NAME=POSITION`, 0 the axis's low end, 1 its high end, −1 … 2 past them.
+    /// Given again with another axis, a corner of the family: every named axis moved at once.
     #[arg(long, value_name = "NAME=POSITION", allow_negative_numbers = true, value_parser = parse_axis_point_beyond)]
-    pub axis: Option<(taut_sim::Axis, f64)>,
+    pub axis: Vec<(taut_sim::Axis, f64)>,
     /// Worker threads (default: the machine's cores).
     #[arg(long, allow_negative_numbers = true, value_parser = whole(1_u16, 256))]
     pub threads: Option<u16>,

@@ -13,6 +13,7 @@ use crate::cli::{PullArgs, SensingArg};
 use crate::output::{Failure, Status, check_writable, write_file};
 use crate::plot::{Band, DUTY_AXIS_PERCENT, Figure, Panel, Series, Stroke};
 use crate::report::accuracy::controller_config;
+use crate::report::robustness::{corner_machine, describe_corner};
 use crate::report::{Scenario, commissioned_calibration, pull_settings, signed_duty};
 
 /// The longest a release may take before the run stops, ms.
@@ -30,30 +31,33 @@ pub struct PullSetup {
 }
 
 /// The machine and target `args` ask for.
-#[must_use]
-pub fn setup(args: &PullArgs) -> PullSetup {
+///
+/// # Errors
+/// A corner (`--axis` given more than once) that names an axis twice or is not physical:
+/// a usage error, before anything runs.
+pub fn setup(args: &PullArgs) -> Result<PullSetup, Failure> {
     if let Some(n) = args.scenario {
         let s = Scenario::new(1, n, SensingArg::Family);
-        return PullSetup {
+        return Ok(PullSetup {
             twin: s.twin,
             target_kgf: s.target_kgf,
             machine: format!("scenario {n} of `taut report accuracy` (seed 1)"),
-        };
+        });
     }
     let string: StringKind = args.string.map_or(StringKind::TennisSynthetic, Into::into);
     let target_kgf = args.tension.map_or(25.0, |sp| kgf(sp.to_kgf()));
-    if let Some((axis, position)) = args.axis {
-        return PullSetup {
-            twin: TwinConfig::on_axis(axis, position, string),
+    if !args.axis.is_empty() {
+        return Ok(PullSetup {
+            twin: corner_machine(&args.axis, string).map_err(Failure::Usage)?,
             target_kgf,
-            machine: format!("the family's centre, {}", axis.describe_at(position, string)),
-        };
+            machine: format!("the family's centre, {}", describe_corner(&args.axis, string)),
+        });
     }
     let (twin, machine) = args.seed.map_or_else(
         || (TwinConfig::nominal(string), "nominal machine".to_owned()),
         |seed| (TwinConfig::family_kind(string, seed), format!("family machine {seed}")),
     );
-    PullSetup { twin, target_kgf, machine }
+    Ok(PullSetup { twin, target_kgf, machine })
 }
 
 /// The pull's one-line summary figures.
@@ -289,9 +293,9 @@ impl PullRun {
 /// controller pulls, holds for `--hold` and releases home.
 ///
 /// # Errors
-/// The machine could not be calibrated or the bench started.
+/// The machine is not physical, could not be calibrated, or the bench did not start.
 pub fn run(args: &PullArgs) -> Result<PullRun, Failure> {
-    let setup = setup(args);
+    let setup = setup(args)?;
     let calibration = commissioned_calibration(&setup.twin).map_err(|f| {
         Failure::Message(format!("the machine could not be calibrated ({})", f.name()))
     })?;

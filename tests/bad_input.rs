@@ -91,6 +91,8 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["pull", "--axis", "friction=nan"], USAGE, "not in 0–1"),
     (&["pull", "--axis", "friction=1", "--seed", "3"], USAGE, "--seed"),
     (&["pull", "--axis", "friction=1", "--scenario", "3"], USAGE, "--scenario"),
+    (&["pull", "--axis", "friction=1", "--axis", "friction=0"], USAGE, "given twice"),
+    (&["pull", "--axis", "bus-supply=1", "--axis", "bus-clamp=0"], USAGE, "not a physical machine"),
     (&["pull", "--speed", "0"], USAGE, "--speed"),
     (&["pull", "--speed", "abc"], USAGE, "--speed"),
     (&["pull", "--hold", "0"], USAGE, "--hold"),
@@ -167,6 +169,8 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["report", "machine", "--axis", "gravity=1"], USAGE, "not an axis"),
     (&["report", "machine", "--axis", "inertia=2.5"], USAGE, "not in -1–2"),
     (&["report", "machine", "--axis", "backlash=-0.5"], USAGE, "not a physical machine"),
+    (&["report", "machine", "--axis", "slack=1", "--axis", "slack=1"], USAGE, "given twice"),
+    (&["report", "machine", "--axis", "inertia=1", "--axis", "inertia=3"], USAGE, "not in -1–2"),
     (&["report", "machine", "--json", "UNWRITABLE/m.json"], RUNTIME, "cannot write"),
     // ── report string ──
     (&["report", "string", "--seeds", "-1"], USAGE, "--seeds"),

@@ -595,35 +595,46 @@ fn press(machine: &mut Machine, inputs: &mut Inputs, now: &mut u32, key: Key) {
 }
 
 /// `report machine --axis`: every cycle on the sweep's machine at that point, past the
-/// family's ends too, the string kinds in turn; a healthy cycle there completes unfaulted.
+/// family's ends too, or at a corner of several axes, the string kinds in turn; a healthy
+/// cycle there completes unfaulted.
 #[test]
-fn machine_cycles_run_on_one_point_of_an_axis() {
+fn machine_cycles_run_on_one_point_of_an_axis_or_a_corner() {
     use clap::Parser as _;
-    let cli = taut::cli::Cli::try_parse_from([
-        "taut",
-        "report",
-        "machine",
-        "--cycles",
-        "1",
-        "--axis",
-        "inertia=1.5",
-    ])
-    .expect("the command line parses");
-    let Some(taut::cli::Command::Report { which: taut::cli::ReportKind::Machine(args) }) =
-        &cli.command
-    else {
-        panic!("report machine")
+    let parse = |axes: &[&str]| {
+        let mut line = vec!["taut", "report", "machine", "--cycles", "1"];
+        for axis in axes {
+            line.extend(["--axis", axis]);
+        }
+        let cli = taut::cli::Cli::try_parse_from(line).expect("the command line parses");
+        let Some(taut::cli::Command::Report { which: taut::cli::ReportKind::Machine(args) }) =
+            cli.command
+        else {
+            panic!("report machine")
+        };
+        args
     };
     let kind = StringKind::TennisSynthetic;
-    let machine = taut::report::machine::axis_machine((taut_sim::Axis::Inertia, 1.5), kind)
-        .expect("4 × the inertia is a physical machine");
     let centre = TwinConfig::family_centre(kind);
+    let corner_machine = taut::report::robustness::corner_machine;
+    // One point past the end: 4 × the inertia.
+    let args = parse(&["inertia=1.5"]);
+    let machine = corner_machine(&args.axis, kind).expect("4 × the inertia is a physical machine");
     let ratio = machine.motor.rotor_inertia_kg_m2 / centre.motor.rotor_inertia_kg_m2;
     assert!((ratio - 4.0).abs() < 1e-9, "{ratio}");
-    let cycle = taut::report::machine::run_cycle(args, 1);
+    let cycle = taut::report::machine::run_cycle(&args, 1);
     assert!(cycle.completed && cycle.fault.is_none(), "{cycle:?}");
-    assert!(
-        taut::report::machine::axis_machine((taut_sim::Axis::Backlash, -0.5), kind)
-            .is_err_and(|why| why.contains("not a physical machine")),
-    );
+    // A corner: twice the inertia, the heaviest gripper and the smallest bulk capacitor at
+    // once; a whole healthy cycle, no fault.
+    let args = parse(&["inertia=1", "gripper-mass=1", "bus-capacitance=0"]);
+    let machine = corner_machine(&args.axis, kind).expect("a corner of the family is physical");
+    let ratio = machine.motor.rotor_inertia_kg_m2 / centre.motor.rotor_inertia_kg_m2;
+    assert!((ratio - 2.0).abs() < 1e-9, "{ratio}");
+    assert!((machine.mechanics.gripper.mass_kg - 1.5).abs() < 1e-9);
+    assert!(machine.bridge.bus_capacitance_f < centre.bridge.bus_capacitance_f);
+    let cycle = taut::report::machine::run_cycle(&args, 1);
+    assert!(cycle.completed && cycle.fault.is_none(), "{cycle:?}");
+    // Refused: not physical, an axis twice.
+    let refused = |axes: &[&str]| corner_machine(&parse(axes).axis, kind).unwrap_err();
+    assert!(refused(&["backlash=-0.5"]).contains("not a physical machine"));
+    assert!(refused(&["inertia=1", "inertia=0"]).contains("given twice"));
 }

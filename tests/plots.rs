@@ -293,7 +293,7 @@ fn robustness_beyond_the_family_is_reported_apart() {
 fn a_pull_re_runs_one_point_of_the_robustness_sweep() {
     let cli = parse(&["pull", "--axis", "backlash=1", "--string", "tennis-gut", "--tension", "20"]);
     let Some(Command::Pull(args)) = &cli.command else { panic!("pull") };
-    let setup = taut::pull::setup(args);
+    let setup = taut::pull::setup(args).expect("one point of an axis is a physical machine");
     let kind = taut_sim::StringKind::TennisGut;
     assert_eq!(setup.twin, taut_sim::TwinConfig::on_axis(taut_sim::Axis::Backlash, 1.0, kind));
     assert!((setup.target_kgf - 20.0).abs() < 1e-9);

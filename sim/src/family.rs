@@ -843,26 +843,76 @@ impl TwinConfig {
 
     /// The centre machine with `axis` at `p` (any value [`Span::beyond`] takes).
     fn axis_point(axis: Axis, p: f64, kind: StringKind) -> Self {
-        use ranges as r;
         let mut c = Self::family_centre(kind);
+        c.move_axes(&[(axis, p)], kind);
+        c
+    }
+
+    /// A corner of the family: the centre machine with every axis of `points` moved to its
+    /// position at once (each as [`TwinConfig::beyond_axis`] moves it alone), for asking
+    /// what the extremes do together that none does alone. The motor axes compose: the motor
+    /// is re-derived once from all four of its inputs (winding, inductance, no-load speed,
+    /// back-EMF shape) with the named ones moved. One axis is [`TwinConfig::beyond_axis`].
+    ///
+    /// # Errors
+    /// An axis is named twice ([`ConfigError::RepeatedAxis`]), or the machine is not physical
+    /// ([`TwinConfig::check`]; e.g. a bus clamp at 28 V over a 30 V supply).
+    pub fn corner(points: &[(Axis, f64)], kind: StringKind) -> Result<Self, ConfigError> {
+        for (k, (axis, _)) in points.iter().enumerate() {
+            if points.iter().take(k).any(|(earlier, _)| earlier == axis) {
+                return Err(ConfigError::RepeatedAxis(axis.name()));
+            }
+        }
+        let clamped: Vec<(Axis, f64)> = points
+            .iter()
+            .map(|&(axis, p)| (axis, p.clamp(-BEYOND_MAX, 1.0 + BEYOND_MAX)))
+            .collect();
+        let mut c = Self::family_centre(kind);
+        c.move_axes(&clamped, kind);
+        c.check().map(|()| c)
+    }
+
+    /// Moves every axis of `points` on this machine: the motor first (re-derived once from
+    /// its four inputs, if any motor axis is named), then the others in order.
+    fn move_axes(&mut self, points: &[(Axis, f64)], kind: StringKind) {
+        use ranges as r;
         let nominal = MotorParams::nominal();
-        // A motor axis re-derives the motor with the one input moved.
-        let motor = |winding: f64, inductance: f64, rpm: f64, ramp: f64| {
-            family_motor(
+        let (mut winding, mut inductance, mut rpm, mut ramp) = (
+            motor_nominal::WINDING_OHM,
+            nominal.phase_inductance_h,
+            motor_nominal::NO_LOAD_RPM,
+            nominal.emf_ramp_deg,
+        );
+        let mut motor_moved = false;
+        for &(axis, p) in points {
+            match axis {
+                Axis::MotorResistance => winding = r::WINDING_OHM.beyond(p),
+                Axis::MotorSpeedConstant => rpm = r::NO_LOAD_RPM.beyond(p),
+                Axis::MotorInductance => inductance = r::INDUCTANCE_H.beyond(p),
+                Axis::BackEmfShape => ramp = r::EMF_RAMP_DEG.beyond(p),
+                _ => continue,
+            }
+            motor_moved = true;
+        }
+        if motor_moved {
+            self.motor = family_motor(
                 winding,
                 motor_nominal::MOSFET_OHM,
                 inductance,
                 rpm,
                 ramp,
                 nominal.coulomb_torque_nm,
-            )
-        };
-        let (winding, inductance, rpm, ramp) = (
-            motor_nominal::WINDING_OHM,
-            nominal.phase_inductance_h,
-            motor_nominal::NO_LOAD_RPM,
-            nominal.emf_ramp_deg,
-        );
+            );
+        }
+        for &(axis, p) in points {
+            self.move_axis(axis, p, kind);
+        }
+    }
+
+    /// Moves `axis` to `p` on this machine; the motor axes are [`TwinConfig::move_axes`]'s.
+    fn move_axis(&mut self, axis: Axis, p: f64, kind: StringKind) {
+        use ranges as r;
+        let c = self;
         match axis {
             Axis::Inertia => {
                 let scale = r::INERTIA_SCALE.beyond(p);
@@ -878,18 +928,10 @@ impl TwinConfig {
                 k.stiction_ratio = r::STICTION.beyond(p);
             }
             Axis::Backlash => c.mechanics.backlash_mm = r::BACKLASH_MM.beyond(p),
-            Axis::MotorResistance => {
-                c.motor = motor(r::WINDING_OHM.beyond(p), inductance, rpm, ramp)
-            }
-            Axis::MotorSpeedConstant => {
-                c.motor = motor(winding, inductance, r::NO_LOAD_RPM.beyond(p), ramp);
-            }
-            Axis::MotorInductance => {
-                c.motor = motor(winding, r::INDUCTANCE_H.beyond(p), rpm, ramp);
-            }
-            Axis::BackEmfShape => {
-                c.motor = motor(winding, inductance, rpm, r::EMF_RAMP_DEG.beyond(p))
-            }
+            Axis::MotorResistance
+            | Axis::MotorSpeedConstant
+            | Axis::MotorInductance
+            | Axis::BackEmfShape => {}
             Axis::Cogging => c.motor.cogging_torque_nm = r::COGGING_NM.beyond(p),
             Axis::LoadCellGain => c.load_cell.volts_per_kgf = r::SENSITIVITY.beyond(p),
             Axis::LoadCellZero => c.load_cell.zero_volts = r::ZERO_VOLTS.beyond(p),
@@ -945,7 +987,6 @@ impl TwinConfig {
                 }
             }
         }
-        c
     }
 }
 
@@ -964,6 +1005,66 @@ mod tests {
             }
         }
         assert!((ranges::INERTIA_SCALE.at(0.5) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_corner_moves_every_named_axis_at_once() {
+        let kind = StringKind::TennisPolyester;
+        // One axis is `beyond_axis`, at every axis, inside and past the ends.
+        for axis in Axis::ALL {
+            for p in [-0.5, 0.3, 1.5] {
+                assert_eq!(
+                    TwinConfig::corner(&[(axis, p)], kind),
+                    TwinConfig::beyond_axis(axis, p, kind),
+                    "{axis:?} at {p}"
+                );
+            }
+        }
+        // Axes on different parts compose, in any order.
+        let heavy = [(Axis::Inertia, 1.0), (Axis::GripperMass, 1.0), (Axis::Friction, 0.0)];
+        let c = TwinConfig::corner(&heavy, kind).unwrap();
+        let centre = TwinConfig::family_centre(kind);
+        assert!(
+            (c.motor.rotor_inertia_kg_m2 / centre.motor.rotor_inertia_kg_m2 - 2.0).abs() < 1e-12
+        );
+        assert!((c.mechanics.gripper.mass_kg - 1.5).abs() < 1e-12);
+        assert!(
+            (c.mechanics.efficiency_forward - ranges::EFFICIENCY_FORWARD.at(0.0)).abs() < 1e-12
+        );
+        let reversed: Vec<_> = heavy.iter().rev().copied().collect();
+        assert_eq!(TwinConfig::corner(&reversed, kind), Ok(c));
+        // The motor axes compose too: one motor from all the moved inputs, not the last one's.
+        let both = TwinConfig::corner(
+            &[(Axis::MotorResistance, 1.0), (Axis::MotorSpeedConstant, 0.0), (Axis::Inertia, 1.0)],
+            kind,
+        )
+        .unwrap();
+        let nominal = MotorParams::nominal();
+        let mut expected = family_motor(
+            ranges::WINDING_OHM.at(1.0),
+            motor_nominal::MOSFET_OHM,
+            nominal.phase_inductance_h,
+            ranges::NO_LOAD_RPM.at(0.0),
+            nominal.emf_ramp_deg,
+            nominal.coulomb_torque_nm,
+        );
+        expected.rotor_inertia_kg_m2 *= 2.0;
+        assert_eq!(both.motor, expected);
+        let alone = TwinConfig::on_axis(Axis::MotorResistance, 1.0, kind);
+        assert!(both.motor.ke_volts_per_rad_s > alone.motor.ke_volts_per_rad_s);
+        // An axis named twice, and a machine that is not physical, are refused.
+        assert_eq!(
+            TwinConfig::corner(
+                &[(Axis::Inertia, 0.0), (Axis::Backlash, 1.0), (Axis::Inertia, 1.0)],
+                kind
+            ),
+            Err(ConfigError::RepeatedAxis("inertia"))
+        );
+        assert!(matches!(
+            TwinConfig::corner(&[(Axis::BusSupply, 1.0), (Axis::BusClamp, 0.0)], kind),
+            Err(ConfigError::OutOfRange(_))
+        ));
+        assert_eq!(TwinConfig::corner(&[], kind), Ok(centre));
     }
 
     #[test]

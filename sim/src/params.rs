@@ -620,6 +620,8 @@ pub enum ConfigError {
     Travel,
     /// A parameter is outside the values it can physically take (named).
     OutOfRange(&'static str),
+    /// A corner of the family names the same uncertainty axis twice (named).
+    RepeatedAxis(&'static str),
 }
 
 impl fmt::Display for ConfigError {
@@ -630,6 +632,7 @@ impl fmt::Display for ConfigError {
             Self::Relaxation => f.write_str("relaxation fractions must be ≥ 0 and sum below 1"),
             Self::Travel => f.write_str("travel limits are inconsistent"),
             Self::OutOfRange(what) => write!(f, "{what} is outside its physical range"),
+            Self::RepeatedAxis(axis) => write!(f, "the axis {axis} is given twice"),
         }
     }
 }

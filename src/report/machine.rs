@@ -45,9 +45,9 @@ use taut_core::store::Record;
 use taut_sim::bench::{Bench, Session, fault_name, run_session};
 use taut_sim::operator::{Operator, Plan};
 use taut_sim::twin::Fault;
-use taut_sim::{Axis, SimRng, StringKind, TwinConfig};
+use taut_sim::{SimRng, StringKind, TwinConfig};
 
-use super::robustness::{STRINGS, string_for};
+use super::robustness::{STRINGS, corner_machine, describe_corner, string_for};
 use super::{cell, number, percentile, scenario_seed, target_range};
 use crate::cli::MachineArgs;
 use crate::output::{Failure, Progress, Status, check_writable, parallel, threads, write_json};
@@ -167,29 +167,17 @@ pub fn settings(seed: u64, kind: StringKind) -> Settings {
 }
 
 /// Cycle `index`'s machine: the family's draw for `seed`, or with `--axis` the sweep's
-/// machine at that point with the string kinds in turn (and `seed` for its noise). A point
-/// whose machine is not physical ([`axis_machine`] refuses it before any cycle runs) falls
-/// back to the family's centre.
+/// machine at that point (or the corner of several) with the string kinds in turn (and
+/// `seed` for its noise). A machine that is not physical ([`corner_machine`] refuses it
+/// before any cycle runs) falls back to the family's centre.
 fn machine(args: &MachineArgs, index: u64, seed: u64) -> TwinConfig {
-    match args.axis {
-        None => TwinConfig::family(seed),
-        Some(point) => {
-            let kind = string_for(index);
-            axis_machine(point, kind)
-                .unwrap_or_else(|_| TwinConfig::family_centre(kind))
-                .with_seed(seed)
-        }
+    if args.axis.is_empty() {
+        return TwinConfig::family(seed);
     }
-}
-
-/// The machine of `--axis NAME=POSITION` for `kind`.
-///
-/// # Errors
-/// Past the axis's ends, the machine is not physical (why, in words).
-pub fn axis_machine((axis, position): (Axis, f64), kind: StringKind) -> Result<TwinConfig, String> {
-    TwinConfig::beyond_axis(axis, position, kind).map_err(|why| {
-        format!("{}: not a physical machine ({why})", axis.describe_at(position, kind))
-    })
+    let kind = string_for(index);
+    corner_machine(&args.axis, kind)
+        .unwrap_or_else(|_| TwinConfig::family_centre(kind))
+        .with_seed(seed)
 }
 
 /// Runs cycle `index`.
@@ -440,7 +428,11 @@ pub fn to_json(args: &MachineArgs, f: &Findings) -> Value {
         "cycles": f.cycles,
         "seed": args.seed,
         "sensing": args.sensing.name(),
-        "axis": args.axis.map(|(axis, position)| json!({ "name": axis.name(), "position": position })),
+        "axis": args
+            .axis
+            .iter()
+            .map(|(axis, position)| json!({ "name": axis.name(), "position": position }))
+            .collect::<Vec<_>>(),
         "break_every": args.break_every,
         "fault_every": args.fault_every,
         "completed": f.completed,
@@ -471,13 +463,13 @@ pub fn main(args: &MachineArgs) -> Status {
     if let Some(path) = &args.json {
         check_writable(path)?;
     }
-    if let Some(point) = args.axis {
+    if !args.axis.is_empty() {
         for kind in STRINGS {
-            axis_machine(point, kind).map_err(Failure::Usage)?;
+            corner_machine(&args.axis, kind).map_err(Failure::Usage)?;
         }
         println!(
             "every cycle on the family's centre with {}\n",
-            point.0.describe_at(point.1, StringKind::TennisSynthetic)
+            describe_corner(&args.axis, StringKind::TennisSynthetic)
         );
     }
     let started = std::time::Instant::now();

@@ -43,6 +43,24 @@ pub fn string_for(index: u64) -> StringKind {
     STRINGS[(index % STRINGS.len() as u64) as usize]
 }
 
+/// The machine at `points` for `kind`: one point of one axis (the sweep's machine), or a
+/// corner of the family (every named axis moved at once, [`TwinConfig::corner`]).
+///
+/// # Errors
+/// An axis named twice, or a machine that is not physical (why, in words).
+pub fn corner_machine(points: &[(Axis, f64)], kind: StringKind) -> Result<TwinConfig, String> {
+    TwinConfig::corner(points, kind)
+        .map_err(|why| format!("{}: not a physical machine ({why})", describe_corner(points, kind)))
+}
+
+/// `points` in words for `kind`: each axis's headline values, `; ` between them.
+#[must_use]
+pub fn describe_corner(points: &[(Axis, f64)], kind: StringKind) -> String {
+    let words: Vec<String> =
+        points.iter().map(|&(axis, position)| axis.describe_at(position, kind)).collect();
+    words.join("; ")
+}
+
 /// One run of the sweep.
 #[derive(Clone, Debug)]
 pub struct Point {

@@ -476,6 +476,10 @@ pub struct RobustnessArgs {
     /// machine that is not physical there is listed, not run.
     #[arg(long, allow_negative_numbers = true, value_name = "FRACTION", default_value_t = 0.0, value_parser = ranged_f64(0.0..=taut_sim::family::BEYOND_MAX))]
     pub beyond: f64,
+    /// Instead of the sweep, the scenarios on one corner of the family: every axis given
+    /// (once each, `NAME=POSITION`, −1 … 2) moved at once, the rest at the centre.
+    #[arg(long, value_name = "NAME=POSITION", allow_negative_numbers = true, value_parser = parse_axis_point_beyond, conflicts_with_all = ["axes", "points", "beyond", "svg"])]
+    pub corner: Vec<(taut_sim::Axis, f64)>,
     /// Seed of the scenario draw.
     #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = seed)]
     pub seed: u64,

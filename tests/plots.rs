@@ -290,6 +290,44 @@ fn robustness_beyond_the_family_is_reported_apart() {
 }
 
 #[test]
+fn robustness_runs_the_sweeps_scenarios_on_a_corner_of_the_family() {
+    let cli = parse(&[
+        "report",
+        "robustness",
+        "--scenarios",
+        "2",
+        "--corner",
+        "inertia=1",
+        "--corner",
+        "gripper-mass=1.2",
+    ]);
+    let Some(Command::Report { which: ReportKind::Robustness(args) }) = &cli.command else {
+        panic!("report robustness")
+    };
+    use taut::report::robustness::{corner_machine, corner_markdown, run_corner, run_point};
+    use taut_sim::Axis;
+    assert_eq!(args.corner, [(Axis::Inertia, 1.0), (Axis::GripperMass, 1.2)]);
+    let runs: Vec<_> = (0..2).map(|i| run_corner(&args.corner, i, args.seed, None)).collect();
+    for (index, run) in (0_u64..).zip(&runs) {
+        // The sweep's scenario `index`: the same string kind and target.
+        let sweep = run_point(Axis::Inertia, 1.0, index, args.seed, None);
+        assert_eq!((run.string, run.target_kgf), (sweep.string, sweep.target_kgf));
+        assert!(run.metrics.failure.is_none(), "{run:?}");
+        // On the corner's machine: both axes moved (the sweep's point moves one).
+        let machine = corner_machine(&args.corner, run.string).expect("physical");
+        assert!(machine.mechanics.gripper.mass_kg > 1.5, "past the family's 1.5 kg");
+        assert_ne!(run.metrics, sweep.metrics, "the gripper moved the figures");
+    }
+    let table = corner_markdown(&runs);
+    assert!(table.contains("| tennis-synthetic | "), "{table}");
+    assert!(table.contains("| tennis-poly | "), "{table}");
+    assert!(table.contains("| **worst of 2** |") && table.contains("| 0 failed |"), "{table}");
+    // A corner that names an axis twice is refused before anything runs.
+    let twice = [(Axis::Inertia, 1.0), (Axis::Inertia, 0.0)];
+    assert!(run_corner(&twice, 0, 1, None).metrics.failure.is_some());
+}
+
+#[test]
 fn a_pull_re_runs_one_point_of_the_robustness_sweep() {
     let cli = parse(&["pull", "--axis", "backlash=1", "--string", "tennis-gut", "--tension", "20"]);
     let Some(Command::Pull(args)) = &cli.command else { panic!("pull") };

@@ -13,6 +13,11 @@
 //! continued machine that is not physical (an efficiency above 1, a negative mass…) is
 //! listed as such and not run. Those points have their own table and JSON section; the
 //! sweep's table, plot and worst figures stay the family's.
+//!
+//! `--corner NAME=POSITION` (given once per axis) runs the same scenarios on one **corner**
+//! instead: every named axis moved at once ([`TwinConfig::corner`]), one row per pull and
+//! the worst. The sweep moves one axis at a time and the family's draws seldom put many
+//! axes at their ends together; a corner asks what the extremes do jointly.
 
 use std::fmt::Write as _;
 
@@ -24,7 +29,9 @@ use super::{
     failure_counts, gauge_sigma_kgf, metrics, number, pull_trace, scenario_seed,
 };
 use crate::cli::RobustnessArgs;
-use crate::output::{Progress, Status, check_writable, parallel, threads, write_file, write_json};
+use crate::output::{
+    Failure, Progress, Status, check_writable, parallel, threads, write_file, write_json,
+};
 use crate::plot::{Figure, Panel, Series, Stroke};
 use taut_core::tension::ControllerConfig;
 
@@ -104,8 +111,15 @@ pub fn run_point(axis: Axis, position: f64, index: u64, seed: u64, gauge: Option
             }
         }
     };
+    let metrics = pull_on(twin, index, target_kgf, gauge);
+    Point { axis, position, string, target_kgf, metrics, unphysical: None }
+}
+
+/// Scenario `index`'s pull to `target_kgf` on `twin`, commissioned against a reference
+/// gauge of standard deviation `gauge` kgf (`None`: the family's): its figures.
+fn pull_on(twin: TwinConfig, index: u64, target_kgf: f64, gauge: Option<f64>) -> Metrics {
     let scenario = Scenario::on(index, twin, target_kgf).with_gauge_sigma(gauge);
-    let metrics = match commissioned_calibration(&scenario.twin) {
+    match commissioned_calibration(&scenario.twin) {
         Err(failure) => Metrics::failed(failure),
         Ok(calibration) => {
             let t_min = bang_bang_reach_time(&scenario.twin, target_kgf, ORACLE_LIMIT_MS);
@@ -114,8 +128,127 @@ pub fn run_point(axis: Axis, position: f64, index: u64, seed: u64, gauge: Option
                 Err(failure) => Metrics::failed(failure),
             }
         }
+    }
+}
+
+/// One pull on a corner of the family.
+#[derive(Clone, Debug)]
+pub struct CornerRun {
+    /// The string.
+    pub string: StringKind,
+    /// The target, kgf.
+    pub target_kgf: f64,
+    /// The figures.
+    pub metrics: Metrics,
+}
+
+/// Scenario `index` of `--corner`: the string kind and target the sweep's scenario `index`
+/// has, on the corner `points` (physical for every string kind: [`main`] checked it).
+#[must_use]
+pub fn run_corner(points: &[(Axis, f64)], index: u64, seed: u64, gauge: Option<f64>) -> CornerRun {
+    let string = string_for(index);
+    let target_kgf = draw_target(scenario_seed(seed, index), string);
+    let metrics = match corner_machine(points, string) {
+        Ok(twin) => pull_on(twin, index, target_kgf, gauge),
+        Err(why) => Metrics::failed(super::Failure::Bench(why)),
     };
-    Point { axis, position, string, target_kgf, metrics, unphysical: None }
+    CornerRun { string, target_kgf, metrics }
+}
+
+/// The corner's table: one row per pull, then the worst.
+#[must_use]
+pub fn corner_markdown(runs: &[CornerRun]) -> String {
+    let mut out = String::from(
+        "| string | target kgf | hold kgf | overshoot kgf | settle/t_min | failure |\n|---|---|---|---|---|---|\n",
+    );
+    for r in runs {
+        let m = &r.metrics;
+        let _ = writeln!(
+            out,
+            "| {} | {:.1} | {} | {} | {} | {} |",
+            r.string.name(),
+            r.target_kgf,
+            cell(m.hold_error_kgf, 3),
+            cell(m.overshoot_kgf, 3),
+            cell(m.settle_ratio.unwrap_or(f64::NAN), 2),
+            m.failure.as_ref().map_or_else(|| "—".to_owned(), super::Failure::name),
+        );
+    }
+    let w = worst_of(runs.iter().map(|r| &r.metrics));
+    let _ = writeln!(
+        out,
+        "| **worst of {}** | | {} | {} | {} | {} failed |",
+        w.runs,
+        cell(w.hold_kgf, 3),
+        cell(w.overshoot_kgf, 3),
+        cell(w.settle_ratio, 2),
+        w.failed
+    );
+    out
+}
+
+/// `taut report robustness --corner …`: the sweep's scenarios on one corner of the family.
+fn corner_main(args: &RobustnessArgs) -> Status {
+    for kind in STRINGS {
+        corner_machine(&args.corner, kind).map_err(Failure::Usage)?;
+    }
+    println!(
+        "A corner of the family, every named axis at once, the rest at the centre: {}\n",
+        describe_corner(&args.corner, StringKind::TennisSynthetic)
+    );
+    let started = std::time::Instant::now();
+    let progress = Progress::new(args.scenarios as usize, "runs");
+    let runs = parallel(args.scenarios, threads(args.threads), &progress, &|index| {
+        run_corner(&args.corner, index, args.seed, args.gauge_sigma)
+    });
+    println!("{}", corner_markdown(&runs));
+    println!(
+        "{} runs on the corner (string kinds in turn, seed {}, reference gauge σ {:.3} kgf), wall clock {:.1} s",
+        runs.len(),
+        args.seed,
+        gauge_sigma_kgf(args.gauge_sigma),
+        started.elapsed().as_secs_f64()
+    );
+    if let Some(path) = &args.json {
+        let w = worst_of(runs.iter().map(|r| &r.metrics));
+        let pulls: Vec<Value> = runs
+            .iter()
+            .map(|r| {
+                json!({
+                    "string": r.string.name(),
+                    "target_kgf": r.target_kgf,
+                    "hold_error_kgf": number(r.metrics.hold_error_kgf),
+                    "overshoot_kgf": number(r.metrics.overshoot_kgf),
+                    "settle_over_t_min": number(r.metrics.settle_ratio.unwrap_or(f64::NAN)),
+                    "failure": r.metrics.failure.as_ref().map(super::Failure::name),
+                })
+            })
+            .collect();
+        let corner: Vec<Value> = args
+            .corner
+            .iter()
+            .map(|(axis, position)| json!({ "name": axis.name(), "position": position }))
+            .collect();
+        let doc = json!({
+            "seed": args.seed,
+            "scenarios": args.scenarios,
+            "reference_gauge_sigma_kgf": gauge_sigma_kgf(args.gauge_sigma),
+            "controller": "taut",
+            "speed": 9,
+            "corner": corner,
+            "worst": {
+                "runs": w.runs,
+                "failed": w.failed,
+                "hold_error_max_kgf": number(w.hold_kgf),
+                "overshoot_max_kgf": number(w.overshoot_kgf),
+                "settle_over_t_min_max": number(w.settle_ratio),
+            },
+            "pulls": pulls,
+        });
+        write_json(path, &doc)?;
+        println!("summary: {}", path.display());
+    }
+    Ok(true)
 }
 
 /// The worst figures of some runs.
@@ -136,6 +269,12 @@ pub struct Worst {
 /// The worst figures of `points` (failures counted, not in the maxima).
 #[must_use]
 pub fn worst<'a>(points: impl Iterator<Item = &'a Point>) -> Worst {
+    worst_of(points.map(|p| &p.metrics))
+}
+
+/// The worst figures of some runs' `metrics` (failures counted, not in the maxima).
+#[must_use]
+pub fn worst_of<'a>(metrics: impl Iterator<Item = &'a Metrics>) -> Worst {
     let mut w = Worst {
         runs: 0,
         hold_kgf: f64::NAN,
@@ -143,9 +282,8 @@ pub fn worst<'a>(points: impl Iterator<Item = &'a Point>) -> Worst {
         settle_ratio: f64::NAN,
         failed: 0,
     };
-    for p in points {
+    for m in metrics {
         w.runs += 1;
-        let m = &p.metrics;
         if m.failure.is_some() {
             w.failed += 1;
             continue;
@@ -384,6 +522,9 @@ pub fn run_all(args: &RobustnessArgs) -> Vec<Point> {
 pub fn main(args: &RobustnessArgs) -> Status {
     for path in [&args.json, &args.svg].into_iter().flatten() {
         check_writable(path)?;
+    }
+    if !args.corner.is_empty() {
+        return corner_main(args);
     }
     let axes = axes(args);
     let positions = positions(args.points);

@@ -638,3 +638,39 @@ fn machine_cycles_run_on_one_point_of_an_axis_or_a_corner() {
     assert!(refused(&["backlash=-0.5"]).contains("not a physical machine"));
     assert!(refused(&["inertia=1", "inertia=0"]).contains("given twice"));
 }
+
+/// The core counts carriage travel and speed in Hall steps of a 4-pole-pair motor (24 steps
+/// a motor turn, 52.9 µm of carriage; the paper is silent on the pole count, see
+/// `docs/CONSTANTS.md`). A motor with 2 or 5 pole pairs — steps of 106 or 42 µm, a
+/// configuration the firmware was not built for — still runs whole cycles: boot,
+/// commissioning, a pull closed on the load cell, the hold and the release, without a fault;
+/// and a string break there still latches E-15.
+#[test]
+fn a_motor_with_another_pole_count_still_runs_whole_cycles() {
+    use clap::Parser as _;
+    let cli = taut::cli::Cli::try_parse_from(["taut", "report", "machine", "--cycles", "1"])
+        .expect("the command line parses");
+    let Some(taut::cli::Command::Report { which: taut::cli::ReportKind::Machine(args) }) =
+        &cli.command
+    else {
+        panic!("report machine")
+    };
+    for pole_pairs in [2, 5] {
+        for (index, kind) in [(1, StringKind::TennisPolyester), (9, StringKind::TennisSynthetic)] {
+            let mut config = TwinConfig::family_centre(kind);
+            config.motor.pole_pairs = pole_pairs;
+            let cycle = taut::report::machine::run_cycle_on(&config, args, index);
+            match cycle.injection {
+                taut::report::machine::Injection::None => {
+                    assert!(cycle.completed && cycle.fault.is_none(), "{pole_pairs}: {cycle:?}");
+                }
+                taut::report::machine::Injection::StringBreak => {
+                    assert_eq!(cycle.false_fault(), None, "{pole_pairs}: {cycle:?}");
+                    let detected = cycle.detection().expect("the break latches");
+                    assert_eq!(detected.0, FaultCode::StringBreak, "{pole_pairs}: {cycle:?}");
+                }
+                other => panic!("cycle {index} injects {other:?}"),
+            }
+        }
+    }
+}

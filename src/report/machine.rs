@@ -185,8 +185,15 @@ fn machine(args: &MachineArgs, index: u64, seed: u64) -> TwinConfig {
 pub fn run_cycle(args: &MachineArgs, index: u64) -> Cycle {
     let seed = scenario_seed(args.seed, index);
     let config = args.sensing.apply(machine(args, index, seed));
+    run_cycle_on(&config, args, index)
+}
+
+/// Cycle `index` of `args` (its settings, injection and hold) on the machine `config`.
+#[must_use]
+pub fn run_cycle_on(config: &TwinConfig, args: &MachineArgs, index: u64) -> Cycle {
+    let seed = scenario_seed(args.seed, index);
     let injection = Injection::for_cycle(index, args.break_every, args.fault_every);
-    let mut bench = Bench::power_up(&config, &Record::default().encode());
+    let mut bench = Bench::power_up(config, &Record::default().encode());
     let plan = Plan {
         calibrate: true,
         settings: settings(seed, config.string.kind),

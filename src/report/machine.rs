@@ -47,10 +47,10 @@ use taut_sim::operator::{Operator, Plan};
 use taut_sim::twin::Fault;
 use taut_sim::{SimRng, StringKind, TwinConfig};
 
-use super::robustness::{STRINGS, corner_machine, describe_corner, string_for};
+use super::robustness::{check_corner, corner_json, corner_machine, describe_corner, string_for};
 use super::{cell, number, percentile, scenario_seed, target_range};
 use crate::cli::MachineArgs;
-use crate::output::{Failure, Progress, Status, check_writable, parallel, threads, write_json};
+use crate::output::{Progress, Status, check_writable, parallel, threads, write_json};
 
 /// How long the operator holds before releasing, ms.
 pub const HOLD_MS: u32 = 2_000;
@@ -435,11 +435,7 @@ pub fn to_json(args: &MachineArgs, f: &Findings) -> Value {
         "cycles": f.cycles,
         "seed": args.seed,
         "sensing": args.sensing.name(),
-        "axis": args
-            .axis
-            .iter()
-            .map(|(axis, position)| json!({ "name": axis.name(), "position": position }))
-            .collect::<Vec<_>>(),
+        "axis": corner_json(&args.axis),
         "break_every": args.break_every,
         "fault_every": args.fault_every,
         "completed": f.completed,
@@ -471,9 +467,7 @@ pub fn main(args: &MachineArgs) -> Status {
         check_writable(path)?;
     }
     if !args.axis.is_empty() {
-        for kind in STRINGS {
-            corner_machine(&args.axis, kind).map_err(Failure::Usage)?;
-        }
+        check_corner(&args.axis)?;
         println!(
             "every cycle on the family's centre with {}\n",
             describe_corner(&args.axis, StringKind::TennisSynthetic)

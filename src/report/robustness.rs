@@ -68,6 +68,27 @@ pub fn describe_corner(points: &[(Axis, f64)], kind: StringKind) -> String {
     words.join("; ")
 }
 
+/// Refuses a corner that is not physical for one of the string kinds the scenarios cycle
+/// through ([`STRINGS`]): a usage error, before anything runs.
+///
+/// # Errors
+/// The first string kind's refusal, in words.
+pub fn check_corner(points: &[(Axis, f64)]) -> Result<(), Failure> {
+    for kind in STRINGS {
+        corner_machine(points, kind).map_err(Failure::Usage)?;
+    }
+    Ok(())
+}
+
+/// `points` as JSON: `[{ "name", "position" }, …]`.
+#[must_use]
+pub fn corner_json(points: &[(Axis, f64)]) -> Value {
+    points
+        .iter()
+        .map(|(axis, position)| json!({ "name": axis.name(), "position": position }))
+        .collect()
+}
+
 /// One run of the sweep.
 #[derive(Clone, Debug)]
 pub struct Point {
@@ -189,9 +210,7 @@ pub fn corner_markdown(runs: &[CornerRun]) -> String {
 
 /// `taut report robustness --corner …`: the sweep's scenarios on one corner of the family.
 fn corner_main(args: &RobustnessArgs) -> Status {
-    for kind in STRINGS {
-        corner_machine(&args.corner, kind).map_err(Failure::Usage)?;
-    }
+    check_corner(&args.corner)?;
     println!(
         "A corner of the family, every named axis at once, the rest at the centre: {}\n",
         describe_corner(&args.corner, StringKind::TennisSynthetic)
@@ -224,25 +243,14 @@ fn corner_main(args: &RobustnessArgs) -> Status {
                 })
             })
             .collect();
-        let corner: Vec<Value> = args
-            .corner
-            .iter()
-            .map(|(axis, position)| json!({ "name": axis.name(), "position": position }))
-            .collect();
         let doc = json!({
             "seed": args.seed,
             "scenarios": args.scenarios,
             "reference_gauge_sigma_kgf": gauge_sigma_kgf(args.gauge_sigma),
             "controller": "taut",
             "speed": 9,
-            "corner": corner,
-            "worst": {
-                "runs": w.runs,
-                "failed": w.failed,
-                "hold_error_max_kgf": number(w.hold_kgf),
-                "overshoot_max_kgf": number(w.overshoot_kgf),
-                "settle_over_t_min_max": number(w.settle_ratio),
-            },
+            "corner": corner_json(&args.corner),
+            "worst": worst_json(&w),
             "pulls": pulls,
         });
         write_json(path, &doc)?;
@@ -372,18 +380,20 @@ pub fn beyond_markdown(axes: &[Axis], runs: &[Point], beyond: f64) -> String {
     out
 }
 
+/// The worst figures as JSON.
+fn worst_json(w: &Worst) -> Value {
+    json!({
+        "runs": w.runs,
+        "failed": w.failed,
+        "hold_error_max_kgf": number(w.hold_kgf),
+        "overshoot_max_kgf": number(w.overshoot_kgf),
+        "settle_over_t_min_max": number(w.settle_ratio),
+    })
+}
+
 /// The sweep as JSON: per axis, per position, the worst figures.
 #[must_use]
 pub fn to_json(args: &RobustnessArgs, axes: &[Axis], runs: &[Point]) -> Value {
-    let worst_json = |w: &Worst| {
-        json!({
-            "runs": w.runs,
-            "failed": w.failed,
-            "hold_error_max_kgf": number(w.hold_kgf),
-            "overshoot_max_kgf": number(w.overshoot_kgf),
-            "settle_over_t_min_max": number(w.settle_ratio),
-        })
-    };
     let mut doc = serde_json::Map::new();
     for &axis in axes {
         let points: Vec<Value> = positions(args.points)

@@ -81,7 +81,7 @@
 //! once per pull the take-up's identification divides (see [`crate::tension::profile`]).
 
 use crate::drive::{DUTY_MAX, Direction, DriveCommand, Duty};
-use crate::fixed::{Q24, mul_q24, reciprocal_q24};
+use crate::fixed::{Q24, mul_q16, mul_q24, reciprocal_q24};
 use crate::io::LimitSwitches;
 use crate::settings::{MmPerSecond, PullKind, PullSettings};
 use crate::tension::estimator::{Estimate, EstimatorConfig, EstimatorError, TensionEstimator};
@@ -132,6 +132,35 @@ pub const BACK_OUT_DUTY_MAX: Duty = Duty::from_raw_clamped(13_107);
 
 /// The shortest and longest control periods accepted: 50 µs to 10 ms.
 pub const PERIOD_RANGE_US: (u32, u32) = (50, 10_000);
+
+/// REQ-TEN-19: the hold's observer gain per kgf/mm of the string's identified stiffness,
+/// 0.15 per tick. In the hold the carriage moves a Hall step (52.9 µm) at a time, so each
+/// slip raises the tension by `K·52.9 µm`: 0.01 kgf on a soft badminton string, 0.08 on a
+/// stiff polyester. The observer fuses the step at once, but what the fused value misses
+/// (the stiffness estimate's error, a slip that runs on between Hall edges) reaches the law
+/// only at the observer's gain; at 0.05 (20 ms) the law keeps pushing through a second
+/// detent before it sees the first, and the sawtooth is two steps deep. The gain that
+/// balances the load cell's noise against that lag grows with the step, so with the
+/// stiffness: `α = K̂ × 0.15`, within [`ProfileConfig::observer_gain_hold`] (0.05, the soft
+/// strings' gain) and [`HOLD_GAIN_MAX`]. On the family's worst 40 + 40 others (default
+/// gauge): pulls over 0.05 kgf of hold error 20 → 13, the true tension's settle unchanged.
+///
+/// [`ProfileConfig::observer_gain_hold`]: crate::tension::ProfileConfig::observer_gain_hold
+pub const HOLD_GAIN_PER_STIFFNESS: Q16 = Q16::lit("0.15");
+
+/// REQ-TEN-19: the largest hold gain the stiffness gives, 0.2 per tick (5 ms): above it
+/// the load cell's hum reaches the law (at 0.3 the family's noisiest cells chatter).
+pub const HOLD_GAIN_MAX: Q16 = Q16::lit("0.2");
+
+/// The observer's hold gain for a string of identified stiffness `stiffness` (kgf/mm) on a
+/// controller configured with the hold gain `floor` (REQ-TEN-19): `stiffness ×`
+/// [`HOLD_GAIN_PER_STIFFNESS`], no less than `floor` and no more than [`HOLD_GAIN_MAX`]
+/// (nor `floor`, if that is higher).
+#[must_use]
+pub fn hold_observer_gain(floor: Q16, stiffness: Q16) -> Q16 {
+    let scaled = Q16::from_bits(mul_q16(stiffness.to_bits(), HOLD_GAIN_PER_STIFFNESS.to_bits()));
+    scaled.min(HOLD_GAIN_MAX).max(floor)
+}
 
 /// The carriage speed (filtered, [`SpeedEstimator`]) below which a carriage that has
 /// finished its braking counts as stopped and the observer takes its hold gain: 5 mm/s, a
@@ -679,8 +708,9 @@ impl TensionController {
             // decelerates the cell reads low (its low-pass lags, a gripper outboard of it
             // reads its inertial force), which the hold's faster gain would fuse.
             self.hold_gain_pending = false;
-            if let Some(alpha) = self.hold_gain {
-                self.estimator.set_observer_gain(alpha);
+            if let Some(floor) = self.hold_gain {
+                let stiffness = Q16::from_bits(self.estimator.state().stiffness);
+                self.estimator.set_observer_gain(hold_observer_gain(floor, stiffness));
             }
         }
         let reference = advance.reference;
@@ -1045,7 +1075,35 @@ mod tests {
             ticks += 1;
         }
         assert!((5..=30).contains(&ticks), "hold gain after {ticks} ticks at rest");
-        assert_eq!(controller.estimator.observer_gain(), hold);
+        // REQ-TEN-19: on this 1 kgf/mm string the hold's gain is the stiffness's, ≈ 0.15.
+        let stiffness = Q16::from_bits(controller.estimator.state().stiffness);
+        let expected = hold.map(|floor| hold_observer_gain(floor, stiffness));
+        assert_eq!(controller.estimator.observer_gain(), expected);
+        let gain = expected.map_or(0, |g| g.to_bits());
+        assert!((8_500..=11_200).contains(&gain), "hold gain {gain} for {stiffness:?} kgf/mm");
+    }
+
+    /// REQ-TEN-19: the hold's observer gain is the stiffness × 0.15 within the configured
+    /// floor and 0.2, for every stiffness the estimator holds (0–4 kgf/mm, in 1/256 steps).
+    #[test]
+    fn the_hold_gain_grows_with_the_strings_stiffness_within_its_bounds() {
+        let floor = Q16::lit("0.05");
+        let mut last = Q16::ZERO;
+        for k in 0..=1_024_i32 {
+            let stiffness = Q16::from_bits(k << 8);
+            let gain = hold_observer_gain(floor, stiffness);
+            let exact = (i64::from(k << 8) * i64::from(HOLD_GAIN_PER_STIFFNESS.to_bits())) >> 16;
+            let want = exact.clamp(i64::from(floor.to_bits()), i64::from(HOLD_GAIN_MAX.to_bits()));
+            assert!((i64::from(gain.to_bits()) - want).abs() <= 1, "{stiffness:?}: {gain:?}");
+            assert!(gain >= last, "not monotonic at {stiffness:?}");
+            last = gain;
+        }
+        // A soft string keeps the floor, a stiff one stops at the ceiling.
+        assert_eq!(hold_observer_gain(floor, Q16::lit("0.2")), floor);
+        assert_eq!(hold_observer_gain(floor, Q16::lit("0.5")), Q16::lit("0.075"));
+        assert_eq!(hold_observer_gain(floor, Q16::const_from_int(2)), HOLD_GAIN_MAX);
+        // A floor configured above the ceiling wins.
+        assert_eq!(hold_observer_gain(Q16::lit("0.5"), Q16::const_from_int(4)), Q16::lit("0.5"));
     }
 
     #[test]

@@ -21,7 +21,9 @@ use taut::job::summary::{Summary, entered, panel_kgf};
 use taut::job::{CycleOptions, CycleRun, run};
 use taut::plot::Content;
 use taut_core::machine::{FaultCode, MachineState};
-use taut_core::sense::calibration::{CALIBRATION_POINTS, CALIBRATION_TARGETS};
+use taut_core::sense::calibration::{
+    CALIBRATION_POINTS, CALIBRATION_READINGS, CALIBRATION_TARGETS,
+};
 use taut_core::settings::Unit;
 use taut_sim::StringKind;
 use taut_sim::bench::{Commissioning, Row, commission, factory_config, kgf};
@@ -96,8 +98,15 @@ fn commissioning_stores_a_calibration_and_the_previous_job() {
     let c = commissioning();
     let record = c.record;
     let points = record.calibration.expect("a calibration is stored");
-    assert_eq!(c.gauge_readings.len(), CALIBRATION_POINTS, "one gauge reading per point");
-    for ((point, gauge), target) in points.iter().zip(&c.gauge_readings).zip(CALIBRATION_TARGETS) {
+    assert_eq!(
+        c.gauge_readings.len(),
+        CALIBRATION_READINGS,
+        "one gauge reading per point and pass"
+    );
+    // REQ-CAL-06: each stored point is the mean of its two passes' readings.
+    let (first, second) = c.gauge_readings.split_at(CALIBRATION_POINTS);
+    let means = first.iter().zip(second).map(|(a, b)| (a + b) / 2.0);
+    for ((point, gauge), target) in points.iter().zip(means).zip(CALIBRATION_TARGETS) {
         let (reference, target) = (kgf(point.reference), kgf(target));
         // The operator keyed the gauge in to 0.1 kgf; the machine pulled the raw reading to
         // about the point's target, and the uncalibrated sensor reads ≈ 0.7 kgf low there.

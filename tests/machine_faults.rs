@@ -536,6 +536,44 @@ fn machine_notice_n02_calibration_rejected() {
     assert_eq!(rig.machine().record().calibration, None, "the old calibration is kept");
 }
 
+/// REQ-CAL-06: the second pass must agree with the first. An operator who keys the gauge's
+/// reading faithfully in the first pass and half a kilogram too high at the third point of
+/// the second gets n-02 and keeps the old calibration; the passes are labelled `CAL1`…
+/// and `C2-1`…, with a release home between them.
+#[test]
+fn machine_notice_n02_calibration_passes_disagree() {
+    let mut rig = Rig::nominal(StringKind::TennisSynthetic);
+    rig.expect_state(MachineState::CalibrationWindow, 5_000);
+    rig.press(Key::Function);
+    for point in 0..8u8 {
+        let label: &[u8; 4] = match point {
+            0 => b"CAL1",
+            3 => b"CAL4",
+            4 => b"C2-1",
+            7 => b"C2-4",
+            _ => b"    ",
+        };
+        if label != b"    " {
+            rig.expect_state(MachineState::CalibrationPull { point }, 30_000);
+            assert_eq!(rig.outputs().display, panel::text(label), "reading {point}");
+        }
+        if point == 4 {
+            assert!(rig.visited(MachineState::Releasing), "no release between the passes");
+        }
+        rig.expect_state(MachineState::CalibrationEntry { point }, 30_000);
+        let gauge = rig.twin_mut().reference_gauge();
+        let slip = if point == 6 { 0.5 } else { 0.0 };
+        rig.key_in_hundredths(((gauge + slip) * 100.0).round() as i32);
+        rig.press(Key::Start);
+        if point == 6 {
+            break;
+        }
+    }
+    rig.expect_state(MachineState::Ready, 30_000);
+    assert_eq!(rig.outputs().display, panel::notice(2));
+    assert_eq!(rig.machine().record().calibration, None, "the old calibration is kept");
+}
+
 #[test]
 fn machine_calibration_abort_by_key() {
     let mut rig = Rig::nominal(StringKind::TennisSynthetic);

@@ -28,7 +28,8 @@ fn boot_and_calibrate(config: &TwinConfig) -> Rig {
     rig.expect_state(MachineState::CalibrationWindow, 5_000);
     assert_eq!(rig.outputs().display, panel::text(b"CAL?"));
     rig.press(Key::Function);
-    for point in 0..4u8 {
+    // Two passes over the four points (REQ-CAL-06), homing in between.
+    for point in 0..8u8 {
         rig.expect_state(MachineState::CalibrationEntry { point }, 30_000);
         // The operator reads the reference gauge and keys its reading in (to 0.01 kg).
         let gauge = rig.twin_mut().reference_gauge();

@@ -48,7 +48,7 @@ use taut_core::machine::{
     AfterRelease, Checkpoint, FaultCode, KeyPad, Machine, MachineState, Recovery, View,
     hold_adjustment, hold_target, panel, safety::TensionWatch,
 };
-use taut_core::sense::calibration::CALIBRATION_POINTS;
+use taut_core::sense::calibration::CALIBRATION_READINGS;
 use taut_core::settings::{TENSION_MAX, TENSION_MIN, Unit};
 use taut_core::store::Record;
 use taut_core::units::{AdcCode, Kgf, Volts};
@@ -138,8 +138,9 @@ pub struct CheckpointInput {
     pub start_end: bool,
     /// Calibration entry value, hundredths of a kg.
     pub entered: u16,
-    /// Releasing: to Ready (false) or to the calibration window (true).
-    pub to_window: bool,
+    /// Releasing: to Ready (0), to the calibration window (1) or to the calibration's next
+    /// pass (2), modulo 3.
+    pub then: u8,
     /// Fault: recovery by self-test (true) or home (false).
     pub self_test: bool,
     /// Fault: clear-attempt ticks left.
@@ -187,19 +188,19 @@ pub const STATE_KINDS: u8 = MachineState::KINDS.len() as u8;
 )]
 const LOG_ENTRIES: u8 = taut_core::machine::PULL_LOG_CAPACITY as u8;
 
-/// The calibration's point count as the checkpoint's index type.
+/// The calibration's reading count (its points in both passes) as the checkpoint's index type.
 #[expect(
     clippy::cast_possible_truncation,
-    reason = "a handful of points (the record's layout allows five); a const item cannot use try_from"
+    reason = "a handful of readings (the record's layout allows five points, two passes); a const item cannot use try_from"
 )]
-const CALIBRATION_POINTS_U8: u8 = CALIBRATION_POINTS as u8;
+const CALIBRATION_READINGS_U8: u8 = CALIBRATION_READINGS as u8;
 
 impl CheckpointInput {
     /// The checkpoint, built through the machine's constructors. Not every input gives a
     /// valid checkpoint: check [`Checkpoint::is_valid`].
     #[must_use]
     pub fn checkpoint(&self) -> Checkpoint {
-        let point = self.index % CALIBRATION_POINTS_U8;
+        let point = self.index % CALIBRATION_READINGS_U8;
         const CODES: usize = FaultCode::ALL.len();
         let code_index = usize::from(self.index) % CODES;
         let code = FaultCode::ALL.get(code_index).copied().unwrap_or(FaultCode::LimitsBoth);
@@ -237,10 +238,10 @@ impl CheckpointInput {
             start_steps: self.start_steps,
             start_limits: LimitSwitches { home: self.start_home, end: self.start_end },
             entered_hundredths: self.entered,
-            then: if self.to_window {
-                AfterRelease::CalibrationWindow
-            } else {
-                AfterRelease::Ready
+            then: match self.then % 3 {
+                0 => AfterRelease::Ready,
+                1 => AfterRelease::CalibrationWindow,
+                _ => AfterRelease::NextPass,
             },
             recovery: if self.self_test { Recovery::SelfTest } else { Recovery::Home },
             clearing: self.clearing,
@@ -678,7 +679,11 @@ mod verification {
             start_steps: kani::any(),
             start_limits: LimitSwitches { home: kani::any(), end: kani::any() },
             entered_hundredths: kani::any(),
-            then: if kani::any() { AfterRelease::Ready } else { AfterRelease::CalibrationWindow },
+            then: match kani::any::<u8>() % 3 {
+                0 => AfterRelease::Ready,
+                1 => AfterRelease::CalibrationWindow,
+                _ => AfterRelease::NextPass,
+            },
             recovery: if kani::any() { Recovery::Home } else { Recovery::SelfTest },
             clearing: kani::any(),
             view,

@@ -54,7 +54,7 @@ use std::collections::{HashMap, HashSet, VecDeque};
 use taut_core::drive::limit::CurrentSense;
 use taut_core::drive::{Direction, DriveCommand, DriveFault, DriveStatus, DriveTime};
 use taut_core::io::{Inputs, Key as PanelKey, Keys, LimitSwitches, Outputs};
-use taut_core::machine::{MachineState, View, safety};
+use taut_core::machine::{MachineState, View, point_of_reading, safety};
 use taut_core::sense::calibration::CALIBRATION_TARGETS;
 use taut_core::sense::load_cell::LoadCellScale;
 use taut_core::units::{AdcCode, Kgf, Volts};
@@ -288,7 +288,7 @@ impl World {
     fn target(&self) -> Kgf {
         match self.machine.state() {
             MachineState::CalibrationPull { point } | MachineState::CalibrationEntry { point } => {
-                CALIBRATION_TARGETS.get(usize::from(point)).copied().unwrap_or(Kgf::ZERO)
+                CALIBRATION_TARGETS.get(point_of_reading(point)).copied().unwrap_or(Kgf::ZERO)
             }
             _ => self.machine.record().settings.set_point().to_kgf(),
         }

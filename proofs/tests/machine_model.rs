@@ -10,7 +10,7 @@
 )]
 
 use taut_core::machine::{MachineState, View};
-use taut_core::sense::calibration::CALIBRATION_POINTS;
+use taut_core::sense::calibration::CALIBRATION_READINGS;
 use taut_proofs::machine_model::{Env, explore};
 
 /// Large enough that the exploration finishes on its own (the run asserts it did).
@@ -36,7 +36,7 @@ fn machine_model_check() {
     );
     // The flow of the paper is in the explored space: every kind of state, the calibration
     // through its last point (faults are reached by their own actions, checked above).
-    let last = u8::try_from(CALIBRATION_POINTS - 1).unwrap_or(u8::MAX);
+    let last = u8::try_from(CALIBRATION_READINGS - 1).unwrap_or(u8::MAX);
     for kind in MachineState::KINDS {
         let state = match kind {
             MachineState::CalibrationPull { .. } => MachineState::CalibrationPull { point: last },

@@ -33,14 +33,20 @@ fn checkpoints() -> Vec<CheckpointInput> {
     for state in 0..STATE_KINDS {
         let indices: &[u8] = if state == 10 {
             &[0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18]
+        } else if state == 4 || state == 5 {
+            // The calibration's readings: four points in two passes.
+            &[0, 1, 2, 3, 4, 5, 6, 7]
         } else {
             &[0, 1, 2, 3]
         };
         for &index in indices {
             for elapsed in [0, 63, 1_499, 4_999, 39_999] {
-                for (release, to_window, self_test, clearing) in
-                    [(false, false, false, 0), (true, true, true, 1), (false, true, false, 100)]
-                {
+                for (release, then, self_test, clearing) in [
+                    (false, 0, false, 0),
+                    (true, 1, true, 1),
+                    (false, 1, false, 100),
+                    (true, 2, false, 0),
+                ] {
                     let input = CheckpointInput {
                         state,
                         index,
@@ -50,7 +56,7 @@ fn checkpoints() -> Vec<CheckpointInput> {
                         start_home: release,
                         start_end: false,
                         entered: 1_000,
-                        to_window,
+                        then,
                         self_test,
                         clearing,
                         view: index,
@@ -159,7 +165,7 @@ fn any_checkpoint() -> impl Strategy<Value = CheckpointInput> {
             any::<bool>(),
             any::<bool>(),
         ),
-        (400u16..6_000, any::<bool>(), any::<bool>(), 0u16..120, any::<u8>(), 0u16..420, 0u16..600),
+        (400u16..6_000, any::<u8>(), any::<bool>(), 0u16..120, any::<u8>(), 0u16..420, 0u16..600),
         (
             prop::array::uniform4(0u8..25),
             any::<bool>(),
@@ -177,7 +183,7 @@ fn any_checkpoint() -> impl Strategy<Value = CheckpointInput> {
             start_home: a.5,
             start_end: a.6,
             entered: b.0,
-            to_window: b.1,
+            then: b.1,
             self_test: b.2,
             clearing: b.3,
             view: b.4,

@@ -719,7 +719,7 @@ pub fn bang_bang_reach_time(config: &TwinConfig, target_kgf: f64, limit_ms: u32)
 #[allow(clippy::unwrap_used, clippy::expect_used, reason = "a panic is how a test fails")]
 mod tests {
     use super::*;
-    use taut_core::sense::calibration::CALIBRATION_POINTS;
+    use taut_core::sense::calibration::CALIBRATION_READINGS;
 
     #[test]
     fn oracle_reaches_the_target_without_tripping_and_scales_with_slack() {
@@ -747,7 +747,7 @@ mod tests {
     fn commissioning_calibrates_through_the_machine_and_the_controller_bench_uses_it() {
         let config = factory_config(&TwinConfig::nominal(StringKind::TennisSynthetic));
         let done = commission(&config, true, &mut |_| {}).expect("commissioned");
-        assert_eq!(done.gauge_readings.len(), CALIBRATION_POINTS);
+        assert_eq!(done.gauge_readings.len(), CALIBRATION_READINGS);
         assert!(done.record.calibration.is_some());
         let calibration = calibration_of(&done.record);
         assert_ne!(calibration, Calibration::IDENTITY);

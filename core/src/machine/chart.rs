@@ -42,7 +42,8 @@ use crate::machine::safety::{self, TensionSample, TensionWatch};
 use crate::machine::string::StringProbe;
 use crate::machine::{Checkpoint, MachineState};
 use crate::sense::calibration::{
-    CALIBRATION_POINTS, CALIBRATION_TARGETS, Calibration, CalibrationPoint, CalibrationPoints,
+    CALIBRATION_POINTS, CALIBRATION_READINGS, CALIBRATION_TARGETS, Calibration, CalibrationError,
+    CalibrationPoint, CalibrationPoints, merge_passes,
 };
 use crate::sense::load_cell::LoadCellScale;
 use crate::settings::{
@@ -243,6 +244,9 @@ pub enum AfterRelease {
     CalibrationWindow,
     /// After a pull, an abort or a fault: Ready.
     Ready,
+    /// Between the calibration's passes: the second pass's first point
+    /// (`calibration_pull(CALIBRATION_POINTS)`).
+    NextPass,
 }
 
 /// The page the Ready panel shows.
@@ -599,11 +603,18 @@ impl Chart {
     }
 }
 
-/// The controller settings for calibration point `point` (0–3): its target by the raw
-/// reading, [`CALIBRATION_SPEED`], no pre-stretch.
+/// The index into the points (0–3) of calibration reading `reading` (0–7: two passes).
 #[must_use]
-pub fn calibration_settings(point: u8) -> PullSettings {
-    let target = CALIBRATION_TARGETS.get(usize::from(point)).copied().unwrap_or(Kgf::from_int(10));
+pub fn point_of_reading(reading: u8) -> usize {
+    usize::from(reading).checked_rem(CALIBRATION_POINTS).unwrap_or(0)
+}
+
+/// The controller settings for calibration reading `reading` (0–7: the points 0–3 in two
+/// passes): its point's target by the raw reading, [`CALIBRATION_SPEED`], no pre-stretch.
+#[must_use]
+pub fn calibration_settings(reading: u8) -> PullSettings {
+    let target =
+        CALIBRATION_TARGETS.get(point_of_reading(reading)).copied().unwrap_or(Kgf::from_int(10));
     let speed = Speed::new(CALIBRATION_SPEED).unwrap_or(Speed::MIN);
     PullSettings::new(target, speed, PreStretch::NONE, KnotBoost::NONE).unwrap_or_default()
 }
@@ -617,9 +628,15 @@ pub fn tension_display(tension: Kgf, unit: Unit) -> crate::io::Display {
     }
 }
 
-/// The 1-based label digit of calibration point `point`.
-const fn point_label(point: u8) -> [u8; 4] {
-    [b'C', b'A', b'L', b'1'.saturating_add(point)]
+/// The label of calibration reading `reading`: `CAL1`…`CAL4` in the first pass, `C2-1`…
+/// `C2-4` in the second.
+fn point_label(reading: u8) -> [u8; 4] {
+    let digit = b'1'.saturating_add(u8::try_from(point_of_reading(reading)).unwrap_or(0));
+    if usize::from(reading) < CALIBRATION_POINTS {
+        [b'C', b'A', b'L', digit]
+    } else {
+        [b'C', b'2', b'-', digit]
+    }
 }
 
 /// Whether a pull is still taking up slack: below half its peak target, where the carriage
@@ -884,7 +901,8 @@ impl Chart {
     fn enter_calibration_pull(&mut self, context: &mut Context, point: &mut u8) {
         let settings = calibration_settings(*point);
         self.controller.start(&settings, PullKind::Main);
-        if *point == 0 {
+        if point_of_reading(*point) == 0 {
+            // Each pass starts from home.
             self.begin_pull(context, settings.peak_target(PullKind::Main));
         } else {
             // Keep the watch (the string stays loaded between points); raise the overload
@@ -1120,7 +1138,9 @@ impl Chart {
         let Tick(sample) = event;
         match then {
             AfterRelease::CalibrationWindow => context.out.display = panel::text(b"HOnE"),
-            AfterRelease::Ready => self.show_working_tension(context, sample),
+            AfterRelease::Ready | AfterRelease::NextPass => {
+                self.show_working_tension(context, sample);
+            }
         }
         context.out.leds = self.unit_leds();
         *elapsed = elapsed.saturating_add(1);
@@ -1128,6 +1148,11 @@ impl Chart {
             Some(match then {
                 AfterRelease::CalibrationWindow => State::calibration_window(0),
                 AfterRelease::Ready => State::ready(View::Tension),
+                AfterRelease::NextPass => State::calibration_pull(
+                    u8::try_from(CALIBRATION_POINTS).unwrap_or(u8::MAX),
+                    0,
+                    0,
+                ),
             })
         } else if *elapsed >= RELEASE_TIMEOUT {
             Some(State::fault(FaultCode::ReleaseTimeout, self.recovery(), 0))
@@ -1218,20 +1243,43 @@ pub fn fault_persists(code: FaultCode, inputs: &Inputs) -> bool {
 }
 
 impl Chart {
-    /// Records calibration point `point` and proposes the next step.
-    fn confirm_point(&mut self, context: &mut Context, raw: Kgf, point: u8, entered: u16) -> State {
-        if let Some(slot) = self.calibration_points.get_mut(usize::from(point)) {
-            *slot = CalibrationPoint {
-                raw,
-                reference: Kgf::from_hundredths(i32::from(entered.min(ENTRY_MAX))),
-            };
-        }
-        let next_point = point.saturating_add(1);
-        if usize::from(next_point) < CALIBRATION_POINTS {
-            return State::calibration_pull(next_point, 0, 0);
-        }
-        match Calibration::new(&self.calibration_points) {
-            Ok(calibration) => {
+    /// Records calibration reading `reading` (its point in the first pass; merged into it in
+    /// the second, REQ-CAL-06) and proposes the next step: the next point, home between the
+    /// passes, or — after the last reading, or at the first reading that cannot be right —
+    /// home to Ready with the calibration stored or refused (`n-02`, the old one kept).
+    fn confirm_point(
+        &mut self,
+        context: &mut Context,
+        raw: Kgf,
+        reading: u8,
+        entered: u16,
+    ) -> State {
+        let taken = CalibrationPoint {
+            raw,
+            reference: Kgf::from_hundredths(i32::from(entered.min(ENTRY_MAX))),
+        };
+        let first_pass = usize::from(reading) < CALIBRATION_POINTS;
+        let merged = match self.calibration_points.get_mut(point_of_reading(reading)) {
+            Some(slot) if first_pass => {
+                *slot = taken;
+                Ok(())
+            }
+            Some(slot) => merge_passes(*slot, taken).map(|point| *slot = point),
+            None => Err(CalibrationError::NotMonotonic),
+        };
+        let next = reading.saturating_add(1);
+        let fitted = merged.and_then(|()| {
+            // The first pass is checked on its own before the second starts: a mistyped
+            // reading is refused now, not after four more pulls.
+            let pass_done = point_of_reading(next) == 0;
+            if pass_done { Calibration::new(&self.calibration_points).map(Some) } else { Ok(None) }
+        });
+        match fitted {
+            Ok(None) => return State::calibration_pull(next, 0, 0),
+            Ok(Some(_)) if usize::from(next) < CALIBRATION_READINGS => {
+                return State::releasing(0, AfterRelease::NextPass);
+            }
+            Ok(Some(calibration)) => {
                 self.calibration = calibration;
                 self.record.calibration = Some(self.calibration_points);
                 self.dirty = true;
@@ -1490,7 +1538,9 @@ pub(crate) fn public_state(state: &State) -> MachineState {
         State::SelfTest { .. } => MachineState::SelfTest,
         State::MotorTest { .. } => MachineState::MotorTest,
         State::Releasing { then: AfterRelease::CalibrationWindow, .. } => MachineState::Homing,
-        State::Releasing { then: AfterRelease::Ready, .. } => MachineState::Releasing,
+        State::Releasing { then: AfterRelease::Ready | AfterRelease::NextPass, .. } => {
+            MachineState::Releasing
+        }
         State::CalibrationWindow { .. } => MachineState::CalibrationWindow,
         State::CalibrationPull { point, .. } => MachineState::CalibrationPull { point: *point },
         State::CalibrationEntry { point, .. } => MachineState::CalibrationEntry { point: *point },

@@ -53,7 +53,7 @@ pub use chart::{
     MOTOR_TEST_DUTY, MOTOR_TEST_STEPS, MOTOR_TEST_TIMEOUT, PULL_TIMEOUT, PULL_TIMEOUT_APPROACH_MS,
     PULL_TIMEOUT_TRAVEL_MM, RELEASE_TIMEOUT, Recovery, SELF_TEST_SETTLE, SELF_TEST_TICKS,
     SERVICE_ITEMS, STORE_DELAY, StringingTimer, VIEW_TIMEOUT, View, calibration_settings,
-    fault_persists, hold_adjustment, hold_target, pull_timeout, tension_display,
+    fault_persists, hold_adjustment, hold_target, point_of_reading, pull_timeout, tension_display,
 };
 pub use fault::{FaultCode, Notice};
 pub use log::{LoggedKgf, PULL_LOG_CAPACITY, PullLog, PullRecord};
@@ -81,14 +81,14 @@ pub enum MachineState {
     Homing,
     /// Waiting for the calibration key after the self-test.
     CalibrationWindow,
-    /// Pulling to calibration point `point` (0–3: 10, 20, 30, 40 kgf).
+    /// Pulling to calibration reading `point` (0–7: 10, 20, 30, 40 kgf, in two passes).
     CalibrationPull {
-        /// 0-based point.
+        /// 0-based reading: the point is `point % 4`, the pass `point / 4`.
         point: u8,
     },
-    /// Holding calibration point `point` while the operator keys in the reference reading.
+    /// Holding calibration reading `point` while the operator keys in the reference reading.
     CalibrationEntry {
-        /// 0-based point.
+        /// 0-based reading: the point is `point % 4`, the pass `point / 4`.
         point: u8,
     },
     /// Idle, showing and adjusting the settings.
@@ -230,7 +230,7 @@ impl Checkpoint {
     }
 
     /// The invariant of everything but the key pad (whose own is [`KeyPad::is_valid`]):
-    /// calibration points 0–3, entered value 50–550, a page's indices within their lists
+    /// calibration readings 0–7 (the four points in two passes), entered value 50–550, a page's indices within their lists
     /// ([`View::is_valid`]), a hold adjustment
     /// within ±[`HOLD_ADJUST_MAX`], clear attempt within its length, a tare inside the load
     /// cell's zero band, a valid tension watch.
@@ -238,7 +238,7 @@ impl Checkpoint {
     pub fn chart_is_valid(&self) -> bool {
         let point_ok = match self.state {
             MachineState::CalibrationPull { point } | MachineState::CalibrationEntry { point } => {
-                usize::from(point) < crate::sense::calibration::CALIBRATION_POINTS
+                usize::from(point) < crate::sense::calibration::CALIBRATION_READINGS
             }
             _ => true,
         };

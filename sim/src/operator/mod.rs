@@ -16,7 +16,8 @@
 //! hooked in on its cord in place of the string — [`StringParams::calibration_fixture`] — and
 //! Function; at each
 //! point the machine pulls by its raw reading, the operator reads the reference gauge for
-//! [`GAUGE_READ_MS`] and keys the value in with Up/Down, then Start) or skip it (Start); toggle
+//! [`GAUGE_READ_MS`] and keys the value in with Up/Down, then Start — eight times: the
+//! machine takes its four points in two passes, homing in between on its own) or skip it (Start); toggle
 //! knot mode (Function held); walk the settings menu with Function (speed, pre-stretch, knot
 //! %, unit) setting each page with Up/Down; key the tension on the tension page; then, if the
 //! plan pulls, press Start, wait for the holding lamp, hold for the planned time and press
@@ -33,7 +34,7 @@ pub mod display;
 
 use taut_core::io::{Display, Key, Keys, Outputs};
 use taut_core::machine::panel::text as panel_text;
-use taut_core::sense::calibration::CALIBRATION_POINTS;
+use taut_core::sense::calibration::CALIBRATION_READINGS;
 use taut_core::settings::{KnotBoost, PreStretch, SetPoint, Settings, Unit};
 
 use crate::params::StringParams;
@@ -350,7 +351,7 @@ impl Operator {
                 Some(value) => {
                     if self.adjust(twin, value, hundredths, 1) {
                         self.tap(twin, Key::Start);
-                        if usize::from(point) + 1 >= CALIBRATION_POINTS {
+                        if usize::from(point) + 1 >= CALIBRATION_READINGS {
                             Step::AwaitHomeAfterCalibration { since: None }
                         } else {
                             Step::AwaitReferenceRequest { point: point + 1 }

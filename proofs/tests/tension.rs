@@ -25,9 +25,10 @@ use taut_core::tension::slip::SlipState;
 use taut_core::units::{Kgf, KgfPerSecond, Q16};
 use taut_proofs::tension::{
     EstimatorCase, LawCase, SlipCase, StepCase, controller_step_bounded, controller_step_checked,
-    estimator_step_bounded, force_to_duty_bounded, hold_observer_gain_bounded, hold_state,
-    reciprocal_accurate, reciprocal_total, retarget_keeps_the_target_in_range, rsmc_step_bounded,
-    slip_damper_bounded, take_up_observation_keeps_the_profile_valid,
+    estimator_step_bounded, force_to_duty_bounded, hold_observer_gain_bounded,
+    hold_observer_gain_monotonic, hold_state, reciprocal_accurate, reciprocal_total,
+    retarget_keeps_the_target_in_range, rsmc_step_bounded, slip_damper_bounded,
+    take_up_observation_keeps_the_profile_valid,
 };
 use taut_proofs::tension_reference::{TrackStep, coefficient_errors, law_tracks_reference};
 
@@ -228,6 +229,7 @@ proptest! {
     #[test]
     fn hold_observer_gain_bounded_sampled(floor in any::<i32>(), stiffness in any::<i32>()) {
         hold_observer_gain_bounded(floor, stiffness);
+        hold_observer_gain_monotonic(floor, stiffness);
     }
 
     /// Mirror of `verify_slip_damper_bounded` (Kani).

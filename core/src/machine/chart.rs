@@ -1632,11 +1632,111 @@ mod tests {
 
     #[test]
     fn calibration_settings_pull_to_the_four_points() {
-        for (point, target) in (0u8..).zip(CALIBRATION_TARGETS.iter()) {
-            let settings = calibration_settings(point);
-            assert_eq!(settings.tension(), *target);
-            assert_eq!(settings.peak_target(PullKind::Main), *target);
+        // Both passes: readings 0–3 and 4–7 pull to the same four points.
+        for reading in 0..8_u8 {
+            let target = CALIBRATION_TARGETS.get(usize::from(reading % 4)).copied();
+            let settings = calibration_settings(reading);
+            assert_eq!(Some(settings.tension()), target, "reading {reading}");
+            assert_eq!(Some(settings.peak_target(PullKind::Main)), target);
         }
+        let labels: [[u8; 4]; 8] =
+            core::array::from_fn(|r| point_label(u8::try_from(r).unwrap_or(0)));
+        assert_eq!(
+            labels,
+            [*b"CAL1", *b"CAL2", *b"CAL3", *b"CAL4", *b"C2-1", *b"C2-2", *b"C2-3", *b"C2-4"]
+        );
+    }
+
+    /// Confirms calibration reading `reading` with the raw reading `raw` and the keyed
+    /// `entered` (hundredths); returns the proposed state and whether it asked to store.
+    fn confirm(chart: &mut Chart, reading: u8, raw: i32, entered: i32) -> (State, bool) {
+        let mut context = Context::new(Sample::default());
+        let entered = u16::try_from(entered).unwrap_or(0);
+        let next = chart.confirm_point(&mut context, Kgf::from_hundredths(raw), reading, entered);
+        (next, context.out.store)
+    }
+
+    /// The hundredths of calibration reading `reading`'s target.
+    fn target_hundredths(reading: u8) -> i32 {
+        1_000 * (i32::from(reading % 4) + 1)
+    }
+
+    /// REQ-CAL-06: the eight readings — the first pass kept point by point, checked at its
+    /// end and sent home for the second; the second merged into the first; after the eighth
+    /// the merged points are fitted and stored.
+    #[test]
+    fn a_calibration_takes_two_passes_and_stores_their_means() {
+        let mut chart = Chart::new(Record::default());
+        for reading in 0..8_u8 {
+            // Raw 0.50 low in the first pass and 0.46 low in the second; the gauge 0.04
+            // above the target in the first pass, 0.02 in the second.
+            let target = target_hundredths(reading);
+            let (raw, entered) =
+                if reading < 4 { (target - 50, target + 4) } else { (target - 46, target + 2) };
+            let (next, store) = confirm(&mut chart, reading, raw, entered);
+            let expected = match reading {
+                3 => State::releasing(0, AfterRelease::NextPass),
+                7 => State::releasing(0, AfterRelease::Ready),
+                r => State::calibration_pull(r.saturating_add(1), 0, 0),
+            };
+            assert_eq!(next, expected, "after reading {reading}");
+            assert_eq!(store, reading == 7, "stored after reading {reading}");
+            assert_eq!(chart.record.calibration.is_some(), reading == 7);
+        }
+        assert_eq!(chart.notice, None);
+        let mean = |a: i32, b: i32| {
+            (Kgf::from_hundredths(a).to_bits() + Kgf::from_hundredths(b).to_bits()) >> 1
+        };
+        let Some(stored) = chart.record.calibration else { panic!("nothing stored") };
+        for (point, stored) in (0_u8..).zip(stored) {
+            let target = target_hundredths(point);
+            assert_eq!(stored.raw.to_bits(), mean(target - 50, target - 46), "point {point}");
+            assert_eq!(stored.reference.to_bits(), mean(target + 4, target + 2), "point {point}");
+        }
+        assert_eq!(chart.calibration.points(), &stored);
+        // Home between the passes: the second pass's first point.
+        let home = Sample {
+            inputs: Inputs {
+                limits: LimitSwitches { home: true, end: false },
+                ..Inputs::default()
+            },
+            ..Sample::default()
+        };
+        let mut context = Context::new(home);
+        let _ = chart.releasing(&mut context, &Tick(home), &mut 0, &mut AfterRelease::NextPass);
+        assert_eq!(context.next, Some(State::calibration_pull(4, 0, 0)));
+    }
+
+    /// REQ-CAL-06: a second pass 0.30 kgf off the first at one point is refused (n-02, the
+    /// old calibration kept, home to Ready); so is a first pass that cannot be fitted, at its
+    /// fourth reading, before a second pass starts.
+    #[test]
+    fn a_calibration_whose_passes_disagree_or_whose_first_pass_is_wrong_is_refused() {
+        let mut chart = Chart::new(Record::default());
+        for reading in 0..7_u8 {
+            let target = target_hundredths(reading);
+            let entered = if reading == 6 { target + 30 } else { target };
+            let (next, store) = confirm(&mut chart, reading, target - 50, entered);
+            let refused = reading == 6;
+            if refused || reading == 3 {
+                let then = if refused { AfterRelease::Ready } else { AfterRelease::NextPass };
+                assert_eq!(next, State::releasing(0, then), "after reading {reading}");
+            }
+            assert!(!store);
+            assert_eq!(chart.notice.is_some(), refused, "after reading {reading}");
+        }
+        assert_eq!(chart.notice, Some(Notice::CalibrationRejected));
+        assert_eq!(chart.record.calibration, None);
+        // A first pass keyed 20.00 at every point: refused at its end.
+        let mut chart = Chart::new(Record::default());
+        for reading in 0..4_u8 {
+            let (next, _) = confirm(&mut chart, reading, target_hundredths(reading) - 50, 2_000);
+            if reading == 3 {
+                assert_eq!(next, State::releasing(0, AfterRelease::Ready));
+            }
+        }
+        assert_eq!(chart.notice, Some(Notice::CalibrationRejected));
+        assert_eq!(chart.record.calibration, None);
     }
 
     #[test]

@@ -3,7 +3,9 @@
 //! The control tick publishes the core's display and lamps every millisecond through
 //! [`PANEL`]; [`refresher`] shows the newest each time it finishes the previous transfer
 //! (≈ 1.2 ms of bit-banging at 100 kHz), so the panel lags the machine by at most ~2 ms and
-//! the bit-banging never runs inside an interrupt.
+//! the bit-banging never runs inside an interrupt. Since a transfer outlasts a tick, a new
+//! state is always waiting; the refresher yields after each transfer so that the executor's
+//! other task, the settings writer, still runs.
 
 use embassy_stm32::Peri;
 use embassy_stm32::gpio::{Level, OutputOpenDrain, Speed};
@@ -41,5 +43,10 @@ pub async fn refresher(clock: Peri<'static, PB5>, data: Peri<'static, PB9>) {
         if panel.show(&display, leds, Brightness::MAX).is_err() {
             taut_firmware::warn!("panel: TM1637 did not acknowledge");
         }
+        // A transfer takes longer than a tick, so the next panel state is always waiting
+        // and `wait` never suspends: without this yield the refresher would hold the
+        // executor for good and the settings writer would never run (found on the emulated
+        // part, `pil/`).
+        embassy_futures::yield_now().await;
     }
 }

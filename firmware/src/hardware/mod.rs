@@ -62,7 +62,23 @@ const _: () = assert!(
 /// ≈ 0.9 KB of stack, which must not sit under the machine's construction in [`start_up`].
 #[inline(never)]
 fn peripherals() -> embassy_stm32::Peripherals {
+    range_one_boost();
     embassy_stm32::init(clocks())
+}
+
+/// Puts the main regulator in range 1 boost mode, which 170 MHz needs (RM0440 section 6.1.5:
+/// above 150 MHz; the sequence wants it before the clock is raised, which `embassy_stm32::init`
+/// does next). embassy-stm32's own `boost` setting writes `PWR_CR5` through stm32-metapac,
+/// which places `R1MODE` at bit 0; RM0440 (section 6.4.5, reset value 0x0000 0100) has it at
+/// bit 8, so that write leaves the regulator in normal mode, where 170 MHz is out of
+/// specification. The emulated part's clock model (`pil/`) found it. The PWR interface needs
+/// its bus clock for the write.
+fn range_one_boost() {
+    /// `RCC_APB1ENR1.PWREN`.
+    const PWREN: u32 = 1 << 28;
+    embassy_stm32::pac::RCC.apb1enr1().modify(|w| w.0 |= PWREN);
+    // R1MODE (bit 8) = 0: boost; every other bit of PWR_CR5 is reserved (reset 0).
+    embassy_stm32::pac::PWR.cr5().write_value(embassy_stm32::pac::pwr::regs::Cr5(0));
 }
 
 fn clocks() -> Config {

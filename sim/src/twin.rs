@@ -195,6 +195,21 @@ struct ActiveFaults {
     short: Option<(Phase, u8)>,
 }
 
+/// What the board's pins see, for a bench that runs the firmware itself ([`Twin::pins`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pins {
+    /// The Hall lines' code as wired (stuck lines included).
+    pub hall: HallCode,
+    /// The limit switches as wired (`true` = actuated).
+    pub limits: LimitSwitches,
+    /// The overcurrent comparator fired in the last period.
+    pub comparator: bool,
+    /// The current amplifier's code of the last period's on-time sample (5 V meaning).
+    pub current: AdcCode,
+    /// The DC bus voltage, V.
+    pub bus_volts: f64,
+}
+
 /// The physical state, which the sensors only approximate.
 #[derive(Clone, Copy, PartialEq, Debug)]
 pub struct Truth {
@@ -728,6 +743,18 @@ impl Twin {
 
     /// One millisecond of physics: twenty PWM periods, then the sensors are sampled.
     pub fn advance_tick(&mut self) {
+        self.begin_tick();
+        // Constant bound: PERIODS_PER_TICK (20) PWM periods.
+        for _ in 0..PERIODS_PER_TICK {
+            self.pwm_period();
+        }
+        self.end_tick();
+    }
+
+    /// The start of a tick when the bridge is driven from outside (a processor-in-the-loop
+    /// bench running the firmware itself): scheduled faults land, the tick's sums restart.
+    /// Then [`Twin::external_period`] once per PWM period, then [`Twin::end_tick`].
+    pub fn begin_tick(&mut self) {
         while let Some(&(at, fault)) = self.scheduled.first() {
             if at > self.ticks {
                 break;
@@ -736,10 +763,11 @@ impl Twin {
             self.inject(fault);
         }
         self.sums = TickSums::default();
-        // Constant bound: PERIODS_PER_TICK (20) PWM periods.
-        for _ in 0..PERIODS_PER_TICK {
-            self.pwm_period();
-        }
+    }
+
+    /// The end of a tick begun with [`Twin::begin_tick`]: the key events due, the sensors
+    /// sampled into [`Twin::inputs`].
+    pub fn end_tick(&mut self) {
         self.ticks = self.ticks.wrapping_add(1);
         while let Some(&(at, keys)) = self.key_events.first() {
             if at > self.ticks {
@@ -835,7 +863,6 @@ impl Twin {
 
     /// One PWM period of the fast loop and the physics.
     fn pwm_period(&mut self) {
-        let dt = PWM_PERIOD_S;
         let theta_e = self.theta_e_deg();
         let hall = &self.config.hall;
         let true_hall = hall_code_placed(theta_e, hall.offset_deg, hall.sensor_offsets_deg);
@@ -850,6 +877,48 @@ impl Twin {
         };
         let out = self.drive.step(sample);
         let duty = f64::from(out.duty.raw()) / f64::from(DUTY_ONE);
+        self.bridge_period(out.pattern, duty);
+    }
+
+    /// What the board's pins see now, for a bench that drives the bridge from outside: the
+    /// Hall lines as wired (stuck lines included; the firmware votes its own reads), the
+    /// limit switches as wired, the overcurrent comparator's output of the last period, the
+    /// current amplifier's code of the last period's on-time sample, and the true bus voltage.
+    #[must_use]
+    pub fn pins(&self) -> Pins {
+        let theta_e = self.theta_e_deg();
+        let hall = &self.config.hall;
+        let mut raw = hall_code_placed(theta_e, hall.offset_deg, hall.sensor_offsets_deg).raw();
+        for (stuck, mask) in self.faults.hall_stuck.iter().zip([0b100u8, 0b010, 0b001]) {
+            match stuck {
+                Some(true) => raw |= mask,
+                Some(false) => raw &= !mask,
+                None => {}
+            }
+        }
+        Pins {
+            hall: HallCode::from_raw(raw),
+            limits: self.wired_limits(),
+            comparator: self.comparator_flag,
+            current: self.current_code,
+            bus_volts: self.bus_volts,
+        }
+    }
+
+    /// One PWM period with the bridge driven from outside: `pattern` with its switched leg at
+    /// `duty` and `dead_time_s` at each of its rising edges (what a bench measured on the
+    /// gates), instead of taut-core's drive.
+    pub fn external_period(&mut self, pattern: SwitchPattern, duty: f64, dead_time_s: f64) {
+        let configured = self.circuit.dead_time;
+        self.circuit.dead_time = dead_time_s;
+        self.bridge_period(pattern, duty);
+        self.circuit.dead_time = configured;
+    }
+
+    /// The physics of one PWM period under a bridge pattern and duty.
+    fn bridge_period(&mut self, pattern: SwitchPattern, duty: f64) {
+        let dt = PWM_PERIOD_S;
+        let theta_e = self.theta_e_deg();
 
         // Electrical.
         let shape = emf_shape(theta_e, self.config.motor.emf_ramp_deg);
@@ -862,7 +931,7 @@ impl Twin {
             }
         }
         self.circuit.bus_volts = self.bus_volts;
-        let result = self.circuit.pwm_period(&mut self.currents, out.pattern, duty, emf, dt);
+        let result = self.circuit.pwm_period(&mut self.currents, pattern, duty, emf, dt);
         let (bus_volts, clamped) = self.next_bus_volts(result.bus_charge / dt, dt);
         self.bus_volts = bus_volts;
         self.bus_sense.convert(&mut self.rng_bus, self.bus_volts);
@@ -882,18 +951,17 @@ impl Twin {
         let measured = self.current_sense.sample_period(
             &mut self.rng_current,
             &result,
-            out.pattern,
+            pattern,
             dt,
             self.faults.current_open,
         );
         self.current_code = self.current_sense.code(measured);
         self.comparator_flag = result.comparator_tripped;
-        let driving = out.pattern.count(LegState::High) > 0;
-        self.last_commutated = driving
-            && self.last_pattern.count(LegState::High) > 0
-            && out.pattern != self.last_pattern;
+        let driving = pattern.count(LegState::High) > 0;
+        self.last_commutated =
+            driving && self.last_pattern.count(LegState::High) > 0 && pattern != self.last_pattern;
         self.last_switching = driving && result.on_time > 0.0 && duty < 1.0;
-        self.last_pattern = out.pattern;
+        self.last_pattern = pattern;
         self.last_duty = if driving { duty } else { 0.0 };
         let winding = result.mean_current.iter().map(|i| i.abs()).sum::<f64>() * 0.5;
         self.last_amps = winding;
@@ -902,7 +970,7 @@ impl Twin {
             Phase::ALL
                 .iter()
                 .zip(result.mean_current)
-                .filter(|(phase, _)| out.pattern.leg(**phase) == LegState::Low)
+                .filter(|(phase, _)| pattern.leg(**phase) == LegState::Low)
                 .map(|(_, i)| -i)
                 .sum::<f64>()
         } else {

@@ -1,0 +1,242 @@
+//! The processor-in-the-loop bench: the emulated G431 running the image, the digital twin
+//! around it, wired as the NUCLEO-G431RB + X-NUCLEO-IHM08M1 board is.
+//!
+//! Every 50 µs PWM period the bench puts the twin's signals on the part's pins — the Hall
+//! lines (PA15, PB3, PB10), the limit switches (PC10, PC11, high = actuated), the keys (PC6,
+//! PC7, PC8, PC12, PD2, low = pressed), the overcurrent comparator on the break input (PA6,
+//! low = trip), the string encoder's count on TIM4, and the analogue voltages at PA0 (current
+//! amplifier), PA1 (bus divider, gain 0.0522) and PB15 (load-cell amplifier through the
+//! 17.4 kΩ / 33.2 kΩ divider) — runs the CPU through the period, evaluates the six gates from
+//! TIM1 and the pins ([`crate::gates`]), checks them, and steps the twin's physics with the
+//! bridge those gates make. The firmware's own drive decides everything; the twin's copy of
+//! taut-core's drive is not used.
+//!
+//! The twin's analogue front ends produce the codes of taut-core's meaning (a 5 V converter);
+//! the bench turns them back into the board's pin voltages: the load cell's amplifier volts
+//! through the divider, the current amplifier's output at the level whose code on the G431's
+//! 3.3 V converter equals the twin's code (the board's amplifier gain is set for that), the
+//! bus through the board's divider.
+
+use taut_core::io::{Display, Keys, Leds, Outputs, Segments};
+use taut_sim::twin::{PERIODS_PER_TICK, Twin};
+
+use crate::gates::{self, Checker};
+use crate::mcu::Mcu;
+use crate::soc::Stop;
+
+/// CPU cycles per PWM period at 170 MHz.
+pub const PERIOD_CYCLES: u64 = 8_500;
+/// The CPU clock the bench counts in.
+pub const CPU_HZ: f64 = 170e6;
+/// The IHM08M1's bus divider.
+pub const BUS_DIVIDER: f64 = 0.0522;
+/// The load cell's divider, 33.2 / (17.4 + 33.2).
+pub const LOAD_CELL_DIVIDER: f64 = 33.2 / (17.4 + 33.2);
+
+/// The bench.
+pub struct Bench {
+    /// The part.
+    pub mcu: Mcu,
+    /// The twin.
+    pub twin: Twin,
+    /// The gate checks.
+    pub checker: Checker,
+    /// Periods run.
+    pub periods: u64,
+    last_hall: Option<u8>,
+    /// The Hall code of the previous period (the firmware may still be commutating on it
+    /// until its fast loop has run in this one).
+    previous_hall: taut_core::drive::HallCode,
+    /// Periods whose gates the twin's circuit could only approximate.
+    pub approximated: u64,
+    /// The comparator's input to the break: forced low (a trip) by a fault injection.
+    pub force_break: bool,
+    /// Keys held by a test on top of the operator's.
+    pub extra_keys: Keys,
+    /// The last cycle any gate was on.
+    last_gate_on: u64,
+    /// The current window's first cycle.
+    window_start: u64,
+    /// Print every window's gates (`TAUT_PIL_GATES`).
+    debug_gates: bool,
+}
+
+fn port_pin(port: char, pin: u8) -> (u8, u8) {
+    (port as u8 - b'A', pin)
+}
+
+impl Bench {
+    /// A bench around `twin` with the part `mcu` just reset.
+    pub fn new(mcu: Mcu, twin: Twin) -> Self {
+        let mut bench = Self {
+            mcu,
+            twin,
+            checker: Checker::default(),
+            periods: 0,
+            last_hall: None,
+            previous_hall: taut_core::drive::HallCode::default(),
+            approximated: 0,
+            force_break: false,
+            extra_keys: Keys::NONE,
+            debug_gates: std::env::var_os("TAUT_PIL_GATES").is_some(),
+            window_start: 0,
+            last_gate_on: 0,
+        };
+        bench.drive_pins();
+        bench
+    }
+
+    /// Puts the twin's signals on the pins.
+    fn drive_pins(&mut self) {
+        let pins = self.twin.pins();
+        let inputs = self.twin.inputs();
+        let soc = self.mcu.soc_mut();
+        let hall = pins.hall.raw();
+        for (bit, (port, pin)) in
+            [(0b100u8, port_pin('A', 15)), (0b010, port_pin('B', 3)), (0b001, port_pin('B', 10))]
+        {
+            soc.drive_pin(port, pin, Some(hall & bit != 0));
+        }
+        let (home, end) = (port_pin('C', 10), port_pin('C', 11));
+        soc.drive_pin(home.0, home.1, Some(pins.limits.home));
+        soc.drive_pin(end.0, end.1, Some(pins.limits.end));
+        let keys = inputs.keys.bits() | self.extra_keys.bits();
+        for (index, (port, pin)) in [
+            port_pin('C', 6),
+            port_pin('C', 7),
+            port_pin('C', 8),
+            port_pin('C', 12),
+            port_pin('D', 2),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            soc.drive_pin(port, pin, Some(keys >> index & 1 == 0));
+        }
+        let tripped = pins.comparator || self.force_break;
+        let bkin = port_pin('A', 6);
+        soc.drive_pin(bkin.0, bkin.1, Some(!tripped));
+        let now = soc.cycles;
+        // The break input reaches TIM1 only through PA6's alternate function 6.
+        let connected = soc.gpio[0].mode(6) == crate::soc::PinMode::Alternate(6);
+        soc.tim1.set_break(now, connected && tripped);
+        if !connected && soc.tim1.regs.value(0x44) & crate::tim::MOE != 0 {
+            self.checker.violations.push(gates::Violation {
+                at: now,
+                check: "break input",
+                detail: "bridge enabled (MOE) while PA6 is not TIM1_BKIN (AF6): the overcurrent comparator cannot stop it".into(),
+            });
+        }
+        soc.set_analog(0, 0, f64::from(pins.current.get()) * 3.3 / 4096.0);
+        soc.set_analog(0, 1, pins.bus_volts * BUS_DIVIDER);
+        let amplifier = f64::from(inputs.load_cell.get()) * 5.0 / 4096.0;
+        soc.set_analog(1, 15, amplifier * LOAD_CELL_DIVIDER);
+        // TIM4 in encoder mode counts the string encoder's edges: the twin's count.
+        soc.tim4.external_count = Some(u32::from(inputs.string_counter));
+        if self.last_hall.is_some_and(|h| h != hall) {
+            soc.hall_edge(now);
+        }
+        self.last_hall = Some(hall);
+    }
+
+    /// One PWM period.
+    pub fn period(&mut self) -> Result<(), Stop> {
+        // Once TIM1 runs, each window is one of its periods (update to update), so that the
+        // bridge the twin gets for a window is the one the firmware set up for that period;
+        // before, windows are 50 µs from reset. (The one window in between is shorter: the
+        // twin then runs that much ahead of the CPU's clock, less than a period, for good.)
+        let start = self.window_start;
+        let tim1 = &self.mcu.soc().tim1;
+        let end = match tim1.next_update(start) {
+            Some(update) if tim1.running && update <= start + PERIOD_CYCLES => update,
+            _ => start + PERIOD_CYCLES,
+        };
+        self.window_start = end;
+        self.drive_pins();
+        let hall_before = [self.previous_hall, self.twin.pins().hall];
+        self.previous_hall = hall_before[1];
+        self.mcu.run_until(end)?;
+        let soc = self.mcu.soc_mut();
+        let changes = std::mem::take(&mut soc.tim1.changes);
+        // Keep the configuration in force at the end for the next window.
+        let mut carried: Vec<_> = changes.iter().filter(|(t, _)| *t <= end).cloned().collect();
+        let window = gates::evaluate(&carried, &soc.gpio, start, end).map_err(Stop::Misuse)?;
+        self.checker.check(&window, start, end, &hall_before);
+        if let Some(last) = carried.pop() {
+            soc.tim1.changes = vec![last];
+            soc.tim1.changes.extend(changes.into_iter().filter(|(t, _)| *t > end));
+        }
+        for leg in &window.legs {
+            for &(_, e) in leg.high.iter().chain(leg.low.iter()) {
+                self.last_gate_on = self.last_gate_on.max(e);
+            }
+        }
+        let pattern = gates::pattern_of(&window, PERIOD_CYCLES);
+        let duty = gates::duty_of(&window, PERIOD_CYCLES);
+        let high_legs = window.legs.iter().filter(|l| !l.high.is_empty()).count();
+        if high_legs > 1 {
+            self.approximated += 1;
+        }
+        if self.debug_gates && !pattern.is_all_off() {
+            eprintln!("{start}: {:?} duty {duty:.4} legs {:?}", window.segments, window.legs);
+        }
+        self.twin.external_period(pattern, duty, window.dead_time as f64 / CPU_HZ);
+        self.periods += 1;
+        Ok(())
+    }
+
+    /// One 1 ms tick of the twin: twenty periods; then the panel as the TM1637 shows it is
+    /// handed to the twin (where the operator reads it).
+    pub fn tick(&mut self) -> Result<(), Stop> {
+        self.twin.begin_tick();
+        for _ in 0..PERIODS_PER_TICK {
+            self.period()?;
+        }
+        self.twin.end_tick();
+        let panel = self.panel();
+        self.twin.apply(&Outputs {
+            display: panel.0,
+            leds: panel.1,
+            beeper: self.beeper(),
+            ..Outputs::default()
+        });
+        Ok(())
+    }
+
+    /// Whether every gate has been off since `cycle`.
+    pub fn gates_off_since(&self, cycle: u64) -> bool {
+        self.last_gate_on <= cycle
+    }
+
+    /// The next window's first cycle.
+    pub fn window_start(&self) -> u64 {
+        self.window_start
+    }
+
+    /// Continues from `cycle` (a bench rebuilt around the same part).
+    pub fn set_window_start(&mut self, cycle: u64) {
+        self.window_start = cycle;
+    }
+
+    /// What the panel shows: the TM1637's grids 1-4 and the lamps of grid 5.
+    pub fn panel(&self) -> (Display, Leds) {
+        let grids = self.mcu.soc().panel.grids;
+        let display: Display =
+            [Segments(grids[0]), Segments(grids[1]), Segments(grids[2]), Segments(grids[3])];
+        let lamps = grids[4];
+        let leds = Leds {
+            kg: lamps & 1 != 0,
+            lb: lamps & 2 != 0,
+            pulling: lamps & 4 != 0,
+            holding: lamps & 8 != 0,
+            fault: lamps & 16 != 0,
+            knot: lamps & 32 != 0,
+        };
+        (display, leds)
+    }
+
+    /// The beeper pin (PB11, push-pull, high = sound).
+    pub fn beeper(&self) -> bool {
+        self.mcu.soc().gpio[1].level(11)
+    }
+}

@@ -22,7 +22,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
 use std::path::{Path, PathBuf};
 
-const SOURCE_DIRS: [&str; 7] = ["core", "proofs", "sim", "src", "tests", "firmware", "fuzz"];
+const SOURCE_DIRS: [&str; 8] = ["core", "proofs", "sim", "src", "tests", "firmware", "fuzz", "pil"];
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

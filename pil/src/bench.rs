@@ -83,6 +83,7 @@ impl Bench {
             last_gate_on: 0,
         };
         bench.drive_pins();
+        bench.drive_hall();
         bench
     }
 
@@ -91,12 +92,6 @@ impl Bench {
         let pins = self.twin.pins();
         let inputs = self.twin.inputs();
         let soc = self.mcu.soc_mut();
-        let hall = pins.hall.raw();
-        for (bit, (port, pin)) in
-            [(0b100u8, port_pin('A', 15)), (0b010, port_pin('B', 3)), (0b001, port_pin('B', 10))]
-        {
-            soc.drive_pin(port, pin, Some(hall & bit != 0));
-        }
         let (home, end) = (port_pin('C', 10), port_pin('C', 11));
         soc.drive_pin(home.0, home.1, Some(pins.limits.home));
         soc.drive_pin(end.0, end.1, Some(pins.limits.end));
@@ -133,6 +128,18 @@ impl Bench {
         soc.set_analog(1, 15, amplifier * LOAD_CELL_DIVIDER);
         // TIM4 in encoder mode counts the string encoder's edges: the twin's count.
         soc.tim4.external_count = Some(u32::from(inputs.string_counter));
+    }
+
+    /// Puts the twin's Hall code on the lines; an edge reaches TIM2's Hall interface.
+    fn drive_hall(&mut self) {
+        let hall = self.twin.pins().hall.raw();
+        let soc = self.mcu.soc_mut();
+        for (bit, (port, pin)) in
+            [(0b100u8, port_pin('A', 15)), (0b010, port_pin('B', 3)), (0b001, port_pin('B', 10))]
+        {
+            soc.drive_pin(port, pin, Some(hall & bit != 0));
+        }
+        let now = soc.cycles;
         if self.last_hall.is_some_and(|h| h != hall) {
             soc.hall_edge(now);
         }
@@ -155,6 +162,10 @@ impl Bench {
         self.drive_pins();
         let hall_before = [self.previous_hall, self.twin.pins().hall];
         self.previous_hall = hall_before[1];
+        // The twin steps whole periods, so a Hall edge appears at a window's start, where
+        // TIM2 captures it (the Hall-edge interrupt then waits for the update's handler of the
+        // same priority: its latency is that handler's length, not the binding's).
+        self.drive_hall();
         self.mcu.run_until(end)?;
         let soc = self.mcu.soc_mut();
         let changes = std::mem::take(&mut soc.tim1.changes);

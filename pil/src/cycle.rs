@@ -340,3 +340,65 @@ pub fn pil(
     let _ = Record::default();
     Ok(PilRun { run: Run { samples, commissioning_ms, figures, completed }, bench })
 }
+
+/// The tolerances within which the image's figures must agree with the host bench's: the
+/// time to tension within 5 % (the image's fast loop sees the sensors of its own sampling
+/// instants and commutates on its own Hall reads), the hold's mean error within 0.2 kgf (the
+/// board's load-cell divider reads 0.6 % low until a calibration takes it out: 0.15 kgf at
+/// 25 kgf), the peak winding current within 10 %.
+pub const TIME_TO_TENSION_TOLERANCE: f64 = 0.05;
+/// See [`TIME_TO_TENSION_TOLERANCE`].
+pub const HOLD_ERROR_TOLERANCE_KGF: f64 = 0.2;
+/// See [`TIME_TO_TENSION_TOLERANCE`].
+pub const PEAK_CURRENT_TOLERANCE: f64 = 0.10;
+
+/// Whether two runs' figures agree, and a line per figure.
+pub struct Agreement {
+    /// Every figure within its tolerance.
+    pub agrees: bool,
+    /// What was compared.
+    pub lines: Vec<String>,
+}
+
+/// Compares the image's figures with the host bench's.
+pub fn agreement(pil: &Figures, host: &Figures) -> Agreement {
+    let mut lines = Vec::new();
+    let mut agrees = true;
+    let mut judge = |name: &str, ok: bool, text: String| {
+        agrees &= ok;
+        lines.push(format!("{name}: {text} ({})", if ok { "agrees" } else { "DISAGREES" }));
+    };
+    match (pil.time_to_tension_s, host.time_to_tension_s) {
+        (Some(p), Some(h)) => {
+            let rel = (p - h).abs() / h;
+            judge(
+                "time to tension",
+                rel <= TIME_TO_TENSION_TOLERANCE,
+                format!(
+                    "{:.1} % apart, tolerance {:.0} %",
+                    100.0 * rel,
+                    100.0 * TIME_TO_TENSION_TOLERANCE
+                ),
+            );
+        }
+        _ => judge("time to tension", false, "not reached on both benches".into()),
+    }
+    let d = (pil.hold_error_mean_kgf - host.hold_error_mean_kgf).abs();
+    judge(
+        "hold error",
+        d <= HOLD_ERROR_TOLERANCE_KGF,
+        format!("{d:.3} kgf apart, tolerance {HOLD_ERROR_TOLERANCE_KGF} kgf"),
+    );
+    let rel = (pil.peak_current_a - host.peak_current_a).abs() / host.peak_current_a.max(1e-9);
+    judge(
+        "peak current",
+        rel <= PEAK_CURRENT_TOLERANCE,
+        format!("{:.1} % apart, tolerance {:.0} %", 100.0 * rel, 100.0 * PEAK_CURRENT_TOLERANCE),
+    );
+    judge(
+        "faults",
+        !pil.faulted && !host.faulted,
+        format!("fault lamp {} / {}", pil.faulted, host.faulted),
+    );
+    Agreement { agrees, lines }
+}

@@ -252,7 +252,17 @@ fn main() -> ExitCode {
                 run.bench.periods as f64 * 50e-6,
                 run.run.commissioning_ms as f64 / 1e3
             );
-            let clean = run.bench.checker.violations.is_empty();
+            let (latency_ok, worst) = report::fast_loop_latency(&run.bench.mcu);
+            println!(
+                "fast-loop latency: longest {worst} cycles ({}; limit {} cycles, flash stalls excluded)",
+                if latency_ok { "within" } else { "OVER" },
+                report::FAST_LOOP_LATENCY_LIMIT
+            );
+            let agreement = cycle::agreement(&run.run.figures, &host.figures);
+            for line in &agreement.lines {
+                println!("{line}");
+            }
+            let clean = run.bench.checker.violations.is_empty() && latency_ok && agreement.agrees;
             if run.run.completed && clean { ExitCode::SUCCESS } else { ExitCode::from(1) }
         }
         Err((stop, bench)) => {

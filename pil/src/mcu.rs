@@ -57,13 +57,17 @@ pub struct CpuState {
     /// Active exceptions: (number, priority, entered at, EXC_RETURN, pended at).
     active: Vec<(u32, u8, u64, u32)>,
     /// When each interrupt became pending (for latency).
-    pending_since: HashMap<u32, u64>,
+    pending_since: HashMap<u32, (u64, bool)>,
     /// Cycles spent asleep.
     pub sleep_cycles: u64,
     /// The lowest stack pointer seen at exception entry (deepest stack).
     pub lowest_sp: u32,
     /// Resets (watchdog, software).
     pub resets: Vec<(u64, &'static str)>,
+    /// The end of the last flash stall (the CPU could not run during it).
+    pub last_stall_end: u64,
+    /// Latencies of each interrupt not held up by a flash stall: (exception, cycles).
+    pub latencies: HashMap<u32, Vec<u32>>,
 }
 
 /// The microcontroller: core, memories, peripherals.
@@ -458,8 +462,14 @@ impl Mcu {
         soc.latch_interrupt_lines();
         let now = soc.cycles;
         for n in 0..128u32 {
-            if soc.nvic.pending[(n / 32) as usize] >> (n % 32) & 1 != 0 {
-                self.cpu.pending_since.entry(n).or_insert(now);
+            // Latency counts from when the interrupt is pending and enabled: a line that pended
+            // before its start-up enabled it waited by design.
+            let (word, bit) = ((n / 32) as usize, n % 32);
+            if soc.nvic.pending[word] >> bit & 1 != 0 && soc.nvic.enabled[word] >> bit & 1 != 0 {
+                // Pended while the flash is unlocked for a write or an erase: the store's
+                // time, reported with the store.
+                let flashing = !soc.flash.locked();
+                self.cpu.pending_since.entry(n).or_insert((now, flashing));
             }
         }
         let Some((n, priority)) = self.uc.get_data().nvic.highest_pending() else {
@@ -530,7 +540,8 @@ impl Mcu {
         soc.nvic.active.push((exception, priority));
         soc.event_register = true;
         soc.sleeping = false;
-        let pended = self.cpu.pending_since.remove(&n).unwrap_or(now);
+        let (pended, flashing) = self.cpu.pending_since.remove(&n).unwrap_or((now, false));
+        let flashing = flashing || self.soc().flash_unlocked_since(pended);
         let stats = self
             .cpu
             .handlers
@@ -538,8 +549,13 @@ impl Mcu {
             .or_insert(HandlerStats { min_cycles: u64::MAX, ..HandlerStats::default() });
         stats.entries += 1;
         let latency = now - pended;
-        stats.max_latency = stats.max_latency.max(latency);
-        stats.total_latency += latency;
+        // A flash stall holds every interrupt up by design (the bridge is off then): it is
+        // the store's cost, reported with the store, not the binding's latency.
+        if pended >= self.cpu.last_stall_end && !flashing {
+            stats.max_latency = stats.max_latency.max(latency);
+            stats.total_latency += latency;
+            self.cpu.latencies.entry(exception).or_default().push(latency as u32);
+        }
         self.cpu.active.push((exception, priority, now, exc_return));
         Ok(())
     }
@@ -719,6 +735,9 @@ impl Mcu {
             let fills = std::mem::take(&mut soc.flash_fill);
             let stall = std::mem::take(&mut soc.stall);
             soc.cycles += stall;
+            if stall > 0 {
+                self.cpu.last_stall_end = soc.cycles;
+            }
             for (address, bytes) in fills {
                 self.uc
                     .mem_write(u64::from(address), &bytes)

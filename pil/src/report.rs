@@ -29,6 +29,35 @@ pub fn checks(bench: &Bench) -> String {
     s
 }
 
+/// Mean and 99th percentile of an exception's latencies (flash stalls excluded).
+pub fn latency_figures(mcu: &Mcu, exception: u32) -> (f64, u32) {
+    let Some(l) = mcu.cpu.latencies.get(&exception) else { return (0.0, 0) };
+    if l.is_empty() {
+        return (0.0, 0);
+    }
+    let mut sorted = l.clone();
+    sorted.sort_unstable();
+    let mean = sorted.iter().map(|&v| f64::from(v)).sum::<f64>() / sorted.len() as f64;
+    let p99 = sorted[(sorted.len() * 99 / 100).min(sorted.len() - 1)];
+    (mean, p99)
+}
+
+/// The longest fast-loop latency the binding may have, cycles: 1 000 (5.9 µs at 170 MHz,
+/// an eighth of the PWM period). Only the firmware's critical sections may hold the fast loop
+/// up; a control tick that preempted it would, by a whole tick (≈ 1 900-4 700 cycles).
+pub const FAST_LOOP_LATENCY_LIMIT: u64 = 1_000;
+
+/// Whether the fast loop's latency stayed within [`FAST_LOOP_LATENCY_LIMIT`]; its longest.
+pub fn fast_loop_latency(mcu: &Mcu) -> (bool, u64) {
+    let worst = [16 + 25, 16 + 28]
+        .iter()
+        .filter_map(|n| mcu.cpu.handlers.get(n))
+        .map(|h| h.max_latency)
+        .max()
+        .unwrap_or(0);
+    (worst <= FAST_LOOP_LATENCY_LIMIT, worst)
+}
+
 /// Cycles per handler, latency, CPU load, stack.
 pub fn timing(mcu: &Mcu) -> String {
     let mut s = String::new();
@@ -41,9 +70,10 @@ pub fn timing(mcu: &Mcu) -> String {
     for &(n, name) in HANDLERS {
         if let Some(h) = mcu.cpu.handlers.get(&n) {
             let mean = h.total_cycles as f64 / h.entries.max(1) as f64;
+            let (lat_mean, lat_p99) = latency_figures(mcu, n);
             let _ = writeln!(
                 s,
-                "| {name} | {} | {mean:.0} | {} | {} | {:.1} % |",
+                "| {name} | {} | {mean:.0} | {} | {lat_mean:.0} / {lat_p99} / {} | {:.1} % |",
                 h.entries,
                 h.max_cycles,
                 h.max_latency,

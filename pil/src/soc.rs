@@ -346,6 +346,8 @@ pub struct FlashControl {
     pub programmed: u64,
     /// Pages erased.
     pub erased: u64,
+    /// When the interface was last locked again.
+    pub last_locked_at: u64,
 }
 
 impl FlashControl {
@@ -370,9 +372,11 @@ impl FlashControl {
             pending_word: None,
             programmed: 0,
             erased: 0,
+            last_locked_at: 0,
         }
     }
-    fn locked(&self) -> bool {
+    /// Whether the flash is locked (no write or erase under way).
+    pub fn locked(&self) -> bool {
         self.regs.value(0x14) & (1 << 31) != 0
     }
 }
@@ -1007,10 +1011,19 @@ impl Soc {
                         self.misuse("mass erase requested".into());
                     }
                 }
+                if cr & (1 << 31) != 0 && !self.flash.locked() {
+                    self.flash.last_locked_at = self.cycles;
+                }
                 self.flash.regs.set(0x14, cr)
             }
             _ => self.flash.regs.set(offset, value),
         }
+    }
+
+    /// Whether the flash interface was unlocked at any time since `cycle` (a write or erase
+    /// was under way).
+    pub fn flash_unlocked_since(&self, cycle: u64) -> bool {
+        !self.flash.locked() || self.flash.last_locked_at > cycle
     }
 
     /// A CPU store into flash at `address` of `size` bytes, `value`, the word there before

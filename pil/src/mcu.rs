@@ -47,6 +47,8 @@ pub struct HandlerStats {
     pub total_latency: u64,
     /// The fewest cycles.
     pub min_cycles: u64,
+    /// Where the longest latency began: the cycle, the code running, the active exception.
+    pub max_latency_from: (u64, u32, u32),
 }
 
 /// What the CPU did.
@@ -58,6 +60,8 @@ pub struct CpuState {
     active: Vec<(u32, u8, u64, u32)>,
     /// When each interrupt became pending (for latency).
     pending_since: HashMap<u32, (u64, bool)>,
+    /// Where the core was when each interrupt became pending: (code, active exception).
+    pending_where: HashMap<u32, (u32, u32)>,
     /// Cycles spent asleep.
     pub sleep_cycles: u64,
     /// The lowest stack pointer seen at exception entry (deepest stack).
@@ -80,6 +84,8 @@ pub struct Mcu {
     processed: u64,
     /// Exception bookkeeping.
     pub cpu: CpuState,
+    /// An interrupt waits for the end of an IT block.
+    it_block_wait: bool,
     /// The period (its origin) whose channel-4 compare event has fired.
     cc4_done: Option<u64>,
     /// The period whose TRGO2 has fired.
@@ -221,6 +227,7 @@ impl Mcu {
             instructions: HashMap::new(),
             cc4_done: None,
             trgo2_done: None,
+            it_block_wait: false,
         };
         mcu.hook_idle_and_delays()?;
         if let Ok(spec) = std::env::var("TAUT_PIL_WATCH") {
@@ -286,6 +293,29 @@ impl Mcu {
                             )
                             .map_err(err)?;
                         self.instructions.insert(address, u32::from(hw));
+                    }
+                    // CPSIE I, or MSR to PRIMASK/BASEPRI/BASEPRI_MAX/FAULTMASK (a critical
+                    // section's end restores PRIMASK): a pending interrupt masked until now is
+                    // taken at the next block.
+                    _ if hw == 0xB662
+                        || (hw & 0xFFF0 == 0xF380
+                            && halfwords.get(i + 1).is_some_and(|&next| {
+                                next & 0xFF00 == 0x8800 && (0x10..=0x13).contains(&(next & 0xFF))
+                            })) =>
+                    {
+                        self.uc
+                            .add_code_hook(
+                                u64::from(address),
+                                u64::from(address),
+                                |uc: &mut Unicorn<'_, Soc>, _a: u64, _s: u32| {
+                                    let soc = uc.get_data_mut();
+                                    soc.latch_interrupt_lines();
+                                    if soc.nvic.highest_pending().is_some() {
+                                        soc.deadline = 0;
+                                    }
+                                },
+                            )
+                            .map_err(err)?;
                     }
                     // SEV.
                     0xBF40 => {
@@ -400,6 +430,7 @@ impl Mcu {
         self.processed = cycles;
         self.cpu.active.clear();
         self.cpu.pending_since.clear();
+        self.cpu.pending_where.clear();
         self.cpu.resets.push((cycles, why));
         let sp = self.read_u32(FLASH_BASE);
         let pc = self.read_u32(FLASH_BASE + 4);
@@ -469,18 +500,46 @@ impl Mcu {
                 // Pended while the flash is unlocked for a write or an erase: the store's
                 // time, reported with the store.
                 let flashing = !soc.flash.locked();
+                let pc = soc.block_pc;
+                let active = soc.nvic.active.last().map_or(0, |a| a.0);
+                if std::env::var_os("TAUT_PIL_WHY").is_some()
+                    && !self.cpu.pending_since.contains_key(&n)
+                {
+                    eprintln!("[{now}] irq {n} pending");
+                }
                 self.cpu.pending_since.entry(n).or_insert((now, flashing));
+                self.cpu.pending_where.entry(n).or_insert((pc, active));
             }
         }
         let Some((n, priority)) = self.uc.get_data().nvic.highest_pending() else {
             return Ok(false);
         };
         if u16::from(priority) >= self.execution_priority() {
+            if std::env::var_os("TAUT_PIL_WHY").is_some() {
+                eprintln!(
+                    "[{now}] irq {n} prio {priority} waits: execution priority {} primask {} basepri {} active {:?} pc {:#x}",
+                    self.execution_priority(),
+                    self.reg(RegisterARM::PRIMASK),
+                    self.reg(RegisterARM::BASEPRI),
+                    self.cpu.active,
+                    self.pc
+                );
+            }
             return Ok(false);
         }
         // The IT state of an interrupted block would be lost: finish it first.
         let xpsr = self.reg(RegisterARM::XPSR);
         if xpsr & 0x0600_FC00 != 0 {
+            if std::env::var_os("TAUT_PIL_WHY").is_some() {
+                eprintln!(
+                    "[{}] irq {n} waits for an IT block: xpsr {xpsr:#010x} pc {:#x}",
+                    self.soc().cycles,
+                    self.pc
+                );
+            }
+            // Stop again at the next block: the IT block ends within four instructions.
+            self.uc.get_data_mut().deadline = 0;
+            self.it_block_wait = true;
             return Ok(false);
         }
         self.enter(n, priority)?;
@@ -542,6 +601,7 @@ impl Mcu {
         soc.sleeping = false;
         let (pended, flashing) = self.cpu.pending_since.remove(&n).unwrap_or((now, false));
         let flashing = flashing || self.soc().flash_unlocked_since(pended);
+        let (pend_pc, pend_active) = self.cpu.pending_where.remove(&n).unwrap_or((0, 0));
         let stats = self
             .cpu
             .handlers
@@ -549,10 +609,18 @@ impl Mcu {
             .or_insert(HandlerStats { min_cycles: u64::MAX, ..HandlerStats::default() });
         stats.entries += 1;
         let latency = now - pended;
+        if latency > 5000 && std::env::var_os("TAUT_PIL_WHY").is_some() {
+            eprintln!(
+                "[{now}] exception {exception} entered {latency} cycles after pending at {pended}; flashing {flashing}"
+            );
+        }
         // A flash stall holds every interrupt up by design (the bridge is off then): it is
         // the store's cost, reported with the store, not the binding's latency.
         if pended >= self.cpu.last_stall_end && !flashing {
-            stats.max_latency = stats.max_latency.max(latency);
+            if latency > stats.max_latency {
+                stats.max_latency = latency;
+                stats.max_latency_from = (pended, pend_pc, pend_active);
+            }
             stats.total_latency += latency;
             self.cpu.latencies.entry(exception).or_default().push(latency as u32);
         }
@@ -711,7 +779,10 @@ impl Mcu {
                 return Ok(());
             }
             while self.take_interrupt().map_err(Stop::Misuse)? {}
-            let next = self.next_event(self.processed).map_or(until, |(t, _)| t.min(until));
+            let mut next = self.next_event(self.processed).map_or(until, |(t, _)| t.min(until));
+            if std::mem::take(&mut self.it_block_wait) {
+                next = self.soc().cycles + 1;
+            }
             if self.soc().sleeping {
                 // Asleep with nothing to take: the clock runs to the next event.
                 let soc = self.uc.get_data_mut();

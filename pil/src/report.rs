@@ -87,6 +87,19 @@ pub fn timing(mcu: &Mcu) -> String {
         100.0 * mcu.cpu.sleep_cycles as f64 / total as f64,
         0x2000_8000u32.saturating_sub(mcu.cpu.lowest_sp)
     );
+    for &(n, name) in HANDLERS {
+        if let Some(h) = mcu.cpu.handlers.get(&n) {
+            let (at, pc, active) = h.max_latency_from;
+            if h.max_latency > 0 {
+                let _ = writeln!(
+                    s,
+                    "longest latency of the {name}: pending at {:.6} s while {} ran (exception {active})",
+                    at as f64 / 170e6,
+                    mcu.describe(pc)
+                );
+            }
+        }
+    }
     if let Some((deepest, room)) = mcu.stack_high_water() {
         let _ = writeln!(
             s,

@@ -22,7 +22,9 @@ calibration against the reference gauge), then powers it up, keys the settings i
 panel, presses Start, lets it hold while the string creeps and releases. Progress goes to
 stderr, the summary table to stdout, the plot to --svg (out/cycle.svg).
 Exit status: 0 the cycle completed, 1 it did not (a fault) or a file could not be written,
-2 a usage error.
+2 a usage error (a bad option, or an output path refused before the run: its folder missing,
+a folder, or the same as another option's). Output files are replaced only when the run
+completes its writing: a failed or interrupted run leaves the earlier files as they were.
 
 Examples:
   taut                                   25 kg on tennis-synthetic, speed 5
@@ -269,6 +271,9 @@ impl SensingArg {
 
 // ───────────────────────────── the main job ─────────────────────────────
 
+/// The main job's plot when `--svg` is not given.
+pub const DEFAULT_CYCLE_SVG: &str = "out/cycle.svg";
+
 /// The main job's command-line options (`taut` with no subcommand).
 #[derive(Args, Clone, Debug)]
 pub struct JobArgs {
@@ -297,9 +302,10 @@ pub struct JobArgs {
     /// Skip the commissioning calibration: the machine runs on the tared, uncorrected sensor.
     #[arg(long)]
     pub uncalibrated: bool,
-    /// Where to write the plot.
-    #[arg(long, default_value = "out/cycle.svg", value_name = "FILE")]
-    pub svg: PathBuf,
+    /// Where to write the plot (default out/cycle.svg, its folder `out` created if missing;
+    /// a given path's folder must exist).
+    #[arg(long, value_name = "FILE")]
+    pub svg: Option<PathBuf>,
     /// Also write the summary as JSON here.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,

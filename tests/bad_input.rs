@@ -1,8 +1,9 @@
 //! Every subcommand and every option that takes a value, given bad input: out of range,
 //! NaN, infinite, negative, non-numeric, an unknown name, zero counts, an unwritable path,
 //! a missing or malformed script. Each run must end with exit status 2 (a usage error, in
-//! clap's message style) or 1 (a failure while running, one line `error: …`), a readable
-//! message naming the culprit — and never 101 (a panic).
+//! clap's message style, or an output path refused before the run, `error: --svg …`) or 1 (a
+//! failure while running, one line `error: …`), a readable message naming the culprit — and
+//! never 101 (a panic).
 #![allow(
     clippy::expect_used,
     clippy::unwrap_used,
@@ -72,8 +73,8 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["--hold", "nan"], USAGE, "--hold"),
     (&["--hold", "inf"], USAGE, "--hold"),
     (&["--hold", "abc"], USAGE, "--hold"),
-    (&["--svg", "UNWRITABLE/cycle.svg"], RUNTIME, "cannot write"),
-    (&["--json", "UNWRITABLE/cycle.json"], RUNTIME, "cannot write"),
+    (&["--svg", "UNWRITABLE/cycle.svg"], USAGE, "error: --svg "),
+    (&["--json", "UNWRITABLE/cycle.json"], USAGE, "error: --json "),
     // ── pull ──
     (&["pull", "--tension", "500"], USAGE, "--tension"),
     (&["pull", "--tension", "4.9"], USAGE, "--tension"),
@@ -103,11 +104,11 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["pull", "--scenario", "abc"], USAGE, "--scenario"),
     (&["pull", "--tension", "10", "--scenario", "2"], USAGE, "cannot be used with"),
     (&["pull", "--seed", "3", "--scenario", "2"], USAGE, "cannot be used with"),
-    (&["pull", "--svg", "UNWRITABLE/pull.svg"], RUNTIME, "cannot write"),
-    (&["pull", "--csv", "UNWRITABLE/pull.csv"], RUNTIME, "cannot write"),
+    (&["pull", "--svg", "UNWRITABLE/pull.svg"], USAGE, "error: --svg "),
+    (&["pull", "--csv", "UNWRITABLE/pull.csv"], USAGE, "error: --csv "),
     // ── paper ──
-    (&["paper", "--json", "UNWRITABLE/paper.json"], RUNTIME, "cannot write"),
-    (&["paper", "--svg", "UNWRITABLE/paper.svg"], RUNTIME, "cannot write"),
+    (&["paper", "--json", "UNWRITABLE/paper.json"], USAGE, "error: --json "),
+    (&["paper", "--svg", "UNWRITABLE/paper.svg"], USAGE, "error: --svg "),
     // ── panel ──
     (&["panel", "--string", "rope"], USAGE, "--string"),
     (&["panel", "--seed", "abc"], USAGE, "--seed"),
@@ -134,14 +135,14 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["report", "accuracy", "--gauge-sigma", "1.5"], USAGE, "--gauge-sigma"),
     (&["report", "accuracy", "--gauge-sigma", "nan"], USAGE, "--gauge-sigma"),
     (&["report", "accuracy", "--gauge-sigma", "abc"], USAGE, "--gauge-sigma"),
-    (&["report", "accuracy", "--json", "UNWRITABLE/a.json"], RUNTIME, "cannot write"),
-    (&["report", "accuracy", "--svg", "UNWRITABLE/plots"], RUNTIME, "cannot write"),
+    (&["report", "accuracy", "--json", "UNWRITABLE/a.json"], USAGE, "error: --json "),
+    (&["report", "accuracy", "--svg", "UNWRITABLE/plots"], USAGE, "error: --svg "),
     // ── report ablation ──
     (&["report", "ablation", "--scenarios", "0"], USAGE, "--scenarios"),
     (&["report", "ablation", "--seed", "abc"], USAGE, "--seed"),
     (&["report", "ablation", "--sensing", "hall"], USAGE, "--sensing"),
     (&["report", "ablation", "--threads", "abc"], USAGE, "--threads"),
-    (&["report", "ablation", "--json", "UNWRITABLE/a.json"], RUNTIME, "cannot write"),
+    (&["report", "ablation", "--json", "UNWRITABLE/a.json"], USAGE, "error: --json "),
     // ── report robustness ──
     (&["report", "robustness", "--scenarios", "0"], USAGE, "--scenarios"),
     (&["report", "robustness", "--points", "1"], USAGE, "--points"),
@@ -167,8 +168,8 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["report", "robustness", "--beyond", "-0.5"], USAGE, "--beyond"),
     (&["report", "robustness", "--beyond", "1.5"], USAGE, "--beyond"),
     (&["report", "robustness", "--beyond", "nan"], USAGE, "--beyond"),
-    (&["report", "robustness", "--json", "UNWRITABLE/r.json"], RUNTIME, "cannot write"),
-    (&["report", "robustness", "--svg", "UNWRITABLE/r.svg"], RUNTIME, "cannot write"),
+    (&["report", "robustness", "--json", "UNWRITABLE/r.json"], USAGE, "error: --json "),
+    (&["report", "robustness", "--svg", "UNWRITABLE/r.svg"], USAGE, "error: --svg "),
     // ── report machine ──
     (&["report", "machine", "--cycles", "0"], USAGE, "--cycles"),
     (&["report", "machine", "--cycles", "-1"], USAGE, "--cycles"),
@@ -184,13 +185,13 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["report", "machine", "--axis", "backlash=-0.5"], USAGE, "not a physical machine"),
     (&["report", "machine", "--axis", "slack=1", "--axis", "slack=1"], USAGE, "given twice"),
     (&["report", "machine", "--axis", "inertia=1", "--axis", "inertia=3"], USAGE, "not in -1–2"),
-    (&["report", "machine", "--json", "UNWRITABLE/m.json"], RUNTIME, "cannot write"),
+    (&["report", "machine", "--json", "UNWRITABLE/m.json"], USAGE, "error: --json "),
     // ── report string ──
     (&["report", "string", "--seeds", "-1"], USAGE, "--seeds"),
     (&["report", "string", "--seeds", "1001"], USAGE, "--seeds"),
     (&["report", "string", "--hold", "4"], USAGE, "--hold"),
     (&["report", "string", "--hold", "abc"], USAGE, "--hold"),
-    (&["report", "string", "--json", "UNWRITABLE/s.json"], RUNTIME, "cannot write"),
+    (&["report", "string", "--json", "UNWRITABLE/s.json"], USAGE, "error: --json "),
     // ── unknown subcommands and options ──
     (&["report", "speed"], USAGE, "unrecognized subcommand"),
     (&["pull", "--force", "9"], USAGE, "--force"),

@@ -42,7 +42,7 @@ use taut_sim::operator::{Page, page_shown};
 use taut_sim::{StringKind, StringState, TwinConfig};
 
 pub use crate::cli::{Flash, PanelArgs};
-use crate::output::{Failure, Status};
+use crate::output::{Failure, Status, to_stderr};
 pub use taut_sim::operator::display;
 
 /// How long a queued tap holds its key down, ms (the panel debounces for 20 ms).
@@ -416,8 +416,11 @@ pub fn main(args: &PanelArgs) -> Status {
     let mut stdout = std::io::stdout().lock();
     match parsed.run(&mut session, args.frames, &mut stdout) {
         Ok(()) => Ok(true),
+        Err(script::ScriptFailure::Io(error)) if error.kind() == std::io::ErrorKind::BrokenPipe => {
+            Err(Failure::ClosedStdout)
+        }
         Err(failure) => {
-            eprintln!("error: {}: {failure}", path.display());
+            to_stderr(&format!("error: {}: {failure}\n", path.display()));
             Ok(false)
         }
     }

@@ -14,9 +14,7 @@ use super::{
     metrics, pull_trace,
 };
 use crate::cli::{AccuracyArgs, ControllerArg};
-use crate::output::{
-    Progress, Status, check_writable, create_dir, parallel, threads, write_file, write_json,
-};
+use crate::output::{Outputs, Progress, Status, json_bytes, parallel, threads};
 use crate::plot::{DUTY_AXIS_PERCENT, Figure, Panel, Series, Stroke};
 
 /// The controller of a report entry.
@@ -345,12 +343,10 @@ pub fn figures(
 /// # Errors
 /// An output file or directory cannot be written.
 pub fn main(args: &AccuracyArgs) -> Status {
-    if let Some(path) = &args.json {
-        check_writable(path)?;
-    }
-    if let Some(dir) = &args.svg {
-        create_dir(dir)?;
-    }
+    let outputs = Outputs::new()
+        .file("--json", args.json.as_deref())
+        .folder("--svg", args.svg.as_deref())
+        .check()?;
     let mut controllers = args.controllers.clone();
     controllers.dedup();
     let lineup = lineup(&controllers);
@@ -362,16 +358,19 @@ pub fn main(args: &AccuracyArgs) -> Status {
     }
     println!("{}", markdown(&results, &lineup));
     println!("wall clock: {:.1} s", started.elapsed().as_secs_f64());
+    let mut files = Vec::new();
     if let Some(path) = &args.json {
-        write_json(path, &to_json(args.seed, machines, &results, &lineup))?;
-        println!("summary: {}", path.display());
+        files.push((path.clone(), json_bytes(&to_json(args.seed, machines, &results, &lineup))));
     }
     if let Some(dir) = &args.svg {
         for (name, figure) in figures(args.seed, machines, &results, &lineup) {
-            let path = dir.join(name);
-            write_file(&path, figure.to_svg())?;
-            println!("plot: {}", path.display());
+            files.push((dir.join(name), figure.to_svg().into_bytes()));
         }
+    }
+    outputs.write(&files)?;
+    for (path, _) in &files {
+        let what = if path.extension().is_some_and(|e| e == "json") { "summary" } else { "plot" };
+        println!("{what}: {}", path.display());
     }
     Ok(true)
 }

@@ -32,7 +32,7 @@ use taut_sim::{StringKind, TwinConfig};
 
 use super::{cell, number, target_range};
 use crate::cli::StringArgs;
-use crate::output::{Status, check_writable, write_json};
+use crate::output::{Outputs, Status, json_bytes};
 
 /// The stiffness estimate's acceptance: within this share of the truth.
 pub const STIFFNESS_TOLERANCE: f64 = 0.10;
@@ -353,14 +353,14 @@ pub fn to_json(rows: &[Estimate], hold_ms: u64) -> Value {
 /// # Errors
 /// The JSON file cannot be written.
 pub fn main(args: &StringArgs) -> Status {
-    if let Some(path) = &args.json {
-        check_writable(path)?;
-    }
+    let outputs = Outputs::new().file("--json", args.json.as_deref()).check()?;
     let hold_ms = u64::from(args.hold) * 1_000;
     let rows = run(args.seeds, hold_ms);
+    let files: Vec<_> =
+        args.json.iter().map(|path| (path.clone(), json_bytes(&to_json(&rows, hold_ms)))).collect();
+    outputs.write(&files)?;
     print!("{}", text(&rows, hold_ms));
     if let Some(path) = &args.json {
-        write_json(path, &to_json(&rows, hold_ms))?;
         println!("summary: {}", path.display());
     }
     Ok(rows.iter().all(Estimate::accepted))

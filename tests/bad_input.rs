@@ -35,15 +35,20 @@ const USAGE: i32 = 2;
 const RUNTIME: i32 = 1;
 
 /// A directory of this test's own with a plain file in it, so `file/x` can never be created
-/// (not even by root).
+/// (not even by root), and `cwd/`, the runs' working directory, holding an earlier plot at
+/// the main job's default path (`out/cycle.svg`).
 fn scratch() -> PathBuf {
     let dir = std::env::temp_dir().join(format!("taut-bad-input-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::create_dir_all(dir.join("cwd/out")).unwrap();
+    std::fs::write(dir.join("cwd/out/cycle.svg"), EARLIER_PLOT).unwrap();
     std::fs::write(dir.join("file"), "not a directory").unwrap();
     std::fs::write(dir.join("bad.script"), "until ready 10000\npress up 0\n").unwrap();
     std::fs::write(dir.join("nan.script"), "expect tension nan 30\n").unwrap();
     dir
 }
+
+/// What the working directory's `out/cycle.svg` holds before the runs, and after them.
+const EARLIER_PLOT: &str = "an earlier plot";
 
 /// `(arguments, expected exit status, a word the message must contain)`. `UNWRITABLE` and
 /// `SCRIPTS` are replaced by paths in the scratch directory.
@@ -213,6 +218,7 @@ fn every_bad_input_is_refused_with_a_message_and_the_right_status() {
         let output = spawn(
             Command::new(env!("CARGO_BIN_EXE_taut"))
                 .args(&args)
+                .current_dir(dir.join("cwd"))
                 .stdin(Stdio::null())
                 .stdout(Stdio::piped())
                 .stderr(Stdio::piped()),
@@ -238,7 +244,13 @@ fn every_bad_input_is_refused_with_a_message_and_the_right_status() {
             }
         }
     }
+    // A refused run touches no file: not even the default plot of the folder it runs in.
+    let plot = std::fs::read_to_string(dir.join("cwd/out/cycle.svg")).unwrap_or_default();
+    let folder: Vec<_> =
+        std::fs::read_dir(dir.join("cwd")).unwrap().map(|e| e.unwrap().file_name()).collect();
     std::fs::remove_dir_all(&dir).ok();
+    assert_eq!(plot, EARLIER_PLOT, "the working directory's out/cycle.svg is left alone");
+    assert_eq!(folder, ["out"], "nothing new in the working directory");
     assert!(
         failures.is_empty(),
         "{} of {} rows failed:\n{}",
@@ -302,6 +314,7 @@ fn a_closed_pipe_ends_the_output_quietly() {
     drop(reader);
     let child = Command::new(env!("CARGO_BIN_EXE_taut"))
         .args(["paper"])
+        .current_dir(std::env::temp_dir())
         .stdout(writer)
         .stderr(Stdio::piped())
         .spawn()

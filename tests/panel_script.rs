@@ -186,6 +186,7 @@ fn a_failed_expectation_names_its_line_and_what_the_panel_showed() {
 fn the_binary_runs_a_script_from_stdin_and_refuses_interactive_mode_without_a_terminal() {
     let script = format!("{TO_READY}expect display 25.0\nprint\n");
     let mut child = Command::new(env!("CARGO_BIN_EXE_taut"))
+        .current_dir(std::env::temp_dir())
         .args(["panel", "--flash", "factory", "--frames", "--script", "-"])
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
@@ -200,6 +201,7 @@ fn the_binary_runs_a_script_from_stdin_and_refuses_interactive_mode_without_a_te
     assert!(stdout.contains("    |_   _|.|_| "), "frames drawn");
 
     let failing = Command::new(env!("CARGO_BIN_EXE_taut"))
+        .current_dir(std::env::temp_dir())
         .args(["panel", "--flash", "blank", "--script", "-"])
         .stdin(Stdio::null())
         .output()
@@ -207,6 +209,7 @@ fn the_binary_runs_a_script_from_stdin_and_refuses_interactive_mode_without_a_te
     assert!(failing.status.success(), "an empty script passes");
 
     let interactive = Command::new(env!("CARGO_BIN_EXE_taut"))
+        .current_dir(std::env::temp_dir())
         .args(["panel", "--flash", "factory"])
         .stdin(Stdio::null())
         .output()

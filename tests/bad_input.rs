@@ -300,29 +300,93 @@ fn the_table_covers_every_subcommand_and_every_value_taking_option() {
     assert!(missing.is_empty(), "options without a bad-input row: {missing:?}");
 }
 
+/// Which of the tool's output streams go to a pipe whose reader is gone.
+#[derive(Clone, Copy)]
+enum Closed {
+    /// Standard output only (`taut … | head -1`).
+    Stdout,
+    /// Standard error only (progress to a log reader that quit).
+    Stderr,
+    /// Both (`taut … 2>&1 | head -1`).
+    Both,
+}
+
+/// Runs the tool in `dir` with `closed` streams on a pipe whose reader is already gone (so
+/// the first write fails, however fast the tool is), the others collected; returns the exit
+/// status and what the open stream received.
+fn with_closed_pipe(args: &[&str], dir: &std::path::Path, closed: Closed) -> (Option<i32>, String) {
+    // The lock keeps a sibling test's child, forked but not yet exec'd, from holding a copy
+    // of the reader.
+    let alone = SPAWNING.lock().unwrap_or_else(PoisonError::into_inner);
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let mut command = Command::new(env!("CARGO_BIN_EXE_taut"));
+    command.args(args).current_dir(dir).stdin(Stdio::null());
+    match closed {
+        Closed::Stdout => command.stdout(writer).stderr(Stdio::piped()),
+        Closed::Stderr => command.stdout(Stdio::piped()).stderr(writer),
+        Closed::Both => command.stdout(writer.try_clone().unwrap()).stderr(writer),
+    };
+    let child = command.spawn().unwrap();
+    drop(command);
+    drop(alone);
+    let out = child.wait_with_output().unwrap();
+    let open = match closed {
+        Closed::Stdout => &out.stderr,
+        Closed::Stderr | Closed::Both => &out.stdout,
+    };
+    let open = String::from_utf8_lossy(open).into_owned();
+    println!("{args:?}: status {:?}, open stream {open:?}", out.status.code());
+    (out.status.code(), open)
+}
+
 /// A reader that closes its end of the pipe early (`taut … | head -1`): the tool stops
 /// quietly with the status of a `SIGPIPE`-killed filter (141), not a panic (101) with a
 /// backtrace on the terminal.
 #[test]
 fn a_closed_pipe_ends_the_output_quietly() {
-    // The reader is gone before the tool starts: closing it after `spawn` would race the
-    // tool, which on a loaded machine can print its whole table into the pipe's buffer
-    // first (CI once saw status 0). The lock keeps a sibling test's child, forked but not
-    // yet exec'd, from holding a copy of the reader.
-    let alone = SPAWNING.lock().unwrap_or_else(PoisonError::into_inner);
-    let (reader, writer) = std::io::pipe().unwrap();
-    drop(reader);
-    let child = Command::new(env!("CARGO_BIN_EXE_taut"))
-        .args(["paper"])
-        .current_dir(std::env::temp_dir())
-        .stdout(writer)
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    drop(alone);
-    let out = child.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    println!("status {:?}, stderr {stderr:?}", out.status.code());
-    assert_eq!(out.status.code(), Some(141), "stderr: {stderr}");
+    let (status, stderr) = with_closed_pipe(&["paper"], &std::env::temp_dir(), Closed::Stdout);
+    assert_eq!(status, Some(141), "stderr: {stderr}");
     assert!(!stderr.contains("panicked"), "stderr: {stderr}");
+}
+
+/// The panel's script transcript into a closed pipe (`taut panel --script … | head -1`)
+/// ends as any filter's does: status 141 and no message, not a failed script (1).
+#[test]
+fn a_script_transcript_into_a_closed_pipe_ends_as_a_filter_does() {
+    let (status, stderr) = with_closed_pipe(
+        &["panel", "--flash", "blank", "--script", "-"],
+        &std::env::temp_dir(),
+        Closed::Stdout,
+    );
+    assert_eq!(status, Some(141), "stderr: {stderr}");
+    assert_eq!(stderr, "", "no message");
+}
+
+/// A closed stderr is as quiet as a closed stdout (`taut --svg x.svg 2>&1 | head -1`): no
+/// panic ("failed printing to stderr", 101); the run goes on and writes its plot, and the
+/// closed stdout then ends it with 141. A usage error and a refused path keep their status.
+#[test]
+fn a_closed_stderr_is_as_quiet_as_a_closed_stdout() {
+    let dir = std::env::temp_dir().join(format!("taut-closed-stderr-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let (status, _) = with_closed_pipe(&["--hold", "1", "--svg", "x.svg"], &dir, Closed::Both);
+    assert_eq!(status, Some(141));
+    let plot = std::fs::read_to_string(dir.join("x.svg")).unwrap_or_default();
+    assert!(plot.starts_with("<svg"), "the plot is written: {} bytes", plot.len());
+
+    let (status, stdout) =
+        with_closed_pipe(&["--hold", "1", "--svg", "y.svg"], &dir, Closed::Stderr);
+    assert_eq!(status, Some(0), "the run completes");
+    assert!(stdout.contains("plot: y.svg"), "{stdout}");
+    assert!(dir.join("y.svg").is_file());
+
+    let (status, _) = with_closed_pipe(&["--tension", "70"], &dir, Closed::Stderr);
+    assert_eq!(status, Some(2));
+    let (status, _) = with_closed_pipe(&["--svg", "missing/x.svg"], &dir, Closed::Stderr);
+    assert_eq!(status, Some(2));
+    let (status, _) = with_closed_pipe(&["pull", "--string", "none"], &dir, Closed::Stderr);
+    assert_ne!(status, Some(101), "no panic");
+    std::fs::remove_dir_all(&dir).ok();
 }

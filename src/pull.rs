@@ -10,7 +10,7 @@ use taut_sim::bench::{ControllerBench, ControllerRow, kgf};
 use taut_sim::{StringKind, TwinConfig};
 
 use crate::cli::{PullArgs, SensingArg};
-use crate::output::{Failure, Outputs, Status};
+use crate::output::{Failure, Outputs, Status, to_stderr};
 use crate::plot::{Band, DUTY_AXIS_PERCENT, Figure, Panel, Series, Stroke};
 use crate::report::accuracy::controller_config;
 use crate::report::robustness::{corner_machine, describe_corner};
@@ -320,7 +320,9 @@ pub fn run(args: &PullArgs) -> Result<PullRun, Failure> {
 }
 
 /// `taut pull`: runs the pull, prints one line of figures, writes the plot and the CSV.
-/// `Ok(false)` when the drive faulted.
+/// `Ok(false)` (exit 1, with a line on stderr saying why) when the tension never settled at
+/// the target (no string, a machine that cannot reach it) or the drive faulted: the plot and
+/// the trace are still written, they show what happened.
 ///
 /// # Errors
 /// The machine could not be calibrated, or a file cannot be written.
@@ -364,5 +366,14 @@ pub fn main(args: &PullArgs) -> Status {
     if let Some(path) = &args.csv {
         println!("trace: {}", path.display());
     }
-    Ok(!s.drive_fault)
+    if s.settle_s.is_none() {
+        to_stderr(&format!(
+            "taut pull: the tension never settled at {:.1} kgf (exit status 1)\n",
+            setup.target_kgf
+        ));
+    }
+    if s.drive_fault {
+        to_stderr("taut pull: the drive faulted (exit status 1)\n");
+    }
+    Ok(s.settle_s.is_some() && !s.drive_fault)
 }

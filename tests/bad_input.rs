@@ -390,3 +390,24 @@ fn a_closed_stderr_is_as_quiet_as_a_closed_stdout() {
     assert_ne!(status, Some(101), "no panic");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Exit status 0 only when what was asked for happened: a pull with no string in the gripper
+/// never settles at its target, and says so (it used to exit 0); a pull that settles exits 0.
+#[test]
+fn a_pull_that_never_settles_exits_1() {
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_taut"))
+            .args(args)
+            .current_dir(std::env::temp_dir())
+            .stdin(Stdio::null())
+            .output()
+            .expect("runs")
+    };
+    let none = run(&["pull", "--string", "none", "--hold", "1"]);
+    let stderr = String::from_utf8_lossy(&none.stderr);
+    assert_eq!(none.status.code(), Some(1), "{stderr}");
+    assert!(String::from_utf8_lossy(&none.stdout).contains("settled never"));
+    assert!(stderr.contains("never settled at 25.0 kgf"), "{stderr}");
+    let pulled = run(&["pull", "--string", "tennis-poly", "--hold", "3"]);
+    assert_eq!(pulled.status.code(), Some(0), "{}", String::from_utf8_lossy(&pulled.stderr));
+}

@@ -34,7 +34,11 @@ Examples:
 
 /// `taut`: the host tool.
 #[derive(Parser, Debug)]
-#[command(name = "taut", about = "taut: the stringing machine's host tool (digital twin, reports)")]
+#[command(
+    name = "taut",
+    version,
+    about = "taut: the stringing machine's host tool (digital twin, reports)"
+)]
 #[command(args_conflicts_with_subcommands = true, after_help = AFTER_HELP)]
 pub struct Cli {
     /// No subcommand: the main job (a whole machine cycle on the twin, see `taut --help`).
@@ -617,6 +621,16 @@ mod tests {
             assert_eq!(typed.as_deref(), Some(board.name()));
             assert_eq!(SensingArg::from_str(board.name(), false), Ok(*board));
         }
+    }
+
+    #[test]
+    fn version_prints_the_package_version_and_exits_0() {
+        use clap::CommandFactory as _;
+        let shown = Cli::try_parse_from(["taut", "--version"]).map(|_| ()).unwrap_err();
+        assert_eq!(shown.kind(), clap::error::ErrorKind::DisplayVersion);
+        assert_eq!(shown.exit_code(), 0);
+        let text = Cli::command().render_version();
+        assert_eq!(text, format!("taut {}\n", env!("CARGO_PKG_VERSION")));
     }
 
     #[test]

@@ -379,3 +379,51 @@ fn panel_script_information_pages() {
         "Start on the service page reruns the self-test"
     );
 }
+
+/// The display shows a fault as `E-16` only; the terminal panel says beside it what it
+/// means and how to clear it, and likewise for a notice (`n-01`). Every line still fits the
+/// terminal the panel asks for.
+#[test]
+fn a_fault_and_a_notice_show_their_meaning_and_how_to_clear_them() {
+    let mut s = PanelSession::new(StringKind::NoString, None, Flash::Calibrated).expect("session");
+    run(&mut s, &format!("{TO_READY}press start\nuntil fault 30000\nexpect display E-16\n"))
+        .unwrap();
+    let frame = s.frame();
+    let text = frame.join("\n");
+    assert!(text.contains("shows: E-16 no string: 150 mm of travel without tension"), "{text}");
+    assert!(text.contains("next:  clamp the string, then Start"), "{text}");
+    let columns = usize::from(taut::panel::FRAME_COLUMNS);
+    assert!(frame.iter().all(|l| l.chars().count() <= columns), "{text}");
+
+    let mut blank = session(Flash::Blank);
+    run(&mut blank, &format!("{TO_READY}expect display n-01\n")).unwrap();
+    let text = blank.frame().join("\n");
+    assert!(text.contains("shows: n-01 the stored record was missing or corrupt"), "{text}");
+    assert!(text.contains("next:  any key; the settings are stored again"), "{text}");
+    run(&mut blank, "press down\nexpect display 25.0\n").unwrap();
+    assert!(!blank.frame().join("\n").contains("n-01"), "gone once acknowledged");
+}
+
+/// Function in a hold switches constant pull off: the display says `LOCK` for a second, then
+/// shows the tension again while the string creeps; the terminal panel keeps marking the hold
+/// locked until constant pull is on again.
+#[test]
+fn a_locked_hold_stays_marked_locked_on_the_terminal() {
+    let mut s = session(Flash::Calibrated);
+    let lock = format!(
+        "{TO_READY}press start\nuntil holding 20000\nwait 500\npress function\n\
+         expect display LOCK\nwait 3000\nexpect state holding\n"
+    );
+    run(&mut s, &lock).unwrap();
+    assert!(!s.status_line().contains("[LOCK]"), "the display is back on the tension");
+    let text = s.frame().join("\n");
+    assert!(text.contains("[*] LOCK: constant pull off"), "{text}");
+    assert!(text.contains("next:  the carriage stays put and the string may creep"), "{text}");
+    run(&mut s, "press function\nexpect display PULL\nwait 3000\n").unwrap();
+    let text = s.frame().join("\n");
+    assert!(
+        !text.contains("LOCK: constant pull off") && !text.contains("may creep"),
+        "constant pull on again: {text}"
+    );
+    run(&mut s, "press start\nuntil ready 20000\n").unwrap();
+}

@@ -30,14 +30,17 @@
 //!   fast as the twin goes; it prints a transcript (and frames) to stdout. Tests drive the
 //!   panel through it.
 
+pub mod faults;
 pub mod script;
 pub mod terminal;
 
 use taut_core::io::{Key, Keys, Outputs};
-use taut_core::machine::{FaultCode, MachineState, View};
+use taut_core::machine::{MachineState, View};
 use taut_core::settings::Unit;
 use taut_core::store::{RECORD_LEN, Record};
-use taut_sim::bench::{Bench, SessionError, commission, factory_config, kgf, state_name};
+use taut_sim::bench::{
+    Bench, SessionError, commission, factory_config, fault_name, kgf, state_name,
+};
 use taut_sim::operator::{Page, page_shown};
 use taut_sim::{StringKind, StringState, TwinConfig};
 
@@ -207,7 +210,14 @@ impl PanelSession {
             led(out.leds.holding, "hold"),
             led(out.leds.fault, "fault")
         ));
-        lines.push(format!("|   {c}    beeper: {}", if out.beeper { "BEEP" } else { "-" }));
+        // A hold with constant pull off shows `LOCK` on the display for a second only; the
+        // terminal keeps saying so for the whole hold.
+        let locked = self.state() == MachineState::Holding && !self.bench.machine().constant_pull();
+        lines.push(format!(
+            "|   {c}    beeper: {:<6}{}",
+            if out.beeper { "BEEP" } else { "-" },
+            if locked { "[*] LOCK: constant pull off" } else { "" }
+        ));
         lines.push(format!(
             "| state: {:<20} carriage {:6.1} mm   string {:?}",
             state_name(self.state()),
@@ -228,10 +238,16 @@ impl PanelSession {
             width = GAUGE_WIDTH - 4
         ));
         let view = self.bench.machine().view();
-        lines.push(format!(
-            "| shows: {}",
-            information_text(view).unwrap_or_else(|| page_text(self.state(), out))
-        ));
+        let shows = match (self.state(), self.bench.machine().notice()) {
+            (MachineState::Fault(code), _) => {
+                format!("{} {}", fault_name(code), faults::fault_text(code).0)
+            }
+            (MachineState::Ready, Some(notice)) if page_shown(&out.display).is_none() => {
+                format!("n-{:02} {}", notice.number(), faults::notice_text(notice).0)
+            }
+            _ => information_text(view).unwrap_or_else(|| page_text(self.state(), out)),
+        };
+        lines.push(format!("| shows: {shows}"));
         if let Some(hint) = self.hint() {
             lines.push(format!("| next:  {hint}"));
         }
@@ -241,16 +257,21 @@ impl PanelSession {
         lines
     }
 
-    /// What the operator can do next, when it is not obvious: after a string break.
+    /// What the operator can do next, when it is not obvious: how a fault or a notice
+    /// clears, a new string after a break, constant pull back on in a locked hold.
     #[must_use]
     pub fn hint(&self) -> Option<&'static str> {
+        let machine = self.bench.machine();
         let broken = self.bench.twin().truth().string == StringState::Broken;
         match (self.state(), broken) {
-            (MachineState::Fault(FaultCode::StringBreak), _) => Some(
-                "the string broke (E-15): Start clears the fault and the carriage returns home",
-            ),
+            (MachineState::Fault(code), _) => Some(faults::fault_text(code).1),
             (MachineState::Ready, true) => Some("n fits a new string, then Start pulls it"),
-            (MachineState::Fault(_), _) => Some("Start clears the fault once its cause is gone"),
+            (MachineState::Ready, false) if page_shown(&self.last_outputs.display).is_none() => {
+                machine.notice().map(|notice| faults::notice_text(notice).1)
+            }
+            (MachineState::Holding, _) if !machine.constant_pull() => {
+                Some("the carriage stays put and the string may creep; Function: constant pull on")
+            }
             _ => None,
         }
     }

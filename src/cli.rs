@@ -356,6 +356,11 @@ pub struct PanelArgs {
     /// Interactive mode: machine milliseconds per real millisecond (0.1–100).
     #[arg(long, allow_negative_numbers = true, default_value = "1", value_name = "FACTOR", value_parser = ranged_f64(0.1..=100.0))]
     pub rate: f64,
+    /// Keep the machine's flash (settings, presets, calibration, counters) in FILE between
+    /// sessions: power up from FILE when it exists (instead of --flash), and leave in it what
+    /// the machine last stored when the session ends.
+    #[arg(long, value_name = "FILE")]
+    pub state: Option<PathBuf>,
     /// Print the script format and exit.
     #[arg(long)]
     pub help_script: bool,

@@ -127,6 +127,8 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["panel", "--script", "SCRIPTS/missing.script"], RUNTIME, "cannot read"),
     (&["panel", "--script", "SCRIPTS/bad.script"], USAGE, "count 0 is not in 1–1000"),
     (&["panel", "--script", "SCRIPTS/nan.script"], USAGE, "tension NaN is not in 0–60 kgf"),
+    (&["panel", "--state", "UNWRITABLE/panel.state"], USAGE, "error: --state "),
+    (&["panel", "--state", "SCRIPTS/bad.script"], USAGE, "not a machine's flash image"),
     // ── report accuracy ──
     (&["report", "accuracy", "--scenarios", "0"], USAGE, "--scenarios"),
     (&["report", "accuracy", "--scenarios", "-1"], USAGE, "--scenarios"),

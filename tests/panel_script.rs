@@ -427,3 +427,45 @@ fn a_locked_hold_stays_marked_locked_on_the_terminal() {
     );
     run(&mut s, "press start\nuntil ready 20000\n").unwrap();
 }
+
+/// `--state FILE` keeps the machine's flash between sessions: a speed set in one session is
+/// there in the next, and a file that is not a flash image is refused and left alone.
+#[test]
+fn the_panel_keeps_its_settings_between_sessions_in_a_state_file() {
+    let dir = std::env::temp_dir().join(format!("taut-panel-state-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let session = |script: &str| {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_taut"))
+            .args(["panel", "--flash", "factory", "--state", "panel.state", "--script", "-"])
+            .current_dir(&dir)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("runs");
+        child.stdin.take().unwrap().write_all(script.as_bytes()).unwrap();
+        child.wait_with_output().unwrap()
+    };
+    // First session: factory flash, speed 5 → 7, stored 2 s after the last key.
+    let first = session(&format!(
+        "{TO_READY}press function\nexpect display \"SP 5\"\npress up 2\nexpect display \"SP 7\"\nwait 2500\n"
+    ));
+    assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stdout));
+    let stored = std::fs::read(dir.join("panel.state")).unwrap();
+    assert_eq!(stored.len(), taut_core::store::RECORD_LEN);
+    // Second session: it powers up from the file, not from the factory flash: speed 7.
+    let second = session(&format!("{TO_READY}press function\nexpect display \"SP 7\"\n"));
+    assert!(
+        second.status.success(),
+        "the speed was kept: {}{}",
+        String::from_utf8_lossy(&second.stdout),
+        String::from_utf8_lossy(&second.stderr)
+    );
+    std::fs::write(dir.join("panel.state"), "not a flash image").unwrap();
+    let refused = session("");
+    assert_eq!(refused.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("not a machine's flash image"));
+    assert_eq!(std::fs::read(dir.join("panel.state")).unwrap(), b"not a flash image");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -45,7 +45,7 @@ use taut_sim::operator::{Page, page_shown};
 use taut_sim::{StringKind, StringState, TwinConfig};
 
 pub use crate::cli::{Flash, PanelArgs};
-use crate::output::{Failure, Status, to_stderr};
+use crate::output::{self, Failure, Status, to_stderr};
 pub use taut_sim::operator::display;
 
 /// How long a queued tap holds its key down, ms (the panel debounces for 20 ms).
@@ -70,6 +70,8 @@ pub struct PanelSession {
     string: StringKind,
     seed: Option<u64>,
     last_outputs: Outputs,
+    /// The flash as the machine last stored it.
+    flash: [u8; RECORD_LEN],
 }
 
 impl PanelSession {
@@ -90,13 +92,32 @@ impl PanelSession {
             Flash::Factory => Record::default().encode(),
             Flash::Blank => [0xFF; RECORD_LEN],
         };
-        Ok(Self {
-            bench: Bench::power_up(&config, &bytes),
+        Ok(Self::from_flash(string, seed, &bytes))
+    }
+
+    /// A session whose machine powers up from the flash image `bytes` (a session's
+    /// [`PanelSession::flash`], kept in a `--state` file).
+    #[must_use]
+    pub fn from_flash(string: StringKind, seed: Option<u64>, bytes: &[u8; RECORD_LEN]) -> Self {
+        let config = seed.map_or_else(
+            || TwinConfig::nominal(string),
+            |seed| TwinConfig::family_kind(string, seed),
+        );
+        Self {
+            bench: Bench::power_up(&config, bytes),
             keys: Keys::NONE,
             string,
             seed,
             last_outputs: Outputs::default(),
-        })
+            flash: *bytes,
+        }
+    }
+
+    /// The flash as the machine last stored it (settings, presets, calibration, counters):
+    /// what a power cycle would start from.
+    #[must_use]
+    pub const fn flash(&self) -> &[u8; RECORD_LEN] {
+        &self.flash
     }
 
     /// Puts `key` down (it stays down until [`PanelSession::release`]).
@@ -125,6 +146,9 @@ impl PanelSession {
         let keys = self.keys;
         self.bench.twin_mut().set_keys(keys);
         self.last_outputs = self.bench.tick();
+        if self.last_outputs.store {
+            self.flash = self.bench.machine().record().encode();
+        }
         self.last_outputs
     }
 
@@ -401,6 +425,25 @@ pub fn page_text(state: MachineState, outputs: &Outputs) -> String {
     }
 }
 
+/// The flash image in a `--state` file, `None` when there is no file yet.
+///
+/// # Errors
+/// The file cannot be read, or is not a flash image (its size).
+fn read_state(path: &std::path::Path) -> Result<Option<[u8; RECORD_LEN]>, Failure> {
+    let bytes = match std::fs::read(path) {
+        Ok(bytes) => bytes,
+        Err(error) if error.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(error) => return Err(Failure::Read { path: path.to_owned(), error }),
+    };
+    <[u8; RECORD_LEN]>::try_from(bytes.as_slice()).map(Some).map_err(|_| {
+        Failure::Usage(format!(
+            "--state {}: not a machine's flash image ({} bytes, not {RECORD_LEN})",
+            path.display(),
+            bytes.len()
+        ))
+    })
+}
+
 /// `taut panel`: the interactive panel, or the script. `Ok(false)` when a script's check
 /// failed.
 ///
@@ -411,6 +454,11 @@ pub fn main(args: &PanelArgs) -> Status {
         println!("{}", script::FORMAT_HELP);
         return Ok(true);
     }
+    let outputs = output::Outputs::new().file("--state", args.state.as_deref()).check()?;
+    let stored = match &args.state {
+        Some(path) => read_state(path)?,
+        None => None,
+    };
     // The script is read and parsed first: a bad script fails before the machine powers up.
     let script = match &args.script {
         Some(path) => {
@@ -428,14 +476,28 @@ pub fn main(args: &PanelArgs) -> Status {
         }
         None => None,
     };
-    let mut session = PanelSession::new(args.string.into(), args.seed, args.flash)
-        .map_err(|e| Failure::Message(e.to_string()))?;
+    let mut session = match stored {
+        Some(bytes) => PanelSession::from_flash(args.string.into(), args.seed, &bytes),
+        None => PanelSession::new(args.string.into(), args.seed, args.flash)
+            .map_err(|e| Failure::Message(e.to_string()))?,
+    };
+    // The machine's flash, kept for the next session (whatever ended this one).
+    let keep = |session: &PanelSession| {
+        let files: Vec<_> =
+            args.state.iter().map(|path| (path.clone(), session.flash().to_vec())).collect();
+        outputs.write(&files)
+    };
     let Some((path, parsed)) = script else {
-        terminal::run(&mut session, args.rate).map_err(|e| Failure::Message(e.to_string()))?;
+        let ran =
+            terminal::run(&mut session, args.rate).map_err(|e| Failure::Message(e.to_string()));
+        keep(&session)?;
+        ran?;
         return Ok(true);
     };
     let mut stdout = std::io::stdout().lock();
-    match parsed.run(&mut session, args.frames, &mut stdout) {
+    let ran = parsed.run(&mut session, args.frames, &mut stdout);
+    keep(&session)?;
+    match ran {
         Ok(()) => Ok(true),
         Err(script::ScriptFailure::Io(error)) if error.kind() == std::io::ErrorKind::BrokenPipe => {
             Err(Failure::ClosedStdout)

@@ -400,48 +400,58 @@ fn temp_beside(target: &Path) -> PathBuf {
     let unique = NEXT.fetch_add(1, Ordering::Relaxed);
     parent(target).join(format!(".{name}.{}-{unique}.taut-tmp", std::process::id()))
 }
-/// A progress counter on stderr, drawn only when stderr is a terminal (a log gets no
-/// carriage returns): `[#####-----] 12/100 label`.
+/// How often a progress line is written when stderr is not a terminal (a log, a pipe).
+pub const PROGRESS_LINE_EVERY: std::time::Duration = std::time::Duration::from_secs(5);
+
+/// A progress counter on stderr. On a terminal a bar redrawn in place with the time left,
+/// `[#####-----] 12/100 runs, 0:34 elapsed, about 0:41 left`; otherwise (a log, a pipe)
+/// the same figures as a line when the run starts, every [`PROGRESS_LINE_EVERY`] and when it
+/// ends, so a long report is never silent for a minute.
 pub struct Progress {
     total: usize,
     done: AtomicUsize,
     label: String,
     terminal: bool,
-    lock: Mutex<()>,
+    started: std::time::Instant,
+    /// When the last line was written (not on a terminal).
+    last_line: Mutex<std::time::Instant>,
 }
 
 impl Progress {
     /// A counter of `total` items.
     #[must_use]
     pub fn new(total: usize, label: &str) -> Self {
-        Self {
+        let progress = Self {
             total,
             done: AtomicUsize::new(0),
             label: label.to_owned(),
             terminal: std::io::stderr().is_terminal(),
-            lock: Mutex::new(()),
+            started: std::time::Instant::now(),
+            last_line: Mutex::new(std::time::Instant::now()),
+        };
+        if !progress.terminal {
+            to_stderr(&format!("{}\n", progress_text(0, total, label, std::time::Duration::ZERO)));
         }
+        progress
     }
 
     /// One more item done.
     pub fn step(&self) {
         let done = self.done.fetch_add(1, Ordering::Relaxed) + 1;
-        if !self.terminal {
-            return;
+        let Ok(mut last_line) = self.last_line.lock() else { return };
+        let text = progress_text(done, self.total, &self.label, self.started.elapsed());
+        if self.terminal {
+            let width = 40;
+            let filled = (done * width / self.total.max(1)).min(width);
+            to_stderr(&format!(
+                "\r\x1b[2K[{}{}] {text}",
+                "#".repeat(filled),
+                "-".repeat(width - filled)
+            ));
+        } else if done >= self.total || last_line.elapsed() >= PROGRESS_LINE_EVERY {
+            *last_line = std::time::Instant::now();
+            to_stderr(&format!("{text}\n"));
         }
-        let _guard = self.lock.lock();
-        let width = 40;
-        let filled = done * width / self.total.max(1);
-        let mut err = std::io::stderr().lock();
-        let _ = write!(
-            err,
-            "\r[{}{}] {done}/{} {}",
-            "#".repeat(filled.min(width)),
-            "-".repeat(width - filled.min(width)),
-            self.total,
-            self.label
-        );
-        let _ = err.flush();
     }
 
     /// Ends the line (on a terminal).
@@ -450,6 +460,31 @@ impl Progress {
             to_stderr("\n");
         }
     }
+}
+
+/// `12/100 runs, 0:34 elapsed, about 0:41 left` (the time left once an item is done, from
+/// the mean time per item so far; `done` at the end).
+#[must_use]
+pub fn progress_text(
+    done: usize,
+    total: usize,
+    label: &str,
+    elapsed: std::time::Duration,
+) -> String {
+    let clock = |seconds: f64| {
+        let s = seconds.max(0.0).round() as u64;
+        format!("{}:{:02}", s / 60, s % 60)
+    };
+    let elapsed_s = elapsed.as_secs_f64();
+    let left = if done >= total {
+        ", done".to_owned()
+    } else if done == 0 {
+        String::new()
+    } else {
+        let per_item = elapsed_s / done as f64;
+        format!(", about {} left", clock(per_item * (total - done) as f64))
+    };
+    format!("{done}/{total} {label}, {} elapsed{left}", clock(elapsed_s))
 }
 
 /// Worker threads: `requested`, or the machine's cores.
@@ -631,6 +666,17 @@ mod tests {
         assert!(!plots.exists());
         outputs.write(&[(plots.join("q.svg"), b"<svg/>".to_vec())]).unwrap();
         assert_eq!(std::fs::read_to_string(plots.join("q.svg")).unwrap(), "<svg/>");
+    }
+
+    #[test]
+    fn progress_says_how_far_how_long_and_how_long_left() {
+        let at = |seconds| std::time::Duration::from_secs(seconds);
+        assert_eq!(progress_text(0, 100, "runs", at(0)), "0/100 runs, 0:00 elapsed");
+        assert_eq!(
+            progress_text(25, 100, "runs", at(30)),
+            "25/100 runs, 0:30 elapsed, about 1:30 left"
+        );
+        assert_eq!(progress_text(100, 100, "runs", at(125)), "100/100 runs, 2:05 elapsed, done");
     }
 
     #[test]

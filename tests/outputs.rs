@@ -142,3 +142,20 @@ fn a_run_killed_half_way_leaves_the_earlier_files_as_they_were() {
     assert!(!status.success());
     assert_eq!(contents(&dir), before, "the earlier files, untouched");
 }
+
+/// A report whose stderr is a pipe or a log prints its progress as lines (it used to print
+/// nothing until the end): one when it starts, one every few seconds, one when it is done.
+#[test]
+fn a_report_into_a_pipe_prints_its_progress_as_lines() {
+    let dir = scratch("progress");
+    let out = taut(&dir, &["report", "accuracy", "--scenarios", "2", "--threads", "1"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    println!("{stderr}");
+    assert!(out.status.success(), "{stderr}");
+    let lines: Vec<&str> = stderr.lines().collect();
+    assert!(lines.first().is_some_and(|l| l.starts_with("0/2 scenarios, ")), "{stderr}");
+    assert!(
+        lines.last().is_some_and(|l| l.starts_with("2/2 scenarios, ") && l.ends_with(", done"))
+    );
+    assert!(!stderr.contains('\r'), "no carriage returns in a log");
+}

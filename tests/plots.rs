@@ -284,6 +284,50 @@ fn the_accuracy_plots() {
             if stem.starts_with("accuracy") { stem.to_owned() } else { format!("accuracy_{stem}") };
         check(&name, figure);
     }
+    let quantiles = &figures[0].1;
+    // The log axes say where they put a zero.
+    assert!(quantiles.panels[0].y_label.contains("< 0.001 shown at 0.001"));
+    // One percentile axis for every controller: of all the scenarios, each line ending
+    // where its survivors do (pd made to fail every other scenario here).
+    let mut halved = results.clone();
+    for r in halved.iter_mut().step_by(2) {
+        r.metrics[1] = taut::report::Metrics::failed(taut::report::Failure::NeverSettled);
+    }
+    let results = halved;
+    let figures = accuracy::figures(args.seed, args.machines(), &results, &lineup);
+    let quantiles = &figures[0].1;
+    for panel in &quantiles.panels {
+        let Content::Lines(all) = &panel.content else { continue };
+        for (which, series) in all.iter().filter(|s| !s.label.starts_with("goal")).enumerate() {
+            let survivors = results.iter().filter(|r| r.metrics[which].failure.is_none()).count();
+            let end = series.points.last().map_or(0.0, |p| p.0);
+            let want = survivors as f64 / results.len() as f64 * 100.0;
+            assert!((end - want).abs() < 1e-9, "{}: ends at {end}, want {want}", series.label);
+        }
+    }
+    // The scenario plotted is taut's worst hold, not the first scenario: with the last
+    // surviving scenario made the worst, it is the one drawn.
+    let mut worse = results.clone();
+    let last = worse.iter_mut().rev().find(|r| r.metrics[0].failure.is_none()).unwrap();
+    last.metrics[0].hold_error_kgf = 9.0;
+    let index = last.index;
+    assert_ne!(index, 0);
+    let figures = accuracy::figures(args.seed, args.machines(), &worse, &lineup);
+    assert_eq!(figures[1].0, format!("scenario_{index}.svg"));
+    assert!(figures[1].1.title.contains("taut's worst hold (9.000 kgf)"), "{}", figures[1].1.title);
+
+    // A controller that failed every scenario gets no empty legend entry; the subtitle names it.
+    let mut failed = results.clone();
+    for r in &mut failed {
+        r.metrics[1] = taut::report::Metrics::failed(taut::report::Failure::NeverSettled);
+    }
+    let figures = accuracy::figures(args.seed, args.machines(), &failed, &lineup);
+    let quantiles = &figures[0].1;
+    assert!(quantiles.subtitle.contains("every scenario failed for pd"), "{}", quantiles.subtitle);
+    for panel in &quantiles.panels {
+        let Content::Lines(all) = &panel.content else { continue };
+        assert!(all.iter().all(|s| !s.points.is_empty() && !s.label.starts_with("pd")));
+    }
 }
 
 /// `--gauge-sigma` commissions the report's machines against the gauge it names: the same

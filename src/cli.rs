@@ -22,7 +22,9 @@ calibration against the reference gauge), then powers it up, keys the settings i
 panel, presses Start, lets it hold while the string creeps and releases. Progress goes to
 stderr, the summary table to stdout, the plot to --svg (out/cycle.svg).
 Exit status: 0 the cycle completed, 1 it did not (a fault) or a file could not be written,
-2 a usage error.
+2 a usage error (a bad option, or an output path refused before the run: its folder missing,
+a folder, or the same as another option's). Output files are replaced only when the run
+completes its writing: a failed or interrupted run leaves the earlier files as they were.
 
 Examples:
   taut                                   25 kg on tennis-synthetic, speed 5
@@ -32,7 +34,11 @@ Examples:
 
 /// `taut`: the host tool.
 #[derive(Parser, Debug)]
-#[command(name = "taut", about = "taut: the stringing machine's host tool (digital twin, reports)")]
+#[command(
+    name = "taut",
+    version,
+    about = "taut: the stringing machine's host tool (digital twin, reports)"
+)]
 #[command(args_conflicts_with_subcommands = true, after_help = AFTER_HELP)]
 pub struct Cli {
     /// No subcommand: the main job (a whole machine cycle on the twin, see `taut --help`).
@@ -269,6 +275,9 @@ impl SensingArg {
 
 // ───────────────────────────── the main job ─────────────────────────────
 
+/// The main job's plot when `--svg` is not given.
+pub const DEFAULT_CYCLE_SVG: &str = "out/cycle.svg";
+
 /// The main job's command-line options (`taut` with no subcommand).
 #[derive(Args, Clone, Debug)]
 pub struct JobArgs {
@@ -297,9 +306,10 @@ pub struct JobArgs {
     /// Skip the commissioning calibration: the machine runs on the tared, uncorrected sensor.
     #[arg(long)]
     pub uncalibrated: bool,
-    /// Where to write the plot.
-    #[arg(long, default_value = "out/cycle.svg", value_name = "FILE")]
-    pub svg: PathBuf,
+    /// Where to write the plot (default out/cycle.svg, its folder `out` created if missing;
+    /// a given path's folder must exist).
+    #[arg(long, value_name = "FILE")]
+    pub svg: Option<PathBuf>,
     /// Also write the summary as JSON here.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
@@ -346,6 +356,11 @@ pub struct PanelArgs {
     /// Interactive mode: machine milliseconds per real millisecond (0.1–100).
     #[arg(long, allow_negative_numbers = true, default_value = "1", value_name = "FACTOR", value_parser = ranged_f64(0.1..=100.0))]
     pub rate: f64,
+    /// Keep the machine's flash (settings, presets, calibration, counters) in FILE between
+    /// sessions: power up from FILE when it exists (instead of --flash), and leave in it what
+    /// the machine last stored when the session ends.
+    #[arg(long, value_name = "FILE")]
+    pub state: Option<PathBuf>,
     /// Print the script format and exit.
     #[arg(long)]
     pub help_script: bool,
@@ -611,6 +626,16 @@ mod tests {
             assert_eq!(typed.as_deref(), Some(board.name()));
             assert_eq!(SensingArg::from_str(board.name(), false), Ok(*board));
         }
+    }
+
+    #[test]
+    fn version_prints_the_package_version_and_exits_0() {
+        use clap::CommandFactory as _;
+        let shown = Cli::try_parse_from(["taut", "--version"]).map(|_| ()).unwrap_err();
+        assert_eq!(shown.kind(), clap::error::ErrorKind::DisplayVersion);
+        assert_eq!(shown.exit_code(), 0);
+        let text = Cli::command().render_version();
+        assert_eq!(text, format!("taut {}\n", env!("CARGO_PKG_VERSION")));
     }
 
     #[test]

@@ -26,6 +26,11 @@
               bug, not a user's input"
 )]
 #![allow(clippy::print_stdout, reason = "a command-line tool prints its results")]
+#![deny(
+    clippy::print_stderr,
+    reason = "`eprintln!` panics when stderr is closed (`taut 2>&1 | head -1`): diagnostics go \
+              through `output::to_stderr`"
+)]
 
 pub mod cli;
 pub mod job;

@@ -1,8 +1,13 @@
 //! `taut`: the host tool. Parses the command line and runs one subcommand; see `taut --help`.
 
+#![deny(
+    clippy::print_stderr,
+    reason = "`eprintln!` panics when stderr is closed: diagnostics go through `output::to_stderr`"
+)]
+
 use clap::Parser as _;
 use taut::cli::{Cli, Command, ReportKind};
-use taut::output::report_failure;
+use taut::output::{CLOSED_STDOUT_STATUS, report_failure};
 
 fn main() {
     quiet_on_closed_stdout();
@@ -42,7 +47,7 @@ fn quiet_on_closed_stdout() {
             message.starts_with("failed printing to stdout") && message.contains("Broken pipe")
         });
         if closed {
-            std::process::exit(141);
+            std::process::exit(CLOSED_STDOUT_STATUS);
         }
         report(info);
     }));

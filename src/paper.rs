@@ -34,7 +34,7 @@ use taut_core::units::{Kgf, Q16};
 use taut_sim::bench::{kgf, to_kgf};
 
 use crate::cli::PaperArgs;
-use crate::output::{Status, check_writable, write_file, write_json};
+use crate::output::{Outputs, Status, json_bytes};
 use crate::plot::{Figure, Panel, Series, Stroke};
 
 /// The plant and disturbance of the re-run.
@@ -220,26 +220,33 @@ pub fn figure(rsmc: &PaperRun, pd: &PaperRun) -> Figure {
 /// # Errors
 /// A file cannot be written.
 pub fn main(args: &PaperArgs) -> Status {
-    for path in [&args.json, &args.svg].into_iter().flatten() {
-        check_writable(path)?;
-    }
+    let outputs = Outputs::new()
+        .file("--json", args.json.as_deref())
+        .file("--svg", args.svg.as_deref())
+        .check()?;
     let (rsmc, pd, h) = run();
-    let show = |x: Option<f64>| x.map_or("never".to_owned(), |v| format!("{v:.4}"));
-    println!("| figure | taut re-run | paper |\n|---|---|---|");
-    println!("| RSMC time to 10 kgw (98 %) | {} s | ≈ 0.02 s |", show(h.rsmc_reach_s));
-    println!("| PD time to 10 kgw (98 %) | {} s | ≈ 0.05 s |", show(h.pd_reach_s));
-    println!("| PD steady-state error | {:.4} kgw | ≈ 0.018 kgw |", h.pd_steady_error_kgw);
+    let mut files = Vec::new();
     if let Some(path) = &args.json {
         let doc = serde_json::json!({
             "rsmc_reach_s": h.rsmc_reach_s,
             "pd_reach_s": h.pd_reach_s,
             "pd_steady_error_kgw": h.pd_steady_error_kgw,
         });
-        write_json(path, &doc)?;
+        files.push((path.clone(), json_bytes(&doc)));
+    }
+    if let Some(path) = &args.svg {
+        files.push((path.clone(), figure(&rsmc, &pd).to_svg().into_bytes()));
+    }
+    outputs.write(&files)?;
+    let show = |x: Option<f64>| x.map_or("never".to_owned(), |v| format!("{v:.4}"));
+    println!("| figure | taut re-run | paper |\n|---|---|---|");
+    println!("| RSMC time to 10 kgw (98 %) | {} s | ≈ 0.02 s |", show(h.rsmc_reach_s));
+    println!("| PD time to 10 kgw (98 %) | {} s | ≈ 0.05 s |", show(h.pd_reach_s));
+    println!("| PD steady-state error | {:.4} kgw | ≈ 0.018 kgw |", h.pd_steady_error_kgw);
+    if let Some(path) = &args.json {
         println!("summary: {}", path.display());
     }
     if let Some(path) = &args.svg {
-        write_file(path, figure(&rsmc, &pd).to_svg())?;
         println!("plot: {}", path.display());
     }
     Ok(true)

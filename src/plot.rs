@@ -837,6 +837,7 @@ fn draw_lines(
             );
         }
     }
+    draw_off_scale(svg, series, x, y, area);
     let legend_x = area.x + area.w + 12.0;
     for (index, s) in series.iter().enumerate() {
         let (colour, _, dash) = style(index, s);
@@ -867,6 +868,57 @@ fn draw_lines(
             legend_x + 27.0,
             escape(&s.label)
         );
+    }
+}
+
+/// The least distance between two off-scale marks along an edge, px.
+const OFF_SCALE_GAP_PX: f64 = 8.0;
+
+/// Marks the points of `series` beyond a fixed y range (which the clip hides): a small
+/// triangle on the edge they leave by, at their x, in their series' colour, and one note per
+/// edge with the farthest value, so a zoomed panel never looks empty or calm by omission.
+fn draw_off_scale(svg: &mut String, series: &[Series], x: &AxisScale, y: &AxisScale, area: Rect) {
+    let (lo, hi) = (y.lo.min(y.hi), y.lo.max(y.hi));
+    // (above, sign, farthest value) for the top edge, then the bottom one.
+    for above in [true, false] {
+        let mut farthest: Option<f64> = None;
+        for (index, s) in series.iter().enumerate() {
+            let colour = s.colour.unwrap_or(PALETTE[index % PALETTE.len()]);
+            let mut last_px = f64::NEG_INFINITY;
+            for &(px, py) in s.points.iter().filter(|(a, b)| a.is_finite() && b.is_finite()) {
+                let out = if above { py > hi } else { py < lo };
+                if !out || px < x.lo.min(x.hi) || px > x.lo.max(x.hi) || (y.log && py <= 0.0) {
+                    continue;
+                }
+                farthest = Some(farthest.map_or(py, |f| if above { f.max(py) } else { f.min(py) }));
+                let at = x.px(px);
+                if at - last_px < OFF_SCALE_GAP_PX {
+                    continue;
+                }
+                last_px = at;
+                let (edge, tip) = if above {
+                    (area.y + 7.0, area.y + 1.0)
+                } else {
+                    (area.y + area.h - 7.0, area.y + area.h - 1.0)
+                };
+                let _ = write!(
+                    svg,
+                    r#"<path d="M{:.1},{edge:.1} L{:.1},{edge:.1} L{at:.1},{tip:.1} Z" fill="{colour}" class="off-scale"/>"#,
+                    at - 4.0,
+                    at + 4.0,
+                );
+            }
+        }
+        if let Some(value) = farthest {
+            let (arrow, ty) =
+                if above { ("▲", area.y + 20.0) } else { ("▼", area.y + area.h - 12.0) };
+            let _ = write!(
+                svg,
+                r##"<text x="{:.1}" y="{ty:.1}" font-size="11" fill="#a50f15">{arrow} off scale, to {}</text>"##,
+                area.x + 6.0,
+                escape(&format!("{value:+.3}"))
+            );
+        }
     }
 }
 
@@ -1012,6 +1064,30 @@ mod tests {
         let short = Figure::new("t", "short", "x", vec![panel()]).render().1;
         let long = Figure::new("t", &"word ".repeat(60), "x", vec![panel()]).render().1;
         assert!(long.panels[0].area.y >= short.panels[0].area.y + SUBTITLE_LINE);
+    }
+
+    #[test]
+    fn points_beyond_a_fixed_range_are_marked_off_scale() {
+        let inside = Series::new("inside", vec![(0.0, 0.1), (1.0, -0.1)]);
+        let calm = Figure::new(
+            "t",
+            "s",
+            "x",
+            vec![Panel::new("y", vec![inside.clone()]).with_y_range(-0.2, 0.2)],
+        );
+        assert!(!calm.to_svg().contains("off scale"), "nothing beyond the range");
+        let high = Series::new("high", vec![(0.0, 0.74), (0.5, 0.8), (1.0, 0.76)]);
+        let low = Series::new("low", vec![(0.0, -0.3)]);
+        let svg = Figure::new(
+            "t",
+            "s",
+            "x",
+            vec![Panel::new("y", vec![inside, high, low]).with_y_range(-0.2, 0.2)],
+        )
+        .to_svg();
+        assert!(svg.contains("▲ off scale, to +0.800"), "{svg}");
+        assert!(svg.contains("▼ off scale, to -0.300"), "{svg}");
+        assert_eq!(svg.matches(r#"class="off-scale""#).count(), 4, "a mark per point, apart");
     }
 
     #[test]

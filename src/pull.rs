@@ -10,7 +10,7 @@ use taut_sim::bench::{ControllerBench, ControllerRow, kgf};
 use taut_sim::{StringKind, TwinConfig};
 
 use crate::cli::{PullArgs, SensingArg};
-use crate::output::{Failure, Status, check_writable, write_file};
+use crate::output::{Failure, Outputs, Status, to_stderr};
 use crate::plot::{Band, DUTY_AXIS_PERCENT, Figure, Panel, Series, Stroke};
 use crate::report::accuracy::controller_config;
 use crate::report::robustness::{corner_machine, describe_corner};
@@ -320,15 +320,26 @@ pub fn run(args: &PullArgs) -> Result<PullRun, Failure> {
 }
 
 /// `taut pull`: runs the pull, prints one line of figures, writes the plot and the CSV.
-/// `Ok(false)` when the drive faulted.
+/// `Ok(false)` (exit 1, with a line on stderr saying why) when the tension never settled at
+/// the target (no string, a machine that cannot reach it) or the drive faulted: the plot and
+/// the trace are still written, they show what happened.
 ///
 /// # Errors
 /// The machine could not be calibrated, or a file cannot be written.
 pub fn main(args: &PullArgs) -> Status {
-    for path in [&args.svg, &args.csv].into_iter().flatten() {
-        check_writable(path)?;
-    }
+    let outputs = Outputs::new()
+        .file("--svg", args.svg.as_deref())
+        .file("--csv", args.csv.as_deref())
+        .check()?;
     let pull = run(args)?;
+    let mut files = Vec::new();
+    if let Some(path) = &args.svg {
+        files.push((path.clone(), pull.figure(args).to_svg().into_bytes()));
+    }
+    if let Some(path) = &args.csv {
+        files.push((path.clone(), csv(&pull.trace).into_bytes()));
+    }
+    outputs.write(&files)?;
     let (setup, s) = (&pull.setup, &pull.summary);
     let opt = |v: Option<f64>, unit: &str| {
         v.map_or_else(|| "never".to_owned(), |v| format!("{v:.3} {unit}"))
@@ -350,12 +361,19 @@ pub fn main(args: &PullArgs) -> Status {
         if s.drive_fault { "; the drive faulted" } else { "" }
     );
     if let Some(path) = &args.svg {
-        write_file(path, pull.figure(args).to_svg())?;
         println!("plot: {}", path.display());
     }
     if let Some(path) = &args.csv {
-        write_file(path, csv(&pull.trace))?;
         println!("trace: {}", path.display());
     }
-    Ok(!s.drive_fault)
+    if s.settle_s.is_none() {
+        to_stderr(&format!(
+            "taut pull: the tension never settled at {:.1} kgf (exit status 1)\n",
+            setup.target_kgf
+        ));
+    }
+    if s.drive_fault {
+        to_stderr("taut pull: the drive faulted (exit status 1)\n");
+    }
+    Ok(s.settle_s.is_some() && !s.drive_fault)
 }

@@ -1,8 +1,9 @@
 //! Every subcommand and every option that takes a value, given bad input: out of range,
 //! NaN, infinite, negative, non-numeric, an unknown name, zero counts, an unwritable path,
 //! a missing or malformed script. Each run must end with exit status 2 (a usage error, in
-//! clap's message style) or 1 (a failure while running, one line `error: …`), a readable
-//! message naming the culprit — and never 101 (a panic).
+//! clap's message style, or an output path refused before the run, `error: --svg …`) or 1 (a
+//! failure while running, one line `error: …`), a readable message naming the culprit — and
+//! never 101 (a panic).
 #![allow(
     clippy::expect_used,
     clippy::unwrap_used,
@@ -34,15 +35,20 @@ const USAGE: i32 = 2;
 const RUNTIME: i32 = 1;
 
 /// A directory of this test's own with a plain file in it, so `file/x` can never be created
-/// (not even by root).
+/// (not even by root), and `cwd/`, the runs' working directory, holding an earlier plot at
+/// the main job's default path (`out/cycle.svg`).
 fn scratch() -> PathBuf {
     let dir = std::env::temp_dir().join(format!("taut-bad-input-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::create_dir_all(dir.join("cwd/out")).unwrap();
+    std::fs::write(dir.join("cwd/out/cycle.svg"), EARLIER_PLOT).unwrap();
     std::fs::write(dir.join("file"), "not a directory").unwrap();
     std::fs::write(dir.join("bad.script"), "until ready 10000\npress up 0\n").unwrap();
     std::fs::write(dir.join("nan.script"), "expect tension nan 30\n").unwrap();
     dir
 }
+
+/// What the working directory's `out/cycle.svg` holds before the runs, and after them.
+const EARLIER_PLOT: &str = "an earlier plot";
 
 /// `(arguments, expected exit status, a word the message must contain)`. `UNWRITABLE` and
 /// `SCRIPTS` are replaced by paths in the scratch directory.
@@ -72,8 +78,8 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["--hold", "nan"], USAGE, "--hold"),
     (&["--hold", "inf"], USAGE, "--hold"),
     (&["--hold", "abc"], USAGE, "--hold"),
-    (&["--svg", "UNWRITABLE/cycle.svg"], RUNTIME, "cannot write"),
-    (&["--json", "UNWRITABLE/cycle.json"], RUNTIME, "cannot write"),
+    (&["--svg", "UNWRITABLE/cycle.svg"], USAGE, "error: --svg "),
+    (&["--json", "UNWRITABLE/cycle.json"], USAGE, "error: --json "),
     // ── pull ──
     (&["pull", "--tension", "500"], USAGE, "--tension"),
     (&["pull", "--tension", "4.9"], USAGE, "--tension"),
@@ -103,11 +109,11 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["pull", "--scenario", "abc"], USAGE, "--scenario"),
     (&["pull", "--tension", "10", "--scenario", "2"], USAGE, "cannot be used with"),
     (&["pull", "--seed", "3", "--scenario", "2"], USAGE, "cannot be used with"),
-    (&["pull", "--svg", "UNWRITABLE/pull.svg"], RUNTIME, "cannot write"),
-    (&["pull", "--csv", "UNWRITABLE/pull.csv"], RUNTIME, "cannot write"),
+    (&["pull", "--svg", "UNWRITABLE/pull.svg"], USAGE, "error: --svg "),
+    (&["pull", "--csv", "UNWRITABLE/pull.csv"], USAGE, "error: --csv "),
     // ── paper ──
-    (&["paper", "--json", "UNWRITABLE/paper.json"], RUNTIME, "cannot write"),
-    (&["paper", "--svg", "UNWRITABLE/paper.svg"], RUNTIME, "cannot write"),
+    (&["paper", "--json", "UNWRITABLE/paper.json"], USAGE, "error: --json "),
+    (&["paper", "--svg", "UNWRITABLE/paper.svg"], USAGE, "error: --svg "),
     // ── panel ──
     (&["panel", "--string", "rope"], USAGE, "--string"),
     (&["panel", "--seed", "abc"], USAGE, "--seed"),
@@ -121,6 +127,8 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["panel", "--script", "SCRIPTS/missing.script"], RUNTIME, "cannot read"),
     (&["panel", "--script", "SCRIPTS/bad.script"], USAGE, "count 0 is not in 1–1000"),
     (&["panel", "--script", "SCRIPTS/nan.script"], USAGE, "tension NaN is not in 0–60 kgf"),
+    (&["panel", "--state", "UNWRITABLE/panel.state"], USAGE, "error: --state "),
+    (&["panel", "--state", "SCRIPTS/bad.script"], USAGE, "not a machine's flash image"),
     // ── report accuracy ──
     (&["report", "accuracy", "--scenarios", "0"], USAGE, "--scenarios"),
     (&["report", "accuracy", "--scenarios", "-1"], USAGE, "--scenarios"),
@@ -134,14 +142,14 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["report", "accuracy", "--gauge-sigma", "1.5"], USAGE, "--gauge-sigma"),
     (&["report", "accuracy", "--gauge-sigma", "nan"], USAGE, "--gauge-sigma"),
     (&["report", "accuracy", "--gauge-sigma", "abc"], USAGE, "--gauge-sigma"),
-    (&["report", "accuracy", "--json", "UNWRITABLE/a.json"], RUNTIME, "cannot write"),
-    (&["report", "accuracy", "--svg", "UNWRITABLE/plots"], RUNTIME, "cannot write"),
+    (&["report", "accuracy", "--json", "UNWRITABLE/a.json"], USAGE, "error: --json "),
+    (&["report", "accuracy", "--svg", "UNWRITABLE/plots"], USAGE, "error: --svg "),
     // ── report ablation ──
     (&["report", "ablation", "--scenarios", "0"], USAGE, "--scenarios"),
     (&["report", "ablation", "--seed", "abc"], USAGE, "--seed"),
     (&["report", "ablation", "--sensing", "hall"], USAGE, "--sensing"),
     (&["report", "ablation", "--threads", "abc"], USAGE, "--threads"),
-    (&["report", "ablation", "--json", "UNWRITABLE/a.json"], RUNTIME, "cannot write"),
+    (&["report", "ablation", "--json", "UNWRITABLE/a.json"], USAGE, "error: --json "),
     // ── report robustness ──
     (&["report", "robustness", "--scenarios", "0"], USAGE, "--scenarios"),
     (&["report", "robustness", "--points", "1"], USAGE, "--points"),
@@ -167,8 +175,8 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["report", "robustness", "--beyond", "-0.5"], USAGE, "--beyond"),
     (&["report", "robustness", "--beyond", "1.5"], USAGE, "--beyond"),
     (&["report", "robustness", "--beyond", "nan"], USAGE, "--beyond"),
-    (&["report", "robustness", "--json", "UNWRITABLE/r.json"], RUNTIME, "cannot write"),
-    (&["report", "robustness", "--svg", "UNWRITABLE/r.svg"], RUNTIME, "cannot write"),
+    (&["report", "robustness", "--json", "UNWRITABLE/r.json"], USAGE, "error: --json "),
+    (&["report", "robustness", "--svg", "UNWRITABLE/r.svg"], USAGE, "error: --svg "),
     // ── report machine ──
     (&["report", "machine", "--cycles", "0"], USAGE, "--cycles"),
     (&["report", "machine", "--cycles", "-1"], USAGE, "--cycles"),
@@ -184,13 +192,13 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["report", "machine", "--axis", "backlash=-0.5"], USAGE, "not a physical machine"),
     (&["report", "machine", "--axis", "slack=1", "--axis", "slack=1"], USAGE, "given twice"),
     (&["report", "machine", "--axis", "inertia=1", "--axis", "inertia=3"], USAGE, "not in -1–2"),
-    (&["report", "machine", "--json", "UNWRITABLE/m.json"], RUNTIME, "cannot write"),
+    (&["report", "machine", "--json", "UNWRITABLE/m.json"], USAGE, "error: --json "),
     // ── report string ──
     (&["report", "string", "--seeds", "-1"], USAGE, "--seeds"),
     (&["report", "string", "--seeds", "1001"], USAGE, "--seeds"),
     (&["report", "string", "--hold", "4"], USAGE, "--hold"),
     (&["report", "string", "--hold", "abc"], USAGE, "--hold"),
-    (&["report", "string", "--json", "UNWRITABLE/s.json"], RUNTIME, "cannot write"),
+    (&["report", "string", "--json", "UNWRITABLE/s.json"], USAGE, "error: --json "),
     // ── unknown subcommands and options ──
     (&["report", "speed"], USAGE, "unrecognized subcommand"),
     (&["pull", "--force", "9"], USAGE, "--force"),
@@ -212,6 +220,7 @@ fn every_bad_input_is_refused_with_a_message_and_the_right_status() {
         let output = spawn(
             Command::new(env!("CARGO_BIN_EXE_taut"))
                 .args(&args)
+                .current_dir(dir.join("cwd"))
                 .stdin(Stdio::null())
                 .stdout(Stdio::piped())
                 .stderr(Stdio::piped()),
@@ -237,7 +246,13 @@ fn every_bad_input_is_refused_with_a_message_and_the_right_status() {
             }
         }
     }
+    // A refused run touches no file: not even the default plot of the folder it runs in.
+    let plot = std::fs::read_to_string(dir.join("cwd/out/cycle.svg")).unwrap_or_default();
+    let folder: Vec<_> =
+        std::fs::read_dir(dir.join("cwd")).unwrap().map(|e| e.unwrap().file_name()).collect();
     std::fs::remove_dir_all(&dir).ok();
+    assert_eq!(plot, EARLIER_PLOT, "the working directory's out/cycle.svg is left alone");
+    assert_eq!(folder, ["out"], "nothing new in the working directory");
     assert!(
         failures.is_empty(),
         "{} of {} rows failed:\n{}",
@@ -287,28 +302,114 @@ fn the_table_covers_every_subcommand_and_every_value_taking_option() {
     assert!(missing.is_empty(), "options without a bad-input row: {missing:?}");
 }
 
+/// Which of the tool's output streams go to a pipe whose reader is gone.
+#[derive(Clone, Copy)]
+enum Closed {
+    /// Standard output only (`taut … | head -1`).
+    Stdout,
+    /// Standard error only (progress to a log reader that quit).
+    Stderr,
+    /// Both (`taut … 2>&1 | head -1`).
+    Both,
+}
+
+/// Runs the tool in `dir` with `closed` streams on a pipe whose reader is already gone (so
+/// the first write fails, however fast the tool is), the others collected; returns the exit
+/// status and what the open stream received.
+fn with_closed_pipe(args: &[&str], dir: &std::path::Path, closed: Closed) -> (Option<i32>, String) {
+    // The lock keeps a sibling test's child, forked but not yet exec'd, from holding a copy
+    // of the reader.
+    let alone = SPAWNING.lock().unwrap_or_else(PoisonError::into_inner);
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let mut command = Command::new(env!("CARGO_BIN_EXE_taut"));
+    command.args(args).current_dir(dir).stdin(Stdio::null());
+    match closed {
+        Closed::Stdout => command.stdout(writer).stderr(Stdio::piped()),
+        Closed::Stderr => command.stdout(Stdio::piped()).stderr(writer),
+        Closed::Both => command.stdout(writer.try_clone().unwrap()).stderr(writer),
+    };
+    let child = command.spawn().unwrap();
+    drop(command);
+    drop(alone);
+    let out = child.wait_with_output().unwrap();
+    let open = match closed {
+        Closed::Stdout => &out.stderr,
+        Closed::Stderr | Closed::Both => &out.stdout,
+    };
+    let open = String::from_utf8_lossy(open).into_owned();
+    println!("{args:?}: status {:?}, open stream {open:?}", out.status.code());
+    (out.status.code(), open)
+}
+
 /// A reader that closes its end of the pipe early (`taut … | head -1`): the tool stops
 /// quietly with the status of a `SIGPIPE`-killed filter (141), not a panic (101) with a
 /// backtrace on the terminal.
 #[test]
 fn a_closed_pipe_ends_the_output_quietly() {
-    // The reader is gone before the tool starts: closing it after `spawn` would race the
-    // tool, which on a loaded machine can print its whole table into the pipe's buffer
-    // first (CI once saw status 0). The lock keeps a sibling test's child, forked but not
-    // yet exec'd, from holding a copy of the reader.
-    let alone = SPAWNING.lock().unwrap_or_else(PoisonError::into_inner);
-    let (reader, writer) = std::io::pipe().unwrap();
-    drop(reader);
-    let child = Command::new(env!("CARGO_BIN_EXE_taut"))
-        .args(["paper"])
-        .stdout(writer)
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    drop(alone);
-    let out = child.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    println!("status {:?}, stderr {stderr:?}", out.status.code());
-    assert_eq!(out.status.code(), Some(141), "stderr: {stderr}");
+    let (status, stderr) = with_closed_pipe(&["paper"], &std::env::temp_dir(), Closed::Stdout);
+    assert_eq!(status, Some(141), "stderr: {stderr}");
     assert!(!stderr.contains("panicked"), "stderr: {stderr}");
+}
+
+/// The panel's script transcript into a closed pipe (`taut panel --script … | head -1`)
+/// ends as any filter's does: status 141 and no message, not a failed script (1).
+#[test]
+fn a_script_transcript_into_a_closed_pipe_ends_as_a_filter_does() {
+    let (status, stderr) = with_closed_pipe(
+        &["panel", "--flash", "blank", "--script", "-"],
+        &std::env::temp_dir(),
+        Closed::Stdout,
+    );
+    assert_eq!(status, Some(141), "stderr: {stderr}");
+    assert_eq!(stderr, "", "no message");
+}
+
+/// A closed stderr is as quiet as a closed stdout (`taut --svg x.svg 2>&1 | head -1`): no
+/// panic ("failed printing to stderr", 101); the run goes on and writes its plot, and the
+/// closed stdout then ends it with 141. A usage error and a refused path keep their status.
+#[test]
+fn a_closed_stderr_is_as_quiet_as_a_closed_stdout() {
+    let dir = std::env::temp_dir().join(format!("taut-closed-stderr-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let (status, _) = with_closed_pipe(&["--hold", "1", "--svg", "x.svg"], &dir, Closed::Both);
+    assert_eq!(status, Some(141));
+    let plot = std::fs::read_to_string(dir.join("x.svg")).unwrap_or_default();
+    assert!(plot.starts_with("<svg"), "the plot is written: {} bytes", plot.len());
+
+    let (status, stdout) =
+        with_closed_pipe(&["--hold", "1", "--svg", "y.svg"], &dir, Closed::Stderr);
+    assert_eq!(status, Some(0), "the run completes");
+    assert!(stdout.contains("plot: y.svg"), "{stdout}");
+    assert!(dir.join("y.svg").is_file());
+
+    let (status, _) = with_closed_pipe(&["--tension", "70"], &dir, Closed::Stderr);
+    assert_eq!(status, Some(2));
+    let (status, _) = with_closed_pipe(&["--svg", "missing/x.svg"], &dir, Closed::Stderr);
+    assert_eq!(status, Some(2));
+    let (status, _) = with_closed_pipe(&["pull", "--string", "none"], &dir, Closed::Stderr);
+    assert_ne!(status, Some(101), "no panic");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Exit status 0 only when what was asked for happened: a pull with no string in the gripper
+/// never settles at its target, and says so (it used to exit 0); a pull that settles exits 0.
+#[test]
+fn a_pull_that_never_settles_exits_1() {
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_taut"))
+            .args(args)
+            .current_dir(std::env::temp_dir())
+            .stdin(Stdio::null())
+            .output()
+            .expect("runs")
+    };
+    let none = run(&["pull", "--string", "none", "--hold", "1"]);
+    let stderr = String::from_utf8_lossy(&none.stderr);
+    assert_eq!(none.status.code(), Some(1), "{stderr}");
+    assert!(String::from_utf8_lossy(&none.stdout).contains("settled never"));
+    assert!(stderr.contains("never settled at 25.0 kgf"), "{stderr}");
+    let pulled = run(&["pull", "--string", "tennis-poly", "--hold", "3"]);
+    assert_eq!(pulled.status.code(), Some(0), "{}", String::from_utf8_lossy(&pulled.stderr));
 }

@@ -305,7 +305,7 @@ fn the_plot_has_every_panel_and_the_state_timeline() {
         "duty (%, − = release)",
         "winding current (A)",
         "state",
-        "hold: tension − target (kgf)",
+        "hold: tension − target (kgf), ±0.2",
         "true tension",
         "panel reading",
     ] {

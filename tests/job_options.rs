@@ -140,14 +140,15 @@ fn the_state_timeline_shares_the_plots_time_axis() {
 
 #[test]
 fn the_binary_runs_the_main_job_with_no_subcommand() {
+    // In a folder of its own with no `out/`: the default plot's folder is created.
     let dir = std::env::temp_dir().join(format!("taut-cycle-{}", std::process::id()));
-    let svg = dir.join("plots/cycle.svg");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let svg = dir.join("out/cycle.svg");
     let json = dir.join("cycle.json");
     let output = Command::new(env!("CARGO_BIN_EXE_taut"))
-        .args(["--hold", "1", "--svg"])
-        .arg(&svg)
-        .arg("--json")
-        .arg(&json)
+        .args(["--hold", "1", "--json", "cycle.json"])
+        .current_dir(&dir)
         .output()
         .expect("runs");
     let stdout = String::from_utf8_lossy(&output.stdout);
@@ -161,7 +162,7 @@ fn the_binary_runs_the_main_job_with_no_subcommand() {
         table.len() >= 20 && table.iter().all(|l| l.matches('|').count() == 3),
         "a 2-column table"
     );
-    assert!(stdout.contains(&format!("plot: {}", svg.display())));
+    assert!(stdout.contains("plot: out/cycle.svg"));
     // Progress on stderr (not a terminal here: one line per state change).
     for state in ["motor test", "homing", "pulling", "holding", "releasing"] {
         assert!(stderr.contains(state), "progress names {state}");
@@ -174,8 +175,11 @@ fn the_binary_runs_the_main_job_with_no_subcommand() {
     assert_eq!(summary["set_point"], "25.0 kg");
     std::fs::remove_dir_all(&dir).ok();
 
-    let refused =
-        Command::new(env!("CARGO_BIN_EXE_taut")).args(["--tension", "70"]).output().expect("runs");
+    let refused = Command::new(env!("CARGO_BIN_EXE_taut"))
+        .args(["--tension", "70"])
+        .current_dir(std::env::temp_dir())
+        .output()
+        .expect("runs");
     assert_eq!(refused.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&refused.stderr).contains("5.0–50.0 kg"));
 }

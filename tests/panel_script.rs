@@ -186,6 +186,7 @@ fn a_failed_expectation_names_its_line_and_what_the_panel_showed() {
 fn the_binary_runs_a_script_from_stdin_and_refuses_interactive_mode_without_a_terminal() {
     let script = format!("{TO_READY}expect display 25.0\nprint\n");
     let mut child = Command::new(env!("CARGO_BIN_EXE_taut"))
+        .current_dir(std::env::temp_dir())
         .args(["panel", "--flash", "factory", "--frames", "--script", "-"])
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
@@ -200,6 +201,7 @@ fn the_binary_runs_a_script_from_stdin_and_refuses_interactive_mode_without_a_te
     assert!(stdout.contains("    |_   _|.|_| "), "frames drawn");
 
     let failing = Command::new(env!("CARGO_BIN_EXE_taut"))
+        .current_dir(std::env::temp_dir())
         .args(["panel", "--flash", "blank", "--script", "-"])
         .stdin(Stdio::null())
         .output()
@@ -207,6 +209,7 @@ fn the_binary_runs_a_script_from_stdin_and_refuses_interactive_mode_without_a_te
     assert!(failing.status.success(), "an empty script passes");
 
     let interactive = Command::new(env!("CARGO_BIN_EXE_taut"))
+        .current_dir(std::env::temp_dir())
         .args(["panel", "--flash", "factory"])
         .stdin(Stdio::null())
         .output()
@@ -375,4 +378,94 @@ fn panel_script_information_pages() {
         transcript.contains("ready -> self test"),
         "Start on the service page reruns the self-test"
     );
+}
+
+/// The display shows a fault as `E-16` only; the terminal panel says beside it what it
+/// means and how to clear it, and likewise for a notice (`n-01`). Every line still fits the
+/// terminal the panel asks for.
+#[test]
+fn a_fault_and_a_notice_show_their_meaning_and_how_to_clear_them() {
+    let mut s = PanelSession::new(StringKind::NoString, None, Flash::Calibrated).expect("session");
+    run(&mut s, &format!("{TO_READY}press start\nuntil fault 30000\nexpect display E-16\n"))
+        .unwrap();
+    let frame = s.frame();
+    let text = frame.join("\n");
+    assert!(text.contains("shows: E-16 no string: 150 mm of travel without tension"), "{text}");
+    assert!(text.contains("next:  clamp the string, then Start"), "{text}");
+    let columns = usize::from(taut::panel::FRAME_COLUMNS);
+    assert!(frame.iter().all(|l| l.chars().count() <= columns), "{text}");
+
+    let mut blank = session(Flash::Blank);
+    run(&mut blank, &format!("{TO_READY}expect display n-01\n")).unwrap();
+    let text = blank.frame().join("\n");
+    assert!(text.contains("shows: n-01 the stored record was missing or corrupt"), "{text}");
+    assert!(text.contains("next:  any key; the settings are stored again"), "{text}");
+    run(&mut blank, "press down\nexpect display 25.0\n").unwrap();
+    assert!(!blank.frame().join("\n").contains("n-01"), "gone once acknowledged");
+}
+
+/// Function in a hold switches constant pull off: the display says `LOCK` for a second, then
+/// shows the tension again while the string creeps; the terminal panel keeps marking the hold
+/// locked until constant pull is on again.
+#[test]
+fn a_locked_hold_stays_marked_locked_on_the_terminal() {
+    let mut s = session(Flash::Calibrated);
+    let lock = format!(
+        "{TO_READY}press start\nuntil holding 20000\nwait 500\npress function\n\
+         expect display LOCK\nwait 3000\nexpect state holding\n"
+    );
+    run(&mut s, &lock).unwrap();
+    assert!(!s.status_line().contains("[LOCK]"), "the display is back on the tension");
+    let text = s.frame().join("\n");
+    assert!(text.contains("[*] LOCK: constant pull off"), "{text}");
+    assert!(text.contains("next:  the carriage stays put and the string may creep"), "{text}");
+    run(&mut s, "press function\nexpect display PULL\nwait 3000\n").unwrap();
+    let text = s.frame().join("\n");
+    assert!(
+        !text.contains("LOCK: constant pull off") && !text.contains("may creep"),
+        "constant pull on again: {text}"
+    );
+    run(&mut s, "press start\nuntil ready 20000\n").unwrap();
+}
+
+/// `--state FILE` keeps the machine's flash between sessions: a speed set in one session is
+/// there in the next, and a file that is not a flash image is refused and left alone.
+#[test]
+fn the_panel_keeps_its_settings_between_sessions_in_a_state_file() {
+    let dir = std::env::temp_dir().join(format!("taut-panel-state-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let session = |script: &str| {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_taut"))
+            .args(["panel", "--flash", "factory", "--state", "panel.state", "--script", "-"])
+            .current_dir(&dir)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("runs");
+        child.stdin.take().unwrap().write_all(script.as_bytes()).unwrap();
+        child.wait_with_output().unwrap()
+    };
+    // First session: factory flash, speed 5 → 7, stored 2 s after the last key.
+    let first = session(&format!(
+        "{TO_READY}press function\nexpect display \"SP 5\"\npress up 2\nexpect display \"SP 7\"\nwait 2500\n"
+    ));
+    assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stdout));
+    let stored = std::fs::read(dir.join("panel.state")).unwrap();
+    assert_eq!(stored.len(), taut_core::store::RECORD_LEN);
+    // Second session: it powers up from the file, not from the factory flash: speed 7.
+    let second = session(&format!("{TO_READY}press function\nexpect display \"SP 7\"\n"));
+    assert!(
+        second.status.success(),
+        "the speed was kept: {}{}",
+        String::from_utf8_lossy(&second.stdout),
+        String::from_utf8_lossy(&second.stderr)
+    );
+    std::fs::write(dir.join("panel.state"), "not a flash image").unwrap();
+    let refused = session("");
+    assert_eq!(refused.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("not a machine's flash image"));
+    assert_eq!(std::fs::read(dir.join("panel.state")).unwrap(), b"not a flash image");
+    std::fs::remove_dir_all(&dir).ok();
 }

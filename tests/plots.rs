@@ -35,7 +35,7 @@ use resvg::tiny_skia::{Pixmap, Transform};
 use resvg::usvg::{Options, Tree, fontdb};
 use taut::cli::{Cli, Command, ReportKind};
 use taut::job::{CycleOptions, CycleRun};
-use taut::plot::{Content, Figure, Geometry};
+use taut::plot::{Content, Figure, Geometry, Series};
 use taut::report::accuracy;
 
 /// The system's fonts, loaded once.
@@ -175,6 +175,85 @@ fn the_main_jobs_plot() {
     assert!(picture.geometry.panels.len() >= 6, "tension … state timeline and the zoomed hold");
 }
 
+/// The main job's figure for `args`, checked and rendered as `name`.
+fn main_job(name: &str, args: &[&str]) -> (CycleRun, Figure, Picture) {
+    let cli = parse(args);
+    let options = CycleOptions::from_args(&cli.job);
+    let run: CycleRun = taut::job::run(&options, None, &mut |_| {}).expect("the job runs");
+    let figure = taut::job::figure::figure(&run);
+    let picture = check(name, &figure);
+    (run, figure, picture)
+}
+
+/// The series of `panel` whose label starts with `label`.
+fn series<'a>(figure: &'a Figure, panel: usize, label: &str) -> Option<&'a Series> {
+    match &figure.panels.get(panel)?.content {
+        Content::Lines(all) => all.iter().find(|s| s.label.starts_with(label)),
+        Content::Timeline(_) => None,
+    }
+}
+
+/// An uncalibrated machine holds off its target: the hold zoom widens to show the true
+/// tension (it used to stay at ±0.2 kgf, an empty panel), and whatever is beyond it is
+/// marked off scale.
+#[test]
+fn an_uncalibrated_runs_hold_zoom_shows_the_hold() {
+    let (_, figure, picture) = main_job("cycle-uncalibrated", &["--uncalibrated", "--hold", "3"]);
+    let zoom = figure.panels.last().unwrap();
+    let (lo, hi) = zoom.y_range.expect("a fixed zoom");
+    let held = series(&figure, figure.panels.len() - 1, "true tension").unwrap();
+    // The zoom runs from half a second before the hold to half a second after it; the
+    // settled hold starts half a second in.
+    let (from, to) = zoom.x_range.unwrap();
+    let settled: Vec<f64> =
+        held.points.iter().filter(|p| p.0 >= from + 1.0 && p.0 <= to - 0.5).map(|p| p.1).collect();
+    let off = settled.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    println!("hold zoom ±{hi}, the settled hold's largest error {off:.3}");
+    assert!(off > 0.2, "the uncalibrated machine holds off target ({off:.3})");
+    assert!(settled.iter().all(|v| *v > lo && *v < hi), "the settled hold is on the zoom");
+    assert!(zoom.y_label.contains(&format!("±{hi}")), "{}", zoom.y_label);
+    // The true tension's line is drawn inside the zoom's plot area (coloured ink).
+    let area = picture.geometry.panels.last().unwrap().area;
+    let drawn = picture.count(
+        (area.x + 1.0, area.y + 1.0, area.x + area.w - 1.0, area.y + area.h - 1.0),
+        coloured,
+    );
+    assert!(drawn > 300, "the hold panel shows the hold ({drawn} coloured px)");
+}
+
+/// A job set in pounds is plotted in pounds; a pre-stretch's peak target is drawn.
+#[test]
+fn a_job_in_pounds_with_a_pre_stretch_is_plotted_in_pounds_with_its_peak_target() {
+    let (run, figure, _) = main_job(
+        "cycle-lb-prestretch",
+        &["--tension", "55lb", "--pre-stretch", "10", "--hold", "2"],
+    );
+    assert!(run.completed);
+    assert_eq!(figure.panels[0].y_label, "tension (lb)");
+    let target = series(&figure, 0, "target").unwrap();
+    assert!(target.points.iter().all(|p| (p.1 - 55.0).abs() < 0.01), "{:?}", target.points);
+    let peak = series(&figure, 0, "peak target (pre-stretch)").expect("the peak target is drawn");
+    assert!(peak.points.iter().all(|p| (p.1 - 60.5).abs() < 0.1), "{:?}", peak.points);
+    let truth = series(&figure, 0, "true tension").unwrap();
+    let top = truth.points.iter().fold(0.0_f64, |m, p| m.max(p.1));
+    assert!((58.0..63.0).contains(&top), "the true tension in lb reaches the peak: {top}");
+    let zoom = figure.panels.last().unwrap();
+    assert!(zoom.y_label.starts_with("hold: tension − target (lb)"), "{}", zoom.y_label);
+    assert!(zoom.y_range.is_some_and(|(_, hi)| hi >= 0.5), "±0.5 lb at least");
+}
+
+/// A faulted run's plot says so: the fault's code and moment in the title and as a line
+/// across the tension panel.
+#[test]
+fn a_faulted_runs_plot_marks_the_fault() {
+    let (run, figure, _) = main_job("cycle-fault", &["--string", "none", "--hold", "1"]);
+    assert!(!run.completed);
+    assert!(figure.title.contains("fault E-16 at"), "{}", figure.title);
+    let mark = series(&figure, 0, "fault E-16 at").expect("the fault is marked");
+    assert_eq!(mark.points.len(), 2);
+    assert!((mark.points[0].0 - mark.points[1].0).abs() < 1e-9, "a vertical line");
+}
+
 #[test]
 fn the_pull_plot() {
     let cli = parse(&["pull", "--tension", "25", "--hold", "3"]);
@@ -204,6 +283,50 @@ fn the_accuracy_plots() {
         let name =
             if stem.starts_with("accuracy") { stem.to_owned() } else { format!("accuracy_{stem}") };
         check(&name, figure);
+    }
+    let quantiles = &figures[0].1;
+    // The log axes say where they put a zero.
+    assert!(quantiles.panels[0].y_label.contains("< 0.001 shown at 0.001"));
+    // One percentile axis for every controller: of all the scenarios, each line ending
+    // where its survivors do (pd made to fail every other scenario here).
+    let mut halved = results.clone();
+    for r in halved.iter_mut().step_by(2) {
+        r.metrics[1] = taut::report::Metrics::failed(taut::report::Failure::NeverSettled);
+    }
+    let results = halved;
+    let figures = accuracy::figures(args.seed, args.machines(), &results, &lineup);
+    let quantiles = &figures[0].1;
+    for panel in &quantiles.panels {
+        let Content::Lines(all) = &panel.content else { continue };
+        for (which, series) in all.iter().filter(|s| !s.label.starts_with("goal")).enumerate() {
+            let survivors = results.iter().filter(|r| r.metrics[which].failure.is_none()).count();
+            let end = series.points.last().map_or(0.0, |p| p.0);
+            let want = survivors as f64 / results.len() as f64 * 100.0;
+            assert!((end - want).abs() < 1e-9, "{}: ends at {end}, want {want}", series.label);
+        }
+    }
+    // The scenario plotted is taut's worst hold, not the first scenario: with the last
+    // surviving scenario made the worst, it is the one drawn.
+    let mut worse = results.clone();
+    let last = worse.iter_mut().rev().find(|r| r.metrics[0].failure.is_none()).unwrap();
+    last.metrics[0].hold_error_kgf = 9.0;
+    let index = last.index;
+    assert_ne!(index, 0);
+    let figures = accuracy::figures(args.seed, args.machines(), &worse, &lineup);
+    assert_eq!(figures[1].0, format!("scenario_{index}.svg"));
+    assert!(figures[1].1.title.contains("taut's worst hold (9.000 kgf)"), "{}", figures[1].1.title);
+
+    // A controller that failed every scenario gets no empty legend entry; the subtitle names it.
+    let mut failed = results.clone();
+    for r in &mut failed {
+        r.metrics[1] = taut::report::Metrics::failed(taut::report::Failure::NeverSettled);
+    }
+    let figures = accuracy::figures(args.seed, args.machines(), &failed, &lineup);
+    let quantiles = &figures[0].1;
+    assert!(quantiles.subtitle.contains("every scenario failed for pd"), "{}", quantiles.subtitle);
+    for panel in &quantiles.panels {
+        let Content::Lines(all) = &panel.content else { continue };
+        assert!(all.iter().all(|s| !s.points.is_empty() && !s.label.starts_with("pd")));
     }
 }
 

@@ -25,7 +25,8 @@
 pub mod figure;
 pub mod summary;
 
-use std::io::{IsTerminal as _, Write as _};
+use std::io::IsTerminal as _;
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use taut_core::machine::PullRecord;
@@ -38,8 +39,8 @@ use taut_sim::bench::{
 use taut_sim::operator::{Operator, Plan, display};
 use taut_sim::{StringKind, TwinConfig};
 
-use crate::cli::JobArgs;
-use crate::output::{Failure, Status, check_writable, write_file, write_json};
+use crate::cli::{DEFAULT_CYCLE_SVG, JobArgs};
+use crate::output::{Failure, Outputs, Status, json_bytes, to_stderr};
 
 /// Default hold time of the job, ms: a few seconds of constant pull while the string creeps.
 pub const DEFAULT_HOLD_MS: u32 = 5_000;
@@ -265,10 +266,11 @@ pub fn progress_line(progress: &Progress<'_>) -> String {
 /// A session failed or a file could not be written.
 pub fn main(args: &JobArgs) -> Status {
     // Fail on an output path before the run, not after it.
-    check_writable(&args.svg)?;
-    if let Some(path) = &args.json {
-        check_writable(path)?;
-    }
+    let svg = args.svg.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_CYCLE_SVG));
+    let outputs = Outputs::new()
+        .file_or_default("--svg", args.svg.as_deref(), &svg)
+        .file("--json", args.json.as_deref())
+        .check()?;
     let options = CycleOptions::from_args(args);
     let terminal = std::io::stderr().is_terminal();
     let mut shown = 0_u32;
@@ -277,23 +279,25 @@ pub fn main(args: &JobArgs) -> Status {
             return;
         }
         if terminal {
-            eprint!("\r\x1b[2K{}", progress_line(p));
-            let _ = std::io::stderr().flush();
+            to_stderr(&format!("\r\x1b[2K{}", progress_line(p)));
         } else if p.state_changed || shown == 0 {
-            eprintln!("{}", progress_line(p));
+            to_stderr(&format!("{}\n", progress_line(p)));
         }
         shown += 1;
     };
     let result = run(&options, None, &mut progress);
     if terminal && !args.quiet {
-        eprintln!();
+        to_stderr("\n");
     }
     let run = result.map_err(|e| Failure::Message(e.to_string()))?;
-    println!("{}", summary::table(&run));
-    write_file(&args.svg, figure::figure(&run).to_svg())?;
-    println!("plot: {}", args.svg.display());
+    let mut files = vec![(svg.clone(), figure::figure(&run).to_svg().into_bytes())];
     if let Some(path) = &args.json {
-        write_json(path, &summary::json(&run))?;
+        files.push((path.clone(), json_bytes(&summary::json(&run))));
+    }
+    outputs.write(&files)?;
+    println!("{}", summary::table(&run));
+    println!("plot: {}", svg.display());
+    if let Some(path) = &args.json {
         println!("summary: {}", path.display());
     }
     Ok(run.completed)

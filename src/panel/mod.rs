@@ -30,19 +30,22 @@
 //!   fast as the twin goes; it prints a transcript (and frames) to stdout. Tests drive the
 //!   panel through it.
 
+pub mod faults;
 pub mod script;
 pub mod terminal;
 
 use taut_core::io::{Key, Keys, Outputs};
-use taut_core::machine::{FaultCode, MachineState, View};
+use taut_core::machine::{MachineState, View};
 use taut_core::settings::Unit;
 use taut_core::store::{RECORD_LEN, Record};
-use taut_sim::bench::{Bench, SessionError, commission, factory_config, kgf, state_name};
+use taut_sim::bench::{
+    Bench, SessionError, commission, factory_config, fault_name, kgf, state_name,
+};
 use taut_sim::operator::{Page, page_shown};
 use taut_sim::{StringKind, StringState, TwinConfig};
 
 pub use crate::cli::{Flash, PanelArgs};
-use crate::output::{Failure, Status};
+use crate::output::{self, Failure, Status, to_stderr};
 pub use taut_sim::operator::display;
 
 /// How long a queued tap holds its key down, ms (the panel debounces for 20 ms).
@@ -67,6 +70,8 @@ pub struct PanelSession {
     string: StringKind,
     seed: Option<u64>,
     last_outputs: Outputs,
+    /// The flash as the machine last stored it.
+    flash: [u8; RECORD_LEN],
 }
 
 impl PanelSession {
@@ -87,13 +92,32 @@ impl PanelSession {
             Flash::Factory => Record::default().encode(),
             Flash::Blank => [0xFF; RECORD_LEN],
         };
-        Ok(Self {
-            bench: Bench::power_up(&config, &bytes),
+        Ok(Self::from_flash(string, seed, &bytes))
+    }
+
+    /// A session whose machine powers up from the flash image `bytes` (a session's
+    /// [`PanelSession::flash`], kept in a `--state` file).
+    #[must_use]
+    pub fn from_flash(string: StringKind, seed: Option<u64>, bytes: &[u8; RECORD_LEN]) -> Self {
+        let config = seed.map_or_else(
+            || TwinConfig::nominal(string),
+            |seed| TwinConfig::family_kind(string, seed),
+        );
+        Self {
+            bench: Bench::power_up(&config, bytes),
             keys: Keys::NONE,
             string,
             seed,
             last_outputs: Outputs::default(),
-        })
+            flash: *bytes,
+        }
+    }
+
+    /// The flash as the machine last stored it (settings, presets, calibration, counters):
+    /// what a power cycle would start from.
+    #[must_use]
+    pub const fn flash(&self) -> &[u8; RECORD_LEN] {
+        &self.flash
     }
 
     /// Puts `key` down (it stays down until [`PanelSession::release`]).
@@ -122,6 +146,9 @@ impl PanelSession {
         let keys = self.keys;
         self.bench.twin_mut().set_keys(keys);
         self.last_outputs = self.bench.tick();
+        if self.last_outputs.store {
+            self.flash = self.bench.machine().record().encode();
+        }
         self.last_outputs
     }
 
@@ -207,7 +234,14 @@ impl PanelSession {
             led(out.leds.holding, "hold"),
             led(out.leds.fault, "fault")
         ));
-        lines.push(format!("|   {c}    beeper: {}", if out.beeper { "BEEP" } else { "-" }));
+        // A hold with constant pull off shows `LOCK` on the display for a second only; the
+        // terminal keeps saying so for the whole hold.
+        let locked = self.state() == MachineState::Holding && !self.bench.machine().constant_pull();
+        lines.push(format!(
+            "|   {c}    beeper: {:<6}{}",
+            if out.beeper { "BEEP" } else { "-" },
+            if locked { "[*] LOCK: constant pull off" } else { "" }
+        ));
         lines.push(format!(
             "| state: {:<20} carriage {:6.1} mm   string {:?}",
             state_name(self.state()),
@@ -228,10 +262,16 @@ impl PanelSession {
             width = GAUGE_WIDTH - 4
         ));
         let view = self.bench.machine().view();
-        lines.push(format!(
-            "| shows: {}",
-            information_text(view).unwrap_or_else(|| page_text(self.state(), out))
-        ));
+        let shows = match (self.state(), self.bench.machine().notice()) {
+            (MachineState::Fault(code), _) => {
+                format!("{} {}", fault_name(code), faults::fault_text(code).0)
+            }
+            (MachineState::Ready, Some(notice)) if page_shown(&out.display).is_none() => {
+                format!("n-{:02} {}", notice.number(), faults::notice_text(notice).0)
+            }
+            _ => information_text(view).unwrap_or_else(|| page_text(self.state(), out)),
+        };
+        lines.push(format!("| shows: {shows}"));
         if let Some(hint) = self.hint() {
             lines.push(format!("| next:  {hint}"));
         }
@@ -241,16 +281,21 @@ impl PanelSession {
         lines
     }
 
-    /// What the operator can do next, when it is not obvious: after a string break.
+    /// What the operator can do next, when it is not obvious: how a fault or a notice
+    /// clears, a new string after a break, constant pull back on in a locked hold.
     #[must_use]
     pub fn hint(&self) -> Option<&'static str> {
+        let machine = self.bench.machine();
         let broken = self.bench.twin().truth().string == StringState::Broken;
         match (self.state(), broken) {
-            (MachineState::Fault(FaultCode::StringBreak), _) => Some(
-                "the string broke (E-15): Start clears the fault and the carriage returns home",
-            ),
+            (MachineState::Fault(code), _) => Some(faults::fault_text(code).1),
             (MachineState::Ready, true) => Some("n fits a new string, then Start pulls it"),
-            (MachineState::Fault(_), _) => Some("Start clears the fault once its cause is gone"),
+            (MachineState::Ready, false) if page_shown(&self.last_outputs.display).is_none() => {
+                machine.notice().map(|notice| faults::notice_text(notice).1)
+            }
+            (MachineState::Holding, _) if !machine.constant_pull() => {
+                Some("the carriage stays put and the string may creep; Function: constant pull on")
+            }
             _ => None,
         }
     }
@@ -380,6 +425,25 @@ pub fn page_text(state: MachineState, outputs: &Outputs) -> String {
     }
 }
 
+/// The flash image in a `--state` file, `None` when there is no file yet.
+///
+/// # Errors
+/// The file cannot be read, or is not a flash image (its size).
+fn read_state(path: &std::path::Path) -> Result<Option<[u8; RECORD_LEN]>, Failure> {
+    let bytes = match std::fs::read(path) {
+        Ok(bytes) => bytes,
+        Err(error) if error.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(error) => return Err(Failure::Read { path: path.to_owned(), error }),
+    };
+    <[u8; RECORD_LEN]>::try_from(bytes.as_slice()).map(Some).map_err(|_| {
+        Failure::Usage(format!(
+            "--state {}: not a machine's flash image ({} bytes, not {RECORD_LEN})",
+            path.display(),
+            bytes.len()
+        ))
+    })
+}
+
 /// `taut panel`: the interactive panel, or the script. `Ok(false)` when a script's check
 /// failed.
 ///
@@ -390,6 +454,11 @@ pub fn main(args: &PanelArgs) -> Status {
         println!("{}", script::FORMAT_HELP);
         return Ok(true);
     }
+    let outputs = output::Outputs::new().file("--state", args.state.as_deref()).check()?;
+    let stored = match &args.state {
+        Some(path) => read_state(path)?,
+        None => None,
+    };
     // The script is read and parsed first: a bad script fails before the machine powers up.
     let script = match &args.script {
         Some(path) => {
@@ -407,17 +476,34 @@ pub fn main(args: &PanelArgs) -> Status {
         }
         None => None,
     };
-    let mut session = PanelSession::new(args.string.into(), args.seed, args.flash)
-        .map_err(|e| Failure::Message(e.to_string()))?;
+    let mut session = match stored {
+        Some(bytes) => PanelSession::from_flash(args.string.into(), args.seed, &bytes),
+        None => PanelSession::new(args.string.into(), args.seed, args.flash)
+            .map_err(|e| Failure::Message(e.to_string()))?,
+    };
+    // The machine's flash, kept for the next session (whatever ended this one).
+    let keep = |session: &PanelSession| {
+        let files: Vec<_> =
+            args.state.iter().map(|path| (path.clone(), session.flash().to_vec())).collect();
+        outputs.write(&files)
+    };
     let Some((path, parsed)) = script else {
-        terminal::run(&mut session, args.rate).map_err(|e| Failure::Message(e.to_string()))?;
+        let ran =
+            terminal::run(&mut session, args.rate).map_err(|e| Failure::Message(e.to_string()));
+        keep(&session)?;
+        ran?;
         return Ok(true);
     };
     let mut stdout = std::io::stdout().lock();
-    match parsed.run(&mut session, args.frames, &mut stdout) {
+    let ran = parsed.run(&mut session, args.frames, &mut stdout);
+    keep(&session)?;
+    match ran {
         Ok(()) => Ok(true),
+        Err(script::ScriptFailure::Io(error)) if error.kind() == std::io::ErrorKind::BrokenPipe => {
+            Err(Failure::ClosedStdout)
+        }
         Err(failure) => {
-            eprintln!("error: {}: {failure}", path.display());
+            to_stderr(&format!("error: {}: {failure}\n", path.display()));
             Ok(false)
         }
     }

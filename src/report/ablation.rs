@@ -7,7 +7,7 @@ use taut_core::tension::motor::DutyMap;
 use super::Machines;
 use super::accuracy::{Entry, markdown, run_all, to_json};
 use crate::cli::AblationArgs;
-use crate::output::{Status, check_writable, threads, write_json};
+use crate::output::{Outputs, Status, json_bytes, threads};
 
 /// taut with each of its improvements switched off in turn: the law's four (boundary
 /// layer, bounded adaptation, anti-windup, rate filter), the back-EMF feed-forward of the
@@ -67,15 +67,18 @@ pub fn lineup() -> Vec<Entry> {
 /// # Errors
 /// The JSON file cannot be written.
 pub fn main(args: &AblationArgs) -> Status {
-    if let Some(path) = &args.json {
-        check_writable(path)?;
-    }
+    let outputs = Outputs::new().file("--json", args.json.as_deref()).check()?;
     let lineup = lineup();
     let machines = Machines { sensing: args.sensing, gauge_sigma: None };
     let results = run_all(args.seed, args.scenarios, machines, &lineup, threads(args.threads));
+    let files: Vec<_> = args
+        .json
+        .iter()
+        .map(|path| (path.clone(), json_bytes(&to_json(args.seed, machines, &results, &lineup))))
+        .collect();
+    outputs.write(&files)?;
     println!("{}", markdown(&results, &lineup));
     if let Some(path) = &args.json {
-        write_json(path, &to_json(args.seed, machines, &results, &lineup))?;
         println!("summary: {}", path.display());
     }
     Ok(true)

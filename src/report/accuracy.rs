@@ -14,9 +14,7 @@ use super::{
     metrics, pull_trace,
 };
 use crate::cli::{AccuracyArgs, ControllerArg};
-use crate::output::{
-    Progress, Status, check_writable, create_dir, parallel, threads, write_file, write_json,
-};
+use crate::output::{Outputs, Progress, Status, json_bytes, parallel, threads};
 use crate::plot::{DUTY_AXIS_PERCENT, Figure, Panel, Series, Stroke};
 
 /// The controller of a report entry.
@@ -231,7 +229,10 @@ fn what_was_run(seed: u64, machines: Machines, results: &[ScenarioResult]) -> St
 }
 
 /// The report's plots: the quantiles of hold error, overshoot (log scale) and settle/t_min
-/// per controller; and the first scenario the first controller pulled.
+/// per controller, on one percentile axis of all the scenarios (each controller's failures
+/// ranked last and not drawn, so its line ends where its survivors do; a controller that
+/// failed every scenario is named in the subtitle, not given an empty legend entry); and the
+/// scenario whose hold error was the first controller's worst.
 #[must_use]
 pub fn figures(
     seed: u64,
@@ -249,9 +250,10 @@ pub fn figures(
             .map(|e| e.max(floor))
             .collect();
         v.sort_by(f64::total_cmp);
-        // The empirical quantile function: the k-th smallest value over the k-th n-th of
-        // the percentile axis, a step each.
-        let n = v.len().max(1) as f64;
+        // The empirical quantile function over all the scenarios: the k-th smallest value
+        // over the k-th n-th of the percentile axis, a step each; the failures, ranked
+        // last, are not drawn.
+        let n = results.len().max(1) as f64;
         v.iter()
             .enumerate()
             .flat_map(|(k, e)| [(k as f64 / n * 100.0, *e), ((k + 1) as f64 / n * 100.0, *e)])
@@ -266,8 +268,19 @@ pub fn figures(
                 let label = format!("{} ({} of {})", e.name, points.len() / 2, results.len());
                 Series::new(&label, points)
             })
+            .filter(|s| !s.points.is_empty())
             .collect::<Vec<_>>()
     };
+    let none_survived: Vec<&str> = lineup
+        .iter()
+        .enumerate()
+        .filter(|(which, _)| results.iter().all(|r| r.metrics[*which].failure.is_some()))
+        .map(|(_, e)| e.name)
+        .collect();
+    let mut subtitle = what_was_run(seed, machines, results);
+    if !none_survived.is_empty() {
+        subtitle.push_str(&format!("; every scenario failed for {}", none_survived.join(", ")));
+    }
     let goal = |value: f64, label: &str| {
         Series::new(label, vec![(0.0, value), (100.0, value)])
             .stroke(Stroke::Dashed)
@@ -283,17 +296,21 @@ pub fn figures(
         "accuracy_quantiles.svg".to_owned(),
         Figure::new(
             "taut report accuracy: each scenario's error, sorted (empirical quantiles)",
-            &what_was_run(seed, machines, results),
-            "percentile of the scenarios that did not fail",
+            &subtitle,
+            "percentile of all the scenarios (a controller's failed ones last, not drawn)",
             vec![
-                Panel::new("hold error |true − target| (kgf, log)", hold).log(),
+                Panel::new("hold error (kgf, log; < 0.001 shown at 0.001)", hold).log(),
                 Panel::new("overshoot above target (kgf, log; 0 shown at 0.001)", over).log(),
                 Panel::new("settle time / t_min", ratio),
             ],
         ),
     )];
-    if let Some(r) = results.iter().find(|r| r.metrics.first().is_some_and(|m| m.failure.is_none()))
-    {
+    // The first controller's worst hold among the scenarios it did not fail.
+    let worst = results
+        .iter()
+        .filter(|r| r.metrics.first().is_some_and(|m| m.failure.is_none()))
+        .max_by(|a, b| a.metrics[0].hold_error_kgf.total_cmp(&b.metrics[0].hold_error_kgf));
+    if let Some(r) = worst {
         let scenario = machines.scenario(seed, r.index);
         if let Ok(calibration) = commissioned_calibration(&scenario.twin) {
             let mut tension = Vec::new();
@@ -323,7 +340,14 @@ pub fn figures(
             out.push((
                 format!("scenario_{}.svg", r.index),
                 Figure::new(
-                    &format!("taut report accuracy: scenario {}, {} at {:.1} kgf", r.index, r.string, r.target_kgf),
+                    &format!(
+                        "taut report accuracy: scenario {}, {} at {:.1} kgf — {}'s worst hold ({:.3} kgf)",
+                        r.index,
+                        r.string,
+                        r.target_kgf,
+                        lineup.first().map_or("", |e| e.name),
+                        r.metrics[0].hold_error_kgf
+                    ),
                     &format!("family machine (seed {seed}), current sensing {}, speed 9, calibrated by the machine", r.sensing),
                     "time since Start (s)",
                     vec![
@@ -345,12 +369,10 @@ pub fn figures(
 /// # Errors
 /// An output file or directory cannot be written.
 pub fn main(args: &AccuracyArgs) -> Status {
-    if let Some(path) = &args.json {
-        check_writable(path)?;
-    }
-    if let Some(dir) = &args.svg {
-        create_dir(dir)?;
-    }
+    let outputs = Outputs::new()
+        .file("--json", args.json.as_deref())
+        .folder("--svg", args.svg.as_deref())
+        .check()?;
     let mut controllers = args.controllers.clone();
     controllers.dedup();
     let lineup = lineup(&controllers);
@@ -362,16 +384,19 @@ pub fn main(args: &AccuracyArgs) -> Status {
     }
     println!("{}", markdown(&results, &lineup));
     println!("wall clock: {:.1} s", started.elapsed().as_secs_f64());
+    let mut files = Vec::new();
     if let Some(path) = &args.json {
-        write_json(path, &to_json(args.seed, machines, &results, &lineup))?;
-        println!("summary: {}", path.display());
+        files.push((path.clone(), json_bytes(&to_json(args.seed, machines, &results, &lineup))));
     }
     if let Some(dir) = &args.svg {
         for (name, figure) in figures(args.seed, machines, &results, &lineup) {
-            let path = dir.join(name);
-            write_file(&path, figure.to_svg())?;
-            println!("plot: {}", path.display());
+            files.push((dir.join(name), figure.to_svg().into_bytes()));
         }
+    }
+    outputs.write(&files)?;
+    for (path, _) in &files {
+        let what = if path.extension().is_some_and(|e| e == "json") { "summary" } else { "plot" };
+        println!("{what}: {}", path.display());
     }
     Ok(true)
 }

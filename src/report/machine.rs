@@ -50,7 +50,7 @@ use taut_sim::{SimRng, StringKind, TwinConfig};
 use super::robustness::{check_corner, corner_json, corner_machine, describe_corner, string_for};
 use super::{cell, number, percentile, scenario_seed, target_range};
 use crate::cli::MachineArgs;
-use crate::output::{Progress, Status, check_writable, parallel, threads, write_json};
+use crate::output::{Outputs, Progress, Status, json_bytes, parallel, threads};
 
 /// How long the operator holds before releasing, ms.
 pub const HOLD_MS: u32 = 2_000;
@@ -463,9 +463,7 @@ pub fn to_json(args: &MachineArgs, f: &Findings) -> Value {
 /// # Errors
 /// The JSON file cannot be written.
 pub fn main(args: &MachineArgs) -> Status {
-    if let Some(path) = &args.json {
-        check_writable(path)?;
-    }
+    let outputs = Outputs::new().file("--json", args.json.as_deref()).check()?;
     if !args.axis.is_empty() {
         check_corner(&args.axis)?;
         println!(
@@ -476,6 +474,10 @@ pub fn main(args: &MachineArgs) -> Status {
     let started = std::time::Instant::now();
     let progress = Progress::new(args.cycles as usize, "cycles");
     let cycles = parallel(args.cycles, threads(args.threads), &progress, &|i| run_cycle(args, i));
+    let f = findings(&cycles);
+    let files: Vec<_> =
+        args.json.iter().map(|path| (path.clone(), json_bytes(&to_json(args, &f)))).collect();
+    outputs.write(&files)?;
     if args.detail {
         for c in &cycles {
             println!(
@@ -494,11 +496,9 @@ pub fn main(args: &MachineArgs) -> Status {
             );
         }
     }
-    let f = findings(&cycles);
     print!("{}", text(&f));
     println!("wall clock: {:.1} s", started.elapsed().as_secs_f64());
     if let Some(path) = &args.json {
-        write_json(path, &to_json(args, &f))?;
         println!("summary: {}", path.display());
     }
     Ok(true)

@@ -29,9 +29,7 @@ use super::{
     failure_counts, gauge_sigma_kgf, metrics, number, pull_trace, scenario_seed,
 };
 use crate::cli::RobustnessArgs;
-use crate::output::{
-    Failure, Progress, Status, check_writable, parallel, threads, write_file, write_json,
-};
+use crate::output::{Failure, Outputs, Progress, Status, json_bytes, parallel, threads};
 use crate::plot::{Figure, Panel, Series, Stroke};
 use taut_core::tension::ControllerConfig;
 
@@ -209,7 +207,7 @@ pub fn corner_markdown(runs: &[CornerRun]) -> String {
 }
 
 /// `taut report robustness --corner …`: the sweep's scenarios on one corner of the family.
-fn corner_main(args: &RobustnessArgs) -> Status {
+fn corner_main(args: &RobustnessArgs, outputs: &Outputs) -> Status {
     check_corner(&args.corner)?;
     println!(
         "A corner of the family, every named axis at once, the rest at the centre: {}\n",
@@ -220,14 +218,7 @@ fn corner_main(args: &RobustnessArgs) -> Status {
     let runs = parallel(args.scenarios, threads(args.threads), &progress, &|index| {
         run_corner(&args.corner, index, args.seed, args.gauge_sigma)
     });
-    println!("{}", corner_markdown(&runs));
-    println!(
-        "{} runs on the corner (string kinds in turn, seed {}, reference gauge σ {:.3} kgf), wall clock {:.1} s",
-        runs.len(),
-        args.seed,
-        gauge_sigma_kgf(args.gauge_sigma),
-        started.elapsed().as_secs_f64()
-    );
+    let mut files = Vec::new();
     if let Some(path) = &args.json {
         let w = worst_of(runs.iter().map(|r| &r.metrics));
         let pulls: Vec<Value> = runs
@@ -253,7 +244,18 @@ fn corner_main(args: &RobustnessArgs) -> Status {
             "worst": worst_json(&w),
             "pulls": pulls,
         });
-        write_json(path, &doc)?;
+        files.push((path.clone(), json_bytes(&doc)));
+    }
+    outputs.write(&files)?;
+    println!("{}", corner_markdown(&runs));
+    println!(
+        "{} runs on the corner (string kinds in turn, seed {}, reference gauge σ {:.3} kgf), wall clock {:.1} s",
+        runs.len(),
+        args.seed,
+        gauge_sigma_kgf(args.gauge_sigma),
+        started.elapsed().as_secs_f64()
+    );
+    if let Some(path) = &args.json {
         println!("summary: {}", path.display());
     }
     Ok(true)
@@ -530,16 +532,25 @@ pub fn run_all(args: &RobustnessArgs) -> Vec<Point> {
 /// # Errors
 /// An output file cannot be written.
 pub fn main(args: &RobustnessArgs) -> Status {
-    for path in [&args.json, &args.svg].into_iter().flatten() {
-        check_writable(path)?;
-    }
+    let outputs = Outputs::new()
+        .file("--json", args.json.as_deref())
+        .file("--svg", args.svg.as_deref())
+        .check()?;
     if !args.corner.is_empty() {
-        return corner_main(args);
+        return corner_main(args, &outputs);
     }
     let axes = axes(args);
     let positions = positions(args.points);
     let started = std::time::Instant::now();
     let runs = run_all(args);
+    let mut files = Vec::new();
+    if let Some(path) = &args.json {
+        files.push((path.clone(), json_bytes(&to_json(args, &axes, &runs))));
+    }
+    if let Some(path) = &args.svg {
+        files.push((path.clone(), figure(args, &axes, &runs).to_svg().into_bytes()));
+    }
+    outputs.write(&files)?;
     println!("{}", markdown(&axes, &runs));
     let beyond = runs.iter().filter(|p| !p.in_family()).count();
     let refused = runs.iter().filter(|p| p.unphysical.is_some()).count();
@@ -567,11 +578,9 @@ pub fn main(args: &RobustnessArgs) -> Status {
         started.elapsed().as_secs_f64()
     );
     if let Some(path) = &args.json {
-        write_json(path, &to_json(args, &axes, &runs))?;
         println!("summary: {}", path.display());
     }
     if let Some(path) = &args.svg {
-        write_file(path, figure(args, &axes, &runs).to_svg())?;
         println!("plot: {}", path.display());
     }
     Ok(true)

@@ -32,7 +32,7 @@ use taut_sim::{StringKind, TwinConfig};
 
 use super::{cell, number, target_range};
 use crate::cli::StringArgs;
-use crate::output::{Status, check_writable, write_json};
+use crate::output::{Outputs, Status, json_bytes};
 
 /// The stiffness estimate's acceptance: within this share of the truth.
 pub const STIFFNESS_TOLERANCE: f64 = 0.10;
@@ -258,30 +258,18 @@ pub fn run(seeds: u64, hold_ms: u64) -> Vec<Estimate> {
     out
 }
 
-/// The table.
+/// The report as Markdown: a title line, the table (one row per run) and the worst figures.
 #[must_use]
 pub fn text(rows: &[Estimate], hold_ms: u64) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "string estimate vs the twin (hold {:.0} s; stiffness kgf/mm, creep %/min of the tension)",
+        "String estimate against the twin (hold {:.0} s; stiffness kgf/mm, creep %/min of the tension)\n",
         hold_ms as f64 / 1e3
     );
-    let _ = writeln!(
-        s,
-        "{:18} {:10} {:>2} {:>6} | {:>7} {:>7} {:>7} | {:>7} {:>7} | {:>6} {:>6} {:>7} | verdict",
-        "string",
-        "machine",
-        "sp",
-        "target",
-        "K true",
-        "K est",
-        "error",
-        "E·A/L",
-        "vs it",
-        "creep",
-        "est",
-        "error"
+    s.push_str(
+        "| string | machine | speed | target kgf | K true | K est | error | E·A/L | vs it | creep | est | error | verdict |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
         let verdict = match &r.failure {
@@ -291,7 +279,7 @@ pub fn text(rows: &[Estimate], hold_ms: u64) -> String {
         };
         let _ = writeln!(
             s,
-            "{:18} {:10} {:2} {:6.1} | {:>7} {:>7} {:>6}% | {:7.3} {:>6}% | {:>6} {:>6} {:>6}% | {verdict}",
+            "| {} | {} | {} | {:.1} | {} | {} | {} % | {:.3} | {} % | {} | {} | {} % | {verdict} |",
             r.kind.name(),
             r.machine,
             r.speed,
@@ -314,7 +302,7 @@ pub fn text(rows: &[Estimate], hold_ms: u64) -> String {
     let accepted = rows.iter().filter(|r| r.accepted()).count();
     let _ = writeln!(
         s,
-        "worst: stiffness {:.1} % (tolerance {:.0} %; against E·A/L {:.1} %), creep {:.1} % (tolerance {:.0} %); {accepted}/{} within both",
+        "\nWorst: stiffness {:.1} % (tolerance {:.0} %; against E·A/L {:.1} %), creep {:.1} % (tolerance {:.0} %); {accepted}/{} within both",
         worst(Estimate::stiffness_error) * 100.0,
         STIFFNESS_TOLERANCE * 100.0,
         worst(Estimate::instantaneous_error) * 100.0,
@@ -353,14 +341,14 @@ pub fn to_json(rows: &[Estimate], hold_ms: u64) -> Value {
 /// # Errors
 /// The JSON file cannot be written.
 pub fn main(args: &StringArgs) -> Status {
-    if let Some(path) = &args.json {
-        check_writable(path)?;
-    }
+    let outputs = Outputs::new().file("--json", args.json.as_deref()).check()?;
     let hold_ms = u64::from(args.hold) * 1_000;
     let rows = run(args.seeds, hold_ms);
+    let files: Vec<_> =
+        args.json.iter().map(|path| (path.clone(), json_bytes(&to_json(&rows, hold_ms)))).collect();
+    outputs.write(&files)?;
     print!("{}", text(&rows, hold_ms));
     if let Some(path) = &args.json {
-        write_json(path, &to_json(&rows, hold_ms))?;
         println!("summary: {}", path.display());
     }
     Ok(rows.iter().all(Estimate::accepted))

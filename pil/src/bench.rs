@@ -53,6 +53,8 @@ pub struct Bench {
     pub force_break: bool,
     /// Keys held by a test on top of the operator's.
     pub extra_keys: Keys,
+    /// The firmware's defmt log, read from its RTT buffer.
+    pub log: crate::rtt::Reader,
     /// The last cycle any gate was on.
     last_gate_on: u64,
     /// The current window's first cycle.
@@ -68,7 +70,9 @@ fn port_pin(port: char, pin: u8) -> (u8, u8) {
 impl Bench {
     /// A bench around `twin` with the part `mcu` just reset.
     pub fn new(mcu: Mcu, twin: Twin) -> Self {
+        let log = crate::rtt::Reader::new(mcu.image());
         let mut bench = Self {
+            log,
             mcu,
             twin,
             checker: Checker::default(),
@@ -204,6 +208,12 @@ impl Bench {
             self.period()?;
         }
         self.twin.end_tick();
+        let mcu = &mut self.mcu;
+        let mut writes = Vec::new();
+        self.log.poll(|a, n| mcu.read_memory(a, n), |a, b| writes.push((a, b.to_vec())));
+        for (a, b) in writes {
+            let _ = mcu.write_memory(a, &b);
+        }
         let panel = self.panel();
         self.twin.apply(&Outputs {
             display: panel.0,

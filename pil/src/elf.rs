@@ -127,7 +127,9 @@ impl Image {
                 if name.is_empty() || name.starts_with('$') {
                     continue;
                 }
-                if kind == 0 {
+                // Linker-script symbols, and defmt's interned strings (their "address" is the
+                // string's index, which must not lose its low bit as code addresses do).
+                if kind == 0 || name.starts_with('{') {
                     markers.push((name, value));
                     continue;
                 }

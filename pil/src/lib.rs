@@ -10,5 +10,6 @@ pub mod gates;
 pub mod mcu;
 pub mod panel;
 pub mod report;
+pub mod rtt;
 pub mod soc;
 pub mod tim;

@@ -7,7 +7,7 @@
 //! auto-increment), `0xC0 | address` followed by grid bytes, `0x88 | brightness` (on).
 
 /// The chip's state and what it shows.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct Tm1637 {
     clk: bool,
     dio: bool,
@@ -26,6 +26,26 @@ pub struct Tm1637 {
     pub updates: u64,
     /// Malformed transfers (a byte cut short, an unknown command).
     pub errors: u64,
+}
+
+impl Default for Tm1637 {
+    /// A chip on idle lines (both pulled up).
+    fn default() -> Self {
+        Self {
+            clk: true,
+            dio: true,
+            in_transfer: false,
+            bit: 0,
+            byte: 0,
+            acking: false,
+            bytes: Vec::new(),
+            auto_increment: false,
+            grids: [0; 6],
+            on: None,
+            updates: 0,
+            errors: 0,
+        }
+    }
 }
 
 impl Tm1637 {

@@ -653,6 +653,10 @@ impl Soc {
             Gpio::new(0xFFFF_FFFF, 0),
             Gpio::new(0xFFFF_FFFF, 0),
         ];
+        // The panel module's pull-ups on PB5 (clock) and PB9 (data).
+        let mut gpio = gpio;
+        gpio[1].external[5] = Some(true);
+        gpio[1].external[9] = Some(true);
         Self {
             cycles: 0,
             deadline: 0,

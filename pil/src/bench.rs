@@ -186,6 +186,14 @@ impl Bench {
                 self.last_gate_on = self.last_gate_on.max(e);
             }
         }
+        let unbuffered = std::mem::take(&mut self.mcu.soc_mut().tim1.unbuffered_output_writes);
+        if unbuffered > 0 {
+            self.checker.violations.push(gates::Violation {
+                at: start,
+                check: "atomic commutation",
+                detail: format!("{unbuffered} writes of TIM1's output modes or enables took effect one by one while the outputs were enabled (CR2.CCPC clear): the bridge passed through the states between them"),
+            });
+        }
         let pattern = gates::pattern_of(&window, PERIOD_CYCLES);
         let duty = gates::duty_of(&window, PERIOD_CYCLES);
         let high_legs = window.legs.iter().filter(|l| !l.high.is_empty()).count();

@@ -72,6 +72,9 @@ pub struct Tim {
     pub changes: Vec<(u64, OutputConfig)>,
     /// The break input is asserted (TIM1).
     pub break_active: bool,
+    /// Output-mode or enable writes that took effect on their own while the outputs were
+    /// enabled (TIM1 without the commutation preload).
+    pub unbuffered_output_writes: u64,
 }
 
 /// `SR.UIF`.
@@ -146,6 +149,7 @@ impl Tim {
             external_count: None,
             changes: Vec::new(),
             break_active: false,
+            unbuffered_output_writes: 0,
         }
     }
 
@@ -342,6 +346,14 @@ impl Tim {
             0x18 | 0x1C | 0x50 | 0x20 => {
                 let ok = self.regs.set(offset, value);
                 if !self.preloaded_outputs() {
+                    // Without CR2.CCPC each register lands on its own: while the outputs are
+                    // enabled, the bridge passes through the half-written states between them.
+                    if self.kind == Kind::Advanced
+                        && self.running
+                        && self.regs.value(0x44) & MOE != 0
+                    {
+                        self.unbuffered_output_writes += 1;
+                    }
                     self.ccmr =
                         [self.regs.value(0x18), self.regs.value(0x1C), self.regs.value(0x50)];
                     self.ccer = self.regs.value(0x20);
@@ -439,6 +451,18 @@ mod tests {
         assert_eq!(t.output_config().ocm[0], 0b0110);
         assert_eq!(t.ccer, 0b101);
         assert!(t.regs.value(0x10) & COMIF != 0);
+    }
+
+    #[test]
+    fn output_writes_without_the_preload_are_counted_while_enabled() {
+        let mut t = pwm_timer();
+        t.write(0x44, MOE, 0);
+        t.write(0x18, 0b110 << 4, 10);
+        assert_eq!(t.unbuffered_output_writes, 1, "CCPC clear: the write lands alone");
+        t.write(0x04, 1, 20);
+        t.write(0x18, 0b100 << 4, 30);
+        t.write(0x20, 0b101, 30);
+        assert_eq!(t.unbuffered_output_writes, 1, "CCPC set: the writes wait for COMG");
     }
 
     #[test]

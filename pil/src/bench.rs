@@ -22,7 +22,7 @@ use taut_sim::twin::{PERIODS_PER_TICK, Twin};
 
 use crate::gates::{self, Checker};
 use crate::mcu::Mcu;
-use crate::soc::Stop;
+use crate::soc::{Stop, irq};
 
 /// CPU cycles per PWM period at 170 MHz.
 pub const PERIOD_CYCLES: u64 = 8_500;
@@ -55,6 +55,8 @@ pub struct Bench {
     pub extra_keys: Keys,
     /// The firmware's defmt log, read from its RTT buffer.
     pub log: crate::rtt::Reader,
+    /// The priority order has been found wrong (reported once).
+    priority_reported: bool,
     /// The last cycle any gate was on.
     last_gate_on: u64,
     /// The current window's first cycle.
@@ -85,6 +87,7 @@ impl Bench {
             debug_gates: std::env::var_os("TAUT_PIL_GATES").is_some(),
             window_start: 0,
             last_gate_on: 0,
+            priority_reported: false,
         };
         bench.drive_pins();
         bench.drive_hall();
@@ -184,6 +187,26 @@ impl Bench {
         for leg in &window.legs {
             for &(_, e) in leg.high.iter().chain(leg.low.iter()) {
                 self.last_gate_on = self.last_gate_on.max(e);
+            }
+        }
+        // The fast loop must outrank the tick: the two timers share the clock, so whether a
+        // tick ever lands on a PWM update depends on their phase at start-up, and a run's
+        // latency alone would not show a wrong order.
+        let nvic = &self.mcu.soc().nvic;
+        let enabled = |n: u32| nvic.enabled[(n / 32) as usize] >> (n % 32) & 1 != 0;
+        let prio = |n: u32| nvic.priority[n as usize] & 0xF0;
+        if !self.priority_reported
+            && enabled(irq::TIM6_DAC)
+            && (enabled(irq::TIM1_UP_TIM16) || enabled(irq::TIM2))
+        {
+            let fast = prio(irq::TIM1_UP_TIM16).max(prio(irq::TIM2));
+            if fast >= prio(irq::TIM6_DAC) {
+                self.priority_reported = true;
+                self.checker.violations.push(gates::Violation {
+                    at: start,
+                    check: "interrupt priorities",
+                    detail: format!("the fast loop (priority {fast:#04x}) does not outrank the control tick ({:#04x}): the tick can hold it up", prio(irq::TIM6_DAC)),
+                });
             }
         }
         let unbuffered = std::mem::take(&mut self.mcu.soc_mut().tim1.unbuffered_output_writes);

@@ -681,6 +681,12 @@ impl Twin {
         self.string = StringModel::new(string, self.position_m());
     }
 
+    /// Adds `kgf` (at the configured sensitivity) to each of the next `samples` load-cell
+    /// samples: a burst of spikes placed exactly, for tests.
+    pub fn inject_load_cell_burst(&mut self, samples: u32, kgf: f64) {
+        self.load_cell.inject_burst(samples, kgf * self.config.load_cell.volts_per_kgf);
+    }
+
     /// Starts exhibiting `fault` now (until [`Twin::clear_injected`]).
     pub fn inject(&mut self, fault: Fault) {
         let f = &mut self.faults;

@@ -270,3 +270,55 @@ fn no_burst_of_up_to_five_spikes_turns_the_hold_into_a_release() {
         }
     }
 }
+
+/// REQ-TEN-21: the release brakes onto the home switch: released at 10 to 60 mm/s from a
+/// 25 kgf hold, on a frame whose end stop is 1.5 mm past the switch (lead screw and ball
+/// screw), the carriage comes to rest within 1 mm of the switch and never meets the stop.
+#[test]
+fn the_release_stops_within_a_millimetre_of_home_and_never_meets_the_end_stop() {
+    let kind = StringKind::TennisPolyester;
+    let settings =
+        PullSettings::new(Kgf::from_int(25), Speed::MAX, PreStretch::NONE, KnotBoost::NONE)
+            .expect("settings");
+    let close = |mut twin: TwinConfig| {
+        twin.mechanics.overtravel_mm = 1.5;
+        twin
+    };
+    for (twin, name) in [
+        (close(TwinConfig::family_centre(kind)), "lead screw"),
+        (close(TwinConfig::on_axis(Axis::BallScrew, 1.0, kind)), "ball screw"),
+    ] {
+        let calibration = commissioned_calibration(&twin).expect("calibration accepted");
+        for release_mm_s in [10, 20, 40, 60] {
+            let mut config = ControllerConfig::TAUT;
+            config.profile.release_speed = taut_core::settings::MmPerSecond::from_int(release_mm_s);
+            let mut rig = ControllerBench::new(&twin, &config, calibration).expect("bench");
+            rig.start(&settings, PullKind::Main);
+            for _ in 0..2_000 {
+                rig.tick();
+            }
+            rig.release();
+            let mut fastest = 0.0_f64;
+            let mut idle_at = None;
+            for tick in 0..8_000_u32 {
+                let row = rig.tick();
+                fastest = fastest.max(-row.truth.carriage_mm_per_s);
+                if idle_at.is_none() && row.control.phase == PullPhase::Idle {
+                    idle_at = Some(tick);
+                }
+                if idle_at.is_some_and(|at| tick > at + 500) {
+                    break;
+                }
+            }
+            let truth = rig.twin().truth();
+            println!(
+                "{name}, release at {release_mm_s} mm/s: fastest {fastest:.1} mm/s, at rest \
+                 {:.3} mm from the switch, end stop met {} times",
+                truth.carriage_mm, truth.end_stop_hits
+            );
+            assert!(idle_at.is_some(), "{name} {release_mm_s}: reached home");
+            assert!(truth.carriage_mm.abs() <= 1.0, "{name} {release_mm_s}: {truth:?}");
+            assert_eq!(truth.end_stop_hits, 0, "{name} {release_mm_s}");
+        }
+    }
+}

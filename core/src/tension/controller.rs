@@ -71,7 +71,15 @@
 //!
 //! [`PullPhase::Release`] drives toward home at [`ProfileConfig::release_speed`] (velocity
 //! feed-forward, duty at most [`RELEASE_DUTY_MAX`]) until the home switch closes, then goes
-//! [`PullPhase::Idle`] and coasts.
+//! [`PullPhase::Idle`] and coasts. The pull started on the home switch, so the controller
+//! knows where home is in Hall steps (the count at the pull's first tick): the release
+//! **brakes onto the switch** (REQ-TEN-21) — its speed is [`RELEASE_APPROACH_GAIN`] per
+//! second times the distance left to that count, within [`RELEASE_CREEP`] and the release
+//! speed, so the carriage reaches the switch at the creep speed whatever speed it released
+//! at; the velocity feed-forward below the back-EMF brakes (the complementary bridge, within
+//! the drive's current window). Coasting from 8 mm/s the carriage stops within tenths of a
+//! millimetre of the switch, never reaching an end stop 1.5 mm past it; coasting from the
+//! 40 mm/s release it ran ≈ 7 mm past.
 //!
 //! # Invariant and guarantees
 //!
@@ -93,6 +101,7 @@
 use crate::drive::{DUTY_MAX, Direction, DriveCommand, Duty};
 use crate::fixed::{Q24, mul_q16, mul_q24, reciprocal_q24};
 use crate::io::LimitSwitches;
+use crate::mechanism::STEP_MM_BITS;
 use crate::settings::{MmPerSecond, PullKind, PullSettings};
 use crate::tension::estimator::{Estimate, EstimatorConfig, EstimatorError, TensionEstimator};
 use crate::tension::law::{
@@ -105,6 +114,16 @@ use crate::units::{Amps, Kgf, KgfPerSecond, Q16, Seconds, Volts};
 
 /// The most duty a release (homing) move uses: 60 %.
 pub const RELEASE_DUTY_MAX: Duty = Duty::from_raw_clamped(39_322);
+
+/// REQ-TEN-21: the release's speed per millimetre still to go to where the pull started,
+/// 8 mm/s per mm (a time constant of 125 ms): from the 40 mm/s release the braking starts
+/// 5 mm out at 320 mm/s², a few kgf of the motor's 140 kgf at the current limit.
+pub const RELEASE_APPROACH_GAIN: i32 = 8;
+
+/// REQ-TEN-21: the speed a release reaches the home switch at, 8 mm/s (2.5 V of back-EMF,
+/// under the current window's 5.6 V, and a Hall step every 7 ms, far inside the stall
+/// rule's 500 ms).
+pub const RELEASE_CREEP: MmPerSecond = MmPerSecond::from_int(8);
 
 /// Constant pull off (lock-out, REQ-TEN-18): the carriage is held where it was locked, with
 /// this much force per Hall step it has moved from there: 0.1 kgf a step (52.9 µm), ≈ 1.9 kgf
@@ -383,6 +402,8 @@ pub struct TensionController {
     backward_steps: u8,
     /// The last tick's command was a pull.
     pulled: bool,
+    /// The Hall count at the pull's first tick, on the home switch (`None`: no pull yet).
+    origin: Option<i32>,
 }
 
 impl Default for TensionController {
@@ -489,6 +510,7 @@ impl TensionController {
             excess_ticks: 0,
             backward_steps: 0,
             pulled: false,
+            origin: None,
         })
     }
 
@@ -521,6 +543,7 @@ impl TensionController {
             excess_ticks: 0,
             backward_steps: 0,
             pulled: false,
+            origin: None,
         }
     }
 
@@ -541,6 +564,7 @@ impl TensionController {
         self.excess_ticks = 0;
         self.backward_steps = 0;
         self.pulled = false;
+        self.origin = None;
     }
 
     /// REQ-TEN-20: whether this pull has seen the drivetrain back-drive (a Hall step toward
@@ -689,6 +713,10 @@ impl TensionController {
             self.backward_steps = self.backward_steps.saturating_add(back);
         }
 
+        if self.origin.is_none() && self.profile.phase() == PullPhase::TakeUp {
+            self.origin = Some(m.drive.steps);
+        }
+
         let mut force = Kgf::ZERO;
         let command = match self.profile.phase() {
             PullPhase::Idle => DriveCommand::Coast,
@@ -697,8 +725,9 @@ impl TensionController {
                     self.profile.stop();
                     DriveCommand::Coast
                 } else {
-                    // Back-driven by the string: only the back-EMF of the release speed.
-                    let speed = self.profile.coefficients().release_speed;
+                    // Back-driven by the string: only the back-EMF of the release speed,
+                    // braked onto the switch (REQ-TEN-21).
+                    let speed = self.release_speed(m.drive.steps);
                     let duty = self.map.velocity_duty(speed, Kgf::ZERO, RELEASE_DUTY_MAX);
                     DriveCommand::Drive { direction: Direction::Release, duty }
                 }
@@ -845,6 +874,19 @@ impl TensionController {
         }
         let duty = self.map.velocity_duty(target, Kgf::ZERO, BACK_OUT_DUTY_MAX);
         DriveCommand::Drive { direction: Direction::Release, duty }
+    }
+
+    /// REQ-TEN-21: the release's speed at Hall count `steps`: [`RELEASE_APPROACH_GAIN`] per
+    /// second times the distance left to the pull's first count, within [`RELEASE_CREEP`]
+    /// and the configured release speed (which alone, without a pull to know home by).
+    fn release_speed(&self, steps: i32) -> MmPerSecond {
+        let fastest = self.profile.coefficients().release_speed;
+        let Some(origin) = self.origin else {
+            return fastest;
+        };
+        let left = Q16::from_bits(steps.saturating_sub(origin).saturating_mul(STEP_MM_BITS));
+        let speed = left.saturating_mul_int(RELEASE_APPROACH_GAIN);
+        MmPerSecond(speed.min(fastest.0).max(RELEASE_CREEP.0.min(fastest.0)))
     }
 
     /// The tension last estimated (what the machine shows).
@@ -1077,6 +1119,48 @@ mod tests {
             PullKind::Main,
         );
         assert!(!controller.back_drives());
+    }
+
+    /// REQ-TEN-21: the release's speed is 8 mm/s per millimetre left to the pull's first
+    /// Hall count, within the creep speed and the release speed; without a pull, the
+    /// release speed.
+    #[test]
+    fn the_release_brakes_onto_the_switch_from_any_speed() {
+        let fastest = ProfileConfig::TAUT.release_speed;
+        let mut controller = started(25);
+        assert_eq!(controller.release_speed(500), fastest, "no pull yet");
+        tick_at(&mut controller, 0, 100);
+        let at = |controller: &TensionController, steps: i32| {
+            controller.release_speed(steps).0.to_num::<i32>()
+        };
+        assert_eq!(at(&controller, 2_000), fastest.0.to_num::<i32>());
+        // 80 steps (4.23 mm) left: 33.9 mm/s; 40 steps: 16.9; 10 steps and at or past the
+        // count: the creep speed.
+        assert_eq!(at(&controller, 180), 33);
+        assert_eq!(at(&controller, 140), 16);
+        for steps in [110, 100, 50, -1_000] {
+            assert_eq!(controller.release_speed(steps), RELEASE_CREEP, "{steps}");
+        }
+        // The command follows it: less duty near home than far from it.
+        controller.release();
+        let far = tick_at(&mut controller, 0, 2_000).command;
+        let near = tick_at(&mut controller, 0, 110).command;
+        assert_eq!(far.direction(), Some(Direction::Release));
+        assert_eq!(near.direction(), Some(Direction::Release));
+        assert!(near.duty() < far.duty(), "{near:?} {far:?}");
+        // A new pull takes its own origin.
+        controller.start(
+            &valid(PullSettings::new(
+                Kgf::from_int(25),
+                Speed::MAX,
+                PreStretch::NONE,
+                KnotBoost::NONE,
+            )),
+            PullKind::Main,
+        );
+        assert_eq!(controller.release_speed(180), fastest);
+        tick_at(&mut controller, 0, 170);
+        assert_eq!(at(&controller, 180), RELEASE_CREEP.0.to_num::<i32>());
     }
 
     /// REQ-TEN-18: constant pull goes off only in the hold; locked, the force is the string's

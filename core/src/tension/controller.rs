@@ -1061,6 +1061,31 @@ mod tests {
         assert!(!controller.back_drives());
     }
 
+    /// REQ-TEN-17: while the law still asks for some pull, no excess is backed out, however
+    /// long it lasts; with the law asking for none, it is once confirmed.
+    #[test]
+    fn a_back_out_never_overrides_a_pull_the_law_asks_for() {
+        let mut controller = holding();
+        let over = Estimate {
+            tension: Kgf::from_int(26),
+            sample: Kgf::from_int(26),
+            ..Estimate::default()
+        };
+        let still = MmPerSecond(Q16::ZERO);
+        let pull =
+            DriveCommand::Drive { direction: Direction::Pull, duty: Duty::from_raw_clamped(1_000) };
+        for _ in 0..3 * u32::from(BACK_OUT_CONFIRM) {
+            assert_eq!(controller.back_out(pull, &over, still), pull);
+        }
+        let brake = DriveCommand::Drive { direction: Direction::Pull, duty: Duty::ZERO };
+        let mut released = false;
+        for _ in 0..BACK_OUT_CONFIRM {
+            released |=
+                controller.back_out(brake, &over, still).direction() == Some(Direction::Release);
+        }
+        assert!(released);
+    }
+
     /// REQ-TEN-20: a Hall step toward home while pulling, in the settle or the hold,
     /// identifies a back-driving drivetrain ([`BACK_DRIVE_STEPS`] of them); its back-out then
     /// releases only while the carriage backs off slower than the back-out's speed. Steps

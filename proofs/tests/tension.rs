@@ -64,13 +64,17 @@ fn law_case() -> impl Strategy<Value = LawCase> {
 /// The estimator's memory, its stiffness in range.
 fn estimator_state() -> impl Strategy<Value = EstimatorState> {
     (
-        (any::<[i32; 5]>(), any::<i32>(), any::<i64>(), any::<i32>()),
+        (any::<[i32; 15]>(), any::<[i32; 15]>(), any::<i32>(), any::<i64>(), any::<i32>()),
         (any::<i32>(), any::<i32>(), any::<bool>(), 0..=4 * KGF, any::<[i32; 4]>()),
     )
         .prop_map(
-            |((window, filtered, fused, rate), (speed, last_steps, primed, stiffness, recent))| {
+            |(
+                (window, window_steps, filtered, fused, rate),
+                (speed, last_steps, primed, stiffness, recent),
+            )| {
                 EstimatorState {
                     window,
+                    window_steps,
                     filtered,
                     fused,
                     rate,

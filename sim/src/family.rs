@@ -164,6 +164,18 @@ pub mod ranges {
     /// good planetary (0.92: 0.86, the most the load-proportional friction law realises
     /// with a back-driven efficiency near the forward one).
     pub const EFFICIENCY_FORWARD: Span = Span::linear(0.86, 0.50);
+    /// A ball screw behind a good gearbox ([`super::Axis::BallScrew`], a quarter of the
+    /// family's machines): forward efficiency 0.80–0.91 …
+    pub const BALL_SCREW_FORWARD: Span = Span::linear(0.80, 0.91);
+    /// … and back-driven 0.76–0.905: the string turns the motor with almost all its pull
+    /// when the drive lets go (within what the friction law realises, see
+    /// [`super::back_driven_efficiency`]).
+    pub const BALL_SCREW_BACKWARD: Span = Span::linear(0.76, 0.905);
+    /// The share of the family's machines with a ball screw.
+    pub const BALL_SCREW_SHARE: f64 = 0.25;
+    /// How far the end stop lies past the home switch, mm: a generous 20 mm down to a frame
+    /// whose stop is 1.5 mm past the switch.
+    pub const OVERTRAVEL_MM: Span = Span::linear(20.0, 1.5);
     /// Back-driven / forward efficiency (lead screws lose more backwards), limited to what
     /// the friction law can realise (see [`super::back_driven_efficiency`]).
     pub const BACK_DRIVE_RATIO: Span = Span::linear(0.98, 0.85);
@@ -225,6 +237,11 @@ pub mod ranges {
     pub const SPIKE_BASE_VOLTS: Span = Span::linear(0.02, 0.4);
     /// Spike amplitude per ampere switched, V/A (at 3 A the largest spike is 6.3 kgf).
     pub const SPIKE_VOLTS_PER_AMP: Span = Span::linear(0.005, 0.06);
+    /// Probability per switching sample that a burst of spikes starts (none to one in 100
+    /// samples: a gate driver ringing across several conversions).
+    pub const SPIKE_BURST_PROBABILITY: Span = Span::linear(0.0, 0.01);
+    /// The longest burst, samples: 1 (single spikes) to 5.
+    pub const SPIKE_BURST_SAMPLES: Span = Span::linear(1.0, 5.0);
 
     // Current and bus sensing.
 
@@ -288,6 +305,26 @@ pub fn back_driven_efficiency(forward: f64, position: f64) -> f64 {
     let low = (ratio_low * forward).max(2.0 - 1.0 / forward + 1e-6);
     let high = (ratio_high * forward).min(1.0 / (2.0 - forward) - 1e-6);
     Span::linear(high, low).at(position)
+}
+
+/// The ball screw's efficiencies at `position` (0 ..= 1, continued beyond) of
+/// [`ranges::BALL_SCREW_FORWARD`] and [`ranges::BALL_SCREW_BACKWARD`]: (forward, backward),
+/// the backward one kept where the friction law realises it (as
+/// [`back_driven_efficiency`]).
+#[must_use]
+pub fn ball_screw_efficiency(position: f64) -> (f64, f64) {
+    let forward = ranges::BALL_SCREW_FORWARD.beyond(position);
+    let backward = ranges::BALL_SCREW_BACKWARD
+        .beyond(position)
+        .max(2.0 - 1.0 / forward + 1e-6)
+        .min(1.0 / (2.0 - forward) - 1e-6);
+    (forward, backward)
+}
+
+/// The longest spike burst at `position` of [`ranges::SPIKE_BURST_SAMPLES`], samples (at
+/// least 1).
+fn burst_samples(position: f64) -> u32 {
+    ranges::SPIKE_BURST_SAMPLES.beyond(position).round().clamp(1.0, 64.0) as u32
 }
 
 /// The six-step commutation overlap's voltage loss as a multiple of the six-pulse
@@ -362,6 +399,9 @@ pub enum Axis {
     LoadCellNoiseHum,
     /// Switching spikes: none to "a few % of samples, up to 6 kgf".
     Spikes,
+    /// Spike bursts: none to 1 % of switching samples starting a burst of up to 5
+    /// consecutive spikes of one sign.
+    SpikeBursts,
     /// Gripper mass outboard of the load cell, 0.2–1.5 kg.
     GripperMass,
     /// Hall mounting error, −5° to +5° electrical, all three sensors together.
@@ -383,6 +423,11 @@ pub enum Axis {
     Creep,
     /// String slack 10–60 mm.
     Slack,
+    /// A ball screw that back-drives: efficiency forward 0.80–0.91, back-driven 0.76–0.905,
+    /// with the family's least drag and stiction.
+    BallScrew,
+    /// The end stop past the home switch: 20 mm down to 1.5 mm.
+    EndStop,
 }
 
 /// The headline quantity an axis moves, with its value at each end, for printing.
@@ -447,7 +492,7 @@ fn sensing_index(position: f64) -> usize {
 
 impl Axis {
     /// Every axis, in the order reports print them.
-    pub const ALL: [Self; 23] = [
+    pub const ALL: [Self; 26] = [
         Self::Inertia,
         Self::Friction,
         Self::Backlash,
@@ -462,6 +507,7 @@ impl Axis {
         Self::LoadCellBandwidth,
         Self::LoadCellNoiseHum,
         Self::Spikes,
+        Self::SpikeBursts,
         Self::GripperMass,
         Self::HallError,
         Self::BusSupply,
@@ -471,6 +517,8 @@ impl Axis {
         Self::StringStiffness,
         Self::Creep,
         Self::Slack,
+        Self::BallScrew,
+        Self::EndStop,
     ];
 
     /// The command-line name (`inertia`, `load-cell-noise-hum`, …), also what [`FromStr`]
@@ -492,6 +540,7 @@ impl Axis {
             Self::LoadCellBandwidth => "load-cell-bandwidth",
             Self::LoadCellNoiseHum => "load-cell-noise-hum",
             Self::Spikes => "spikes",
+            Self::SpikeBursts => "spike-bursts",
             Self::GripperMass => "gripper-mass",
             Self::HallError => "hall-error",
             Self::BusSupply => "bus-supply",
@@ -501,6 +550,8 @@ impl Axis {
             Self::StringStiffness => "string-stiffness",
             Self::Creep => "creep",
             Self::Slack => "slack",
+            Self::BallScrew => "ball-screw",
+            Self::EndStop => "end-stop",
         }
     }
 
@@ -562,6 +613,7 @@ impl Axis {
                 at_low_end: 0.0,
                 at_high_end: largest_spike_kgf(1.0, 3.0),
             },
+            Self::SpikeBursts => s("burst probability", "per sample", r::SPIKE_BURST_PROBABILITY),
             Self::GripperMass => s("gripper mass", "kg", r::GRIPPER_KG),
             Self::HallError => s("Hall mounting error", "° el.", r::HALL_EDGE_DEG),
             Self::BusSupply => s("supply voltage", "V", r::SUPPLY_VOLTS),
@@ -594,6 +646,8 @@ impl Axis {
                 at_high_end: r::RELAXATION_FRACTION_SCALE.high,
             },
             Self::Slack => s("slack", "mm", r::SLACK_MM),
+            Self::BallScrew => s("back-driven efficiency", "", r::BALL_SCREW_BACKWARD),
+            Self::EndStop => s("end stop past the home switch", "mm", r::OVERTRAVEL_MM),
         }
     }
 
@@ -612,6 +666,19 @@ impl Axis {
                 largest_spike_kgf(p, 3.0),
                 100.0 * Span::linear(0.0, ranges::SPIKE_PWM_PROBABILITY.high).beyond(p)
             ),
+            Self::SpikeBursts => format!(
+                "{}: {:.2} % of switching samples start a burst of up to {} spikes",
+                self.name(),
+                100.0 * ranges::SPIKE_BURST_PROBABILITY.beyond(p),
+                burst_samples(p)
+            ),
+            Self::BallScrew => {
+                let (forward, backward) = ball_screw_efficiency(p);
+                format!(
+                    "{}: efficiency forward {forward:.3}, back-driven {backward:.3}",
+                    self.name()
+                )
+            }
             Self::LoadCellNoiseHum => format!(
                 "{}: noise {:.2} mV rms, hum {:.2} mV peak",
                 self.name(),
@@ -772,6 +839,21 @@ impl TwinConfig {
         l.spikes.commutation_probability = r::SPIKE_COMMUTATION_PROBABILITY.draw(&mut rng);
         l.spikes.base_volts = r::SPIKE_BASE_VOLTS.draw(&mut rng);
         l.spikes.volts_per_amp = r::SPIKE_VOLTS_PER_AMP.draw(&mut rng);
+
+        // The axes added for back-driving screws, spike bursts and close end stops draw
+        // from their own stream, so every earlier draw is what it was.
+        let mut rng = SimRng::substream(seed, 0xFA49);
+        let spikes = &mut c.load_cell.spikes;
+        spikes.burst_probability = r::SPIKE_BURST_PROBABILITY.draw(&mut rng);
+        spikes.burst_samples_max = burst_samples(rng.uniform());
+        c.mechanics.overtravel_mm = r::OVERTRAVEL_MM.draw(&mut rng);
+        if rng.chance(r::BALL_SCREW_SHARE) {
+            let k = &mut c.mechanics;
+            (k.efficiency_forward, k.efficiency_backward) = ball_screw_efficiency(rng.uniform());
+            k.drag_torque_nm = r::DRAG_NM.low;
+            k.slide_friction_n = r::SLIDE_N.low;
+            k.stiction_ratio = r::STICTION.low;
+        }
 
         let mut rng = SimRng::substream(seed, 0xFA46);
         let bidirectional = rng.chance(0.5);
@@ -954,6 +1036,19 @@ impl TwinConfig {
                 spikes.base_volts = r::SPIKE_BASE_VOLTS.beyond(p);
                 spikes.volts_per_amp = r::SPIKE_VOLTS_PER_AMP.beyond(p);
             }
+            Axis::SpikeBursts => {
+                let spikes = &mut c.load_cell.spikes;
+                spikes.burst_probability = r::SPIKE_BURST_PROBABILITY.beyond(p);
+                spikes.burst_samples_max = burst_samples(p);
+            }
+            Axis::BallScrew => {
+                let k = &mut c.mechanics;
+                (k.efficiency_forward, k.efficiency_backward) = ball_screw_efficiency(p);
+                k.drag_torque_nm = r::DRAG_NM.low;
+                k.slide_friction_n = r::SLIDE_N.low;
+                k.stiction_ratio = r::STICTION.low;
+            }
+            Axis::EndStop => c.mechanics.overtravel_mm = r::OVERTRAVEL_MM.beyond(p),
             Axis::GripperMass => c.mechanics.gripper.mass_kg = r::GRIPPER_KG.beyond(p),
             Axis::HallError => c.hall.offset_deg = r::HALL_EDGE_DEG.beyond(p),
             Axis::BusSupply => {

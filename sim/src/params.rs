@@ -417,6 +417,12 @@ pub struct SpikeParams {
     pub base_volts: f64,
     /// Spike amplitude per ampere switched, V/A.
     pub volts_per_amp: f64,
+    /// Probability per switching sample that a **burst** starts: this and the next samples,
+    /// 1 ..= [`SpikeParams::burst_samples_max`] in all (uniform), each a spike of the same
+    /// sign (a gate driver ringing over several conversions; 0: no bursts).
+    pub burst_probability: f64,
+    /// The longest burst, samples.
+    pub burst_samples_max: u32,
 }
 
 /// The strain-gauge bridge, instrumentation amplifier and ADC input of the tension sensor.
@@ -790,6 +796,8 @@ impl LoadCellParams {
                 commutation_probability: 0.5,
                 base_volts: 0.04,
                 volts_per_amp: 0.015,
+                burst_probability: 0.0,
+                burst_samples_max: 0,
             },
             hum: HumParams { frequency_hz: 50.0, volts: 0.0, phase_deg: 0.0 },
         }
@@ -1137,7 +1145,9 @@ impl TwinConfig {
             probability(spikes.pwm_probability)
                 && probability(spikes.commutation_probability)
                 && finite_non_negative(spikes.base_volts)
-                && finite_non_negative(spikes.volts_per_amp),
+                && finite_non_negative(spikes.volts_per_amp)
+                && probability(spikes.burst_probability)
+                && spikes.burst_samples_max <= 64,
             "load-cell spikes",
         )?;
         let hum = &self.load_cell.hum;

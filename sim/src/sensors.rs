@@ -16,7 +16,11 @@
 //! noise is added, and — when the bridge is switching — a **spike**: with a fixed
 //! probability per sample while the PWM runs (the sample lands in an edge's ringing) and
 //! with a higher probability when a commutation happened in the PWM period before the
-//! sample; its size grows with the current switched (paper, figure 22). The voltage is
+//! sample; its size grows with the current switched (paper, figure 22). Spikes may also
+//! come in **bursts**: with a probability per switching sample a run of 1 ..= `N`
+//! consecutive samples (uniform) each carries a spike of the same sign (a gate driver
+//! ringing across several conversions), which a median of five passes from three on. The
+//! voltage is
 //! converted by the 12-bit, 5 V converter (`AdcCode::from_volts`).
 //!
 //! Mains hum (`volts · sin(2π·f·t + φ)`, referred to the amplifier output) is added at
@@ -78,13 +82,25 @@ pub enum LoadCellFault {
 pub struct LoadCell {
     params: LoadCellParams,
     filtered: f64,
+    /// Samples of the present burst still to come.
+    burst_left: u32,
+    /// The present burst's sign.
+    burst_sign: f64,
+    /// An injected burst: samples still to come and the volts each carries.
+    injected: (u32, f64),
 }
 
 impl LoadCell {
     /// A chain at rest with no load.
     #[must_use]
     pub fn new(params: &LoadCellParams) -> Self {
-        let mut cell = Self { params: *params, filtered: 0.0 };
+        let mut cell = Self {
+            params: *params,
+            filtered: 0.0,
+            burst_left: 0,
+            burst_sign: 1.0,
+            injected: (0, 0.0),
+        };
         cell.filtered = cell.static_volts(0.0);
         cell
     }
@@ -97,6 +113,12 @@ impl LoadCell {
         let scale = p.low_load_scale_kgf.max(1e-9);
         let seated = t - p.low_load_deficit * scale * (1.0 - (-t / scale).exp());
         p.zero_volts + p.volts_per_kgf * seated * (1.0 + p.quadratic_at_50_kgf * t / 50.0)
+    }
+
+    /// Adds `volts` to each of the next `samples` samples (a burst placed by a test; it
+    /// draws nothing from the random stream).
+    pub fn inject_burst(&mut self, samples: u32, volts: f64) {
+        self.injected = (samples, volts);
     }
 
     /// Advances the amplifier's low-pass by `dt` toward the output for `tension_kgf`.
@@ -126,10 +148,12 @@ impl LoadCell {
     }
 
     /// One converter sample at `time_s`: the filtered output plus noise, mains hum and a
-    /// possible switching spike. `switching` says the PWM ran in the last period,
-    /// `commutated` that a commutation happened in it, `amps` the current switched.
+    /// possible switching spike or a burst's. `switching` says the PWM ran in the last
+    /// period, `commutated` that a commutation happened in it, `amps` the current switched.
+    /// The random stream is drawn for bursts only when they are configured, so a machine
+    /// without them sees the same noise as before they existed.
     pub fn sample(
-        &self,
+        &mut self,
         rng: &mut SimRng,
         time_s: f64,
         switching: bool,
@@ -150,6 +174,21 @@ impl LoadCell {
         if rng.chance(spike_probability) {
             let size = p.spikes.base_volts + p.spikes.volts_per_amp * amps.abs();
             v += rng.sign() * size * rng.range(0.3, 1.0);
+        }
+        if p.spikes.burst_probability > 0.0 && p.spikes.burst_samples_max > 0 {
+            if self.burst_left == 0 && switching && rng.chance(p.spikes.burst_probability) {
+                self.burst_left = rng.below(p.spikes.burst_samples_max).saturating_add(1);
+                self.burst_sign = rng.sign();
+            }
+            if self.burst_left > 0 {
+                self.burst_left = self.burst_left.saturating_sub(1);
+                let size = p.spikes.base_volts + p.spikes.volts_per_amp * amps.abs();
+                v += self.burst_sign * size * rng.range(0.3, 1.0);
+            }
+        }
+        if self.injected.0 > 0 {
+            self.injected.0 = self.injected.0.saturating_sub(1);
+            v += self.injected.1;
         }
         match fault {
             None => adc(v),
@@ -424,7 +463,7 @@ mod tests {
 
     #[test]
     fn faults_read_as_wired() {
-        let cell = LoadCell::new(&LoadCellParams::nominal());
+        let mut cell = LoadCell::new(&LoadCellParams::nominal());
         let mut rng = SimRng::new(2);
         assert!(
             cell.sample(&mut rng, 0.0, false, false, 0.0, Some(LoadCellFault::Open)).get() < 10

@@ -221,6 +221,9 @@ pub struct Truth {
     pub carriage_mm: f64,
     /// Carriage velocity, mm/s (positive = pulling).
     pub carriage_mm_per_s: f64,
+    /// How many times since power-up the carriage has met the end stop past the home switch
+    /// (each arrival once, however long it stays there).
+    pub end_stop_hits: u32,
     /// Motor speed, rpm (positive = forward, the pull direction).
     pub motor_rpm: f64,
     /// Winding current, mean over the last tick of `(|i_a| + |i_b| + |i_c|) / 2` (the
@@ -363,6 +366,8 @@ pub struct Twin {
     cogging_phase: f64,
     low_stop_m: f64,
     high_stop_m: f64,
+    /// Arrivals at the low (home-side) stop, and whether the carriage is resting on it.
+    end_stop: (u32, bool),
     /// Backlash at the carriage, m (0: rigid drivetrain).
     backlash_m: f64,
     /// Motor-side inertia (rotor, gearbox, screw), kg·m².
@@ -507,6 +512,7 @@ impl Twin {
             theta_e_offset_deg: setup.range(0.0, 360.0),
             cogging_phase: setup.range(0.0, core::f64::consts::TAU),
             low_stop_m: (k.home_switch_mm - k.overtravel_mm) * 1e-3,
+            end_stop: (0, false),
             high_stop_m: (k.end_switch_mm + k.overtravel_mm) * 1e-3,
             backlash_m,
             motor_inertia: m.rotor_inertia_kg_m2 + k.gear_inertia_kg_m2,
@@ -553,6 +559,7 @@ impl Twin {
                 tension_kgf: 0.0,
                 carriage_mm: k.start_mm,
                 carriage_mm_per_s: 0.0,
+                end_stop_hits: 0,
                 motor_rpm: 0.0,
                 current_a: 0.0,
                 peak_current_a: 0.0,
@@ -694,6 +701,12 @@ impl Twin {
     /// its slack is taken up from here. [`Twin::fit_new_string`] puts the configured kind back.
     pub fn fit_string(&mut self, string: &StringParams) {
         self.string = StringModel::new(string, self.position_m());
+    }
+
+    /// Adds `kgf` (at the configured sensitivity) to each of the next `samples` load-cell
+    /// samples: a burst of spikes placed exactly, for tests.
+    pub fn inject_load_cell_burst(&mut self, samples: u32, kgf: f64) {
+        self.load_cell.inject_burst(samples, kgf * self.config.load_cell.volts_per_kgf);
     }
 
     /// Starts exhibiting `fault` now (until [`Twin::clear_injected`]).
@@ -1133,6 +1146,7 @@ impl Twin {
         self.theta += self.omega * dt;
         if !decoupled {
             let x = self.position_m();
+            self.note_end_stop(x);
             if x < self.low_stop_m || x > self.high_stop_m {
                 let clamped = x.clamp(self.low_stop_m, self.high_stop_m);
                 self.theta = (clamped - self.gap_m) / self.metres_per_rad;
@@ -1217,6 +1231,7 @@ impl Twin {
             self.theta = (x - self.gap_m) / r;
         }
         let x = self.position_m();
+        self.note_end_stop(x);
         if x < self.low_stop_m || x > self.high_stop_m {
             // The carriage hits a hard stop; the motor side follows only if engaged.
             let clamped = x.clamp(self.low_stop_m, self.high_stop_m);
@@ -1229,6 +1244,17 @@ impl Twin {
                 self.omega = 0.0;
                 self.stuck = true;
             }
+        }
+    }
+
+    /// Counts an arrival at the home-side stop: the carriage at `x` (m, before the stop
+    /// clamps it) at or past it after having been clear of it (by 1 µm).
+    fn note_end_stop(&mut self, x: f64) {
+        let (hits, resting) = self.end_stop;
+        if x <= self.low_stop_m {
+            self.end_stop = (if resting { hits } else { hits.saturating_add(1) }, true);
+        } else if x > self.low_stop_m + 1e-6 {
+            self.end_stop = (hits, false);
         }
     }
 
@@ -1269,6 +1295,7 @@ impl Twin {
             tension_kgf,
             carriage_mm: x * 1e3,
             carriage_mm_per_s: self.carriage_v * 1e3,
+            end_stop_hits: self.end_stop.0,
             motor_rpm: self.omega * 60.0 / core::f64::consts::TAU,
             current_a: if ticks_started { s.current / periods } else { 0.0 },
             peak_current_a: s.peak,

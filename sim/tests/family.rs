@@ -49,6 +49,8 @@ fn family_parameters_stay_in_their_documented_ranges_over_10000_seeds() {
     let mut kinds = [0_u32; 5];
     let mut sensing = [0_u32; 3];
     let mut bidirectional = 0_u32;
+    let mut ball_screws = 0_u32;
+    let mut burst_lengths = [0_u32; 6];
     for seed in 0..10_000_u64 {
         let c = TwinConfig::family(seed);
         assert_eq!(c.check(), Ok(()), "seed {seed}: {c:?}");
@@ -84,9 +86,18 @@ fn family_parameters_stay_in_their_documented_ranges_over_10000_seeds() {
         assert_in(r::COMPARATOR_AMPS, b.comparator_amps, "comparator", seed);
 
         let k = c.mechanics;
-        assert_in(r::EFFICIENCY_FORWARD, k.efficiency_forward, "η forward", seed);
-        let ratio = k.efficiency_backward / k.efficiency_forward;
-        assert_in(r::BACK_DRIVE_RATIO, ratio, "η back / forward", seed);
+        // A ball screw is drawn with the family's least drag (exactly its low end).
+        if k.drag_torque_nm == r::DRAG_NM.low && k.stiction_ratio == r::STICTION.low {
+            // A ball screw (a quarter of the machines): its own spans, realisable.
+            assert_in(r::BALL_SCREW_FORWARD, k.efficiency_forward, "η forward (ball)", seed);
+            assert_in(r::BALL_SCREW_BACKWARD, k.efficiency_backward, "η back (ball)", seed);
+            ball_screws += 1;
+        } else {
+            assert_in(r::EFFICIENCY_FORWARD, k.efficiency_forward, "η forward", seed);
+            let ratio = k.efficiency_backward / k.efficiency_forward;
+            assert_in(r::BACK_DRIVE_RATIO, ratio, "η back / forward", seed);
+        }
+        assert_in(r::OVERTRAVEL_MM, k.overtravel_mm, "end stop past home", seed);
         let (a, b) = k.friction_coefficients();
         assert!(a >= 0.0 && b >= 0.0, "seed {seed}");
         assert_in(r::DRAG_NM, k.drag_torque_nm, "drag", seed);
@@ -118,6 +129,10 @@ fn family_parameters_stay_in_their_documented_ranges_over_10000_seeds() {
         );
         assert_in(r::SPIKE_BASE_VOLTS, l.spikes.base_volts, "spike base", seed);
         assert_in(r::SPIKE_VOLTS_PER_AMP, l.spikes.volts_per_amp, "spike per A", seed);
+        assert_in(r::SPIKE_BURST_PROBABILITY, l.spikes.burst_probability, "burst rate", seed);
+        let burst = l.spikes.burst_samples_max as usize;
+        assert!((1..=5).contains(&burst), "seed {seed}: burst {burst}");
+        burst_lengths[burst] += 1;
 
         let s = c.current_sense;
         match s.sensing {
@@ -174,6 +189,9 @@ fn family_parameters_stay_in_their_documented_ranges_over_10000_seeds() {
     assert!(kinds.iter().all(|&n| n > 1_700), "{kinds:?}");
     assert!(sensing.iter().all(|&n| n > 3_000), "{sensing:?}");
     assert!(bidirectional > 6_000 && bidirectional < 7_300, "{bidirectional}");
+    // About a quarter ball screws; every burst length 1 ..= 5 drawn.
+    assert!((2_200..2_800).contains(&ball_screws), "{ball_screws} ball screws");
+    assert!(burst_lengths[1..].iter().all(|&n| n > 1_000), "{burst_lengths:?}");
 }
 
 #[test]

@@ -131,6 +131,10 @@ pub struct Cycle {
     pub bus_peak_v: f64,
     /// The state the cycle ended in.
     pub last_state: MachineState,
+    /// How many times the carriage met the end stop past the home switch.
+    pub end_stop_hits: u32,
+    /// Where the carriage ended, mm from where the home switch closes (0).
+    pub rest_mm: f64,
 }
 
 impl Cycle {
@@ -257,6 +261,8 @@ pub fn run_cycle_on(config: &TwinConfig, args: &MachineArgs, index: u64) -> Cycl
         peak_after_injection_a: peak_after_a,
         bus_peak_v,
         last_state: bench.machine().state(),
+        end_stop_hits: bench.twin().truth().end_stop_hits,
+        rest_mm: bench.twin().truth().carriage_mm,
     }
 }
 
@@ -310,6 +316,12 @@ pub struct Findings {
     pub bus_max_v: f64,
     /// Current-sensing mix.
     pub sensing: Vec<(String, usize)>,
+    /// Arrivals at the end stop past the home switch, over every cycle, and the cycles
+    /// with any.
+    pub end_stop: (u32, usize),
+    /// The completed cycles' largest distance of the carriage at rest from the home switch,
+    /// mm.
+    pub rest_max_mm: f64,
 }
 
 /// Aggregates `cycles`.
@@ -360,6 +372,15 @@ pub fn findings(cycles: &[Cycle]) -> Findings {
         peak_current_a: (percentile(&healthy, 100.0), percentile(&healthy, 99.0)),
         bus_max_v: cycles.iter().map(|c| c.bus_peak_v).fold(0.0, f64::max),
         sensing: tally(cycles.iter().map(|c| c.sensing.clone())),
+        end_stop: (
+            cycles.iter().map(|c| c.end_stop_hits).sum(),
+            cycles.iter().filter(|c| c.end_stop_hits > 0).count(),
+        ),
+        rest_max_mm: cycles
+            .iter()
+            .filter(|c| c.completed)
+            .map(|c| c.rest_mm.abs())
+            .fold(0.0, f64::max),
     }
 }
 
@@ -425,6 +446,13 @@ pub fn text(f: &Findings) -> String {
     let _ = writeln!(out, "highest bus voltage: {} V", cell(f.bus_max_v, 2));
     let mix: Vec<String> = f.sensing.iter().map(|(n, c)| format!("{c} {n}")).collect();
     let _ = writeln!(out, "current sensing: {}", mix.join(", "));
+    let _ = writeln!(
+        out,
+        "end stop past the home switch met {} times (in {} cycles); completed cycles at rest within {} mm of the home switch",
+        f.end_stop.0,
+        f.end_stop.1,
+        cell(f.rest_max_mm, 2)
+    );
     out
 }
 
@@ -455,6 +483,9 @@ pub fn to_json(args: &MachineArgs, f: &Findings) -> Value {
         "peak_current_p99_percent_of_trip": number(f.peak_current_a.1 / TRIP_A * 100.0),
         "bus_max_v": number(f.bus_max_v),
         "current_sensing": f.sensing.iter().map(|(n, c)| json!({"board": n, "count": c})).collect::<Vec<_>>(),
+        "end_stop_hits": f.end_stop.0,
+        "end_stop_cycles": f.end_stop.1,
+        "rest_from_home_max_mm": number(f.rest_max_mm),
     })
 }
 

@@ -53,7 +53,17 @@
 //! with the law asking for no pull at all, is **backed out**: the carriage is driven toward
 //! home at a speed proportional to the excess (REQ-TEN-17), so a pre-stretch peak or a
 //! braking overshoot comes down in a fraction of a second even on a drivetrain that does not
-//! back-drive, instead of waiting for the string to creep.
+//! back-drive, instead of waiting for the string to creep. The back-out acts only on evidence
+//! a burst of load-cell spikes cannot fake — the excess in both the estimate and the
+//! burst-proof filtered sample (the estimator's median of fifteen Hall-moved samples) for
+//! [`BACK_OUT_CONFIRM`] consecutive ticks — and only what a release of *this* drivetrain
+//! removes: the controller identifies whether the drivetrain holds or **back-drives**
+//! (REQ-TEN-20: a Hall step toward home while it commanded a pull in the settle or the hold;
+//! a screw that holds never moves back under a pull). On a drivetrain that back-drives, a
+//! release takes the string's whole pull off the motor, not the excess: the carriage runs
+//! home under the string and the tension falls far past the reference. There the back-out
+//! drives toward home only while the carriage backs off slower than the back-out's speed;
+//! faster, the law's braking command stands and the string itself does the rest.
 //!
 //! With the **step** profile (the paper's simulation, used for the `paper_rsmc` and `pd`
 //! baselines) the reference is the target from the first tick and the law acts at once;
@@ -61,7 +71,15 @@
 //!
 //! [`PullPhase::Release`] drives toward home at [`ProfileConfig::release_speed`] (velocity
 //! feed-forward, duty at most [`RELEASE_DUTY_MAX`]) until the home switch closes, then goes
-//! [`PullPhase::Idle`] and coasts.
+//! [`PullPhase::Idle`] and coasts. The pull started on the home switch, so the controller
+//! knows where home is in Hall steps (the count at the pull's first tick): the release
+//! **brakes onto the switch** (REQ-TEN-21) — its speed is [`RELEASE_APPROACH_GAIN`] per
+//! second times the distance left to that count, within [`RELEASE_CREEP`] and the release
+//! speed, so the carriage reaches the switch at the creep speed whatever speed it released
+//! at; the velocity feed-forward below the back-EMF brakes (the complementary bridge, within
+//! the drive's current window). Coasting from 8 mm/s the carriage stops within tenths of a
+//! millimetre of the switch, never reaching an end stop 1.5 mm past it; coasting from the
+//! 40 mm/s release it ran ≈ 7 mm past.
 //!
 //! # Invariant and guarantees
 //!
@@ -83,6 +101,7 @@
 use crate::drive::{DUTY_MAX, Direction, DriveCommand, Duty};
 use crate::fixed::{Q24, mul_q16, mul_q24, reciprocal_q24};
 use crate::io::LimitSwitches;
+use crate::mechanism::STEP_MM_BITS;
 use crate::settings::{MmPerSecond, PullKind, PullSettings};
 use crate::tension::estimator::{Estimate, EstimatorConfig, EstimatorError, TensionEstimator};
 use crate::tension::law::{
@@ -95,6 +114,16 @@ use crate::units::{Amps, Kgf, KgfPerSecond, Q16, Seconds, Volts};
 
 /// The most duty a release (homing) move uses: 60 %.
 pub const RELEASE_DUTY_MAX: Duty = Duty::from_raw_clamped(39_322);
+
+/// REQ-TEN-21: the release's speed per millimetre still to go to where the pull started,
+/// 8 mm/s per mm (a time constant of 125 ms): from the 40 mm/s release the braking starts
+/// 5 mm out at 320 mm/s², a few kgf of the motor's 140 kgf at the current limit.
+pub const RELEASE_APPROACH_GAIN: i32 = 8;
+
+/// REQ-TEN-21: the speed a release reaches the home switch at, 8 mm/s (2.5 V of back-EMF,
+/// under the current window's 5.6 V, and a Hall step every 7 ms, far inside the stall
+/// rule's 500 ms).
+pub const RELEASE_CREEP: MmPerSecond = MmPerSecond::from_int(8);
 
 /// Constant pull off (lock-out, REQ-TEN-18): the carriage is held where it was locked, with
 /// this much force per Hall step it has moved from there: 0.1 kgf a step (52.9 µm), ≈ 1.9 kgf
@@ -129,6 +158,19 @@ pub const BACK_OUT_SPEED: (MmPerSecond, MmPerSecond) =
 /// The most duty a back-out uses: 20 % (the velocity feed-forward of 20 mm/s is ≈ 26 %
 /// of the 24 V bus; the string pulls the carriage the same way, so little is needed).
 pub const BACK_OUT_DUTY_MAX: Duty = Duty::from_raw_clamped(13_107);
+
+/// REQ-TEN-17: how many consecutive ticks the excess must last, in the estimate and in the
+/// burst-proof filtered sample, before the back-out releases: 12 — more than a burst of
+/// [`BURST_MAX`] spikes and the median's two ticks of delay, so even a burst that reached the
+/// filtered sample (before the stiffness is known) is over before the release would begin.
+///
+/// [`BURST_MAX`]: crate::tension::estimator::BURST_MAX
+pub const BACK_OUT_CONFIRM: u8 = 12;
+
+/// REQ-TEN-20: Hall steps toward home under a pull command, in the settle and the hold, that
+/// identify a drivetrain that back-drives: 2 (one step could be a Hall edge jittering at the
+/// rotor's rest position).
+pub const BACK_DRIVE_STEPS: u8 = 2;
 
 /// The shortest and longest control periods accepted: 50 µs to 10 ms.
 pub const PERIOD_RANGE_US: (u32, u32) = (50, 10_000);
@@ -353,6 +395,15 @@ pub struct TensionController {
     /// Constant pull switched off for this hold: the Hall count the carriage is held at
     /// (`None`: constant pull, the default).
     lock: Option<i32>,
+    /// Consecutive ticks of an excess the back-out may act on ([`BACK_OUT_CONFIRM`]).
+    excess_ticks: u8,
+    /// Hall steps toward home seen under a pull command in this pull's settle and hold
+    /// (saturating; [`BACK_DRIVE_STEPS`] identify a back-driving drivetrain).
+    backward_steps: u8,
+    /// The last tick's command was a pull.
+    pulled: bool,
+    /// The Hall count at the pull's first tick, on the home switch (`None`: no pull yet).
+    origin: Option<i32>,
 }
 
 impl Default for TensionController {
@@ -456,6 +507,10 @@ impl TensionController {
             profile: Profile::new(&p, period).map_err(ConfigError::Profile)?,
             shown: Kgf::ZERO,
             lock: None,
+            excess_ticks: 0,
+            backward_steps: 0,
+            pulled: false,
+            origin: None,
         })
     }
 
@@ -485,6 +540,10 @@ impl TensionController {
             profile: Profile::FALLBACK,
             shown: Kgf::ZERO,
             lock: None,
+            excess_ticks: 0,
+            backward_steps: 0,
+            pulled: false,
+            origin: None,
         }
     }
 
@@ -502,6 +561,17 @@ impl TensionController {
         self.profile.start(settings, kind);
         self.lock = None;
         self.hold_gain_pending = false;
+        self.excess_ticks = 0;
+        self.backward_steps = 0;
+        self.pulled = false;
+        self.origin = None;
+    }
+
+    /// REQ-TEN-20: whether this pull has seen the drivetrain back-drive (a Hall step toward
+    /// home under a pull command in the settle or the hold, [`BACK_DRIVE_STEPS`] of them).
+    #[must_use]
+    pub const fn back_drives(&self) -> bool {
+        self.backward_steps >= BACK_DRIVE_STEPS
     }
 
     /// Starts the release (homing) move.
@@ -635,6 +705,17 @@ impl TensionController {
             None => Kgf::ZERO,
         };
         self.profile.tick();
+        if self.pulled
+            && est.steps < 0
+            && matches!(self.profile.phase(), PullPhase::Settle | PullPhase::Hold)
+        {
+            let back = u8::try_from(est.steps.unsigned_abs()).unwrap_or(u8::MAX);
+            self.backward_steps = self.backward_steps.saturating_add(back);
+        }
+
+        if self.origin.is_none() && self.profile.phase() == PullPhase::TakeUp {
+            self.origin = Some(m.drive.steps);
+        }
 
         let mut force = Kgf::ZERO;
         let command = match self.profile.phase() {
@@ -644,8 +725,9 @@ impl TensionController {
                     self.profile.stop();
                     DriveCommand::Coast
                 } else {
-                    // Back-driven by the string: only the back-EMF of the release speed.
-                    let speed = self.profile.coefficients().release_speed;
+                    // Back-driven by the string: only the back-EMF of the release speed,
+                    // braked onto the switch (REQ-TEN-21).
+                    let speed = self.release_speed(m.drive.steps);
                     let duty = self.map.velocity_duty(speed, Kgf::ZERO, RELEASE_DUTY_MAX);
                     DriveCommand::Drive { direction: Direction::Release, duty }
                 }
@@ -677,6 +759,7 @@ impl TensionController {
         if let Some(slip) = &mut self.slip {
             slip.note_duty(command.duty());
         }
+        self.pulled = command.direction() == Some(Direction::Pull);
         ControlOutput {
             command,
             phase: self.profile.phase(),
@@ -730,8 +813,9 @@ impl TensionController {
         let (command, saturated) = self.map.command(force, speed);
         let shaped = self.profile.coefficients().shaped;
         let command = if shaped && matches!(phase, PullPhase::Settle | PullPhase::Hold) {
-            self.back_out(command, y)
+            self.back_out(command, est, speed)
         } else {
+            self.excess_ticks = 0;
             command
         };
         self.profile.set_saturated(saturated);
@@ -752,24 +836,57 @@ impl TensionController {
     }
 
     /// REQ-TEN-17, the back-out: the law's `command` unless it asks for no pull at all while
-    /// the tension `y` is more than [`BACK_OUT_BAND`] above the reference; then a release at
-    /// [`BACK_OUT_GAIN`] mm/s per kgf of excess (within [`BACK_OUT_SPEED`], duty at most
-    /// [`BACK_OUT_DUTY_MAX`]). A drivetrain that does not back-drive (a self-locking screw,
-    /// forward efficiency ≤ 0.5) holds a pre-stretch peak or a braking overshoot against
-    /// the short-braked motor until the string creeps down — seconds, 4.8 kgf still over a
-    /// 25 kgf target 1 s after a 20 % pre-stretch on the family's least efficient machine.
-    /// The reversal itself is the drive's (REQ-DRV-08: energised toward home only once the
-    /// rotor's back-EMF against it is below the current limit's).
-    fn back_out(&self, command: DriveCommand, y: Kgf) -> DriveCommand {
-        let excess = y.saturating_sub(self.profile.reference());
-        if !command.duty().is_zero() || excess <= BACK_OUT_BAND {
+    /// the tension is more than [`BACK_OUT_BAND`] above the reference — in the estimate and
+    /// in the burst-proof filtered sample, for [`BACK_OUT_CONFIRM`] consecutive ticks; then a
+    /// release at [`BACK_OUT_GAIN`] mm/s per kgf of excess (within [`BACK_OUT_SPEED`], duty
+    /// at most [`BACK_OUT_DUTY_MAX`]). A drivetrain that does not back-drive (a self-locking
+    /// screw, forward efficiency ≤ 0.5) holds a pre-stretch peak or a braking overshoot
+    /// against the short-braked motor until the string creeps down — seconds, 4.8 kgf still
+    /// over a 25 kgf target 1 s after a 20 % pre-stretch on the family's least efficient
+    /// machine. On a drivetrain identified as back-driving (REQ-TEN-20) the release drives
+    /// only while the carriage (`speed`, mm/s, positive pulling) backs off slower than the
+    /// back-out's speed: the string already pulls it home, and a release on top of that
+    /// takes the string's whole pull off the motor. The reversal itself is the drive's
+    /// (REQ-DRV-08: energised toward home only once the rotor's back-EMF against it is below
+    /// the current limit's).
+    fn back_out(
+        &mut self,
+        command: DriveCommand,
+        est: &Estimate,
+        speed: MmPerSecond,
+    ) -> DriveCommand {
+        let reference = self.profile.reference();
+        let excess = est.tension.saturating_sub(reference);
+        let evidence = est.sample.saturating_sub(reference);
+        if !command.duty().is_zero() || excess <= BACK_OUT_BAND || evidence <= BACK_OUT_BAND {
+            self.excess_ticks = 0;
+            return command;
+        }
+        self.excess_ticks = self.excess_ticks.saturating_add(1).min(BACK_OUT_CONFIRM);
+        if self.excess_ticks < BACK_OUT_CONFIRM {
             return command;
         }
         let (slowest, fastest) = BACK_OUT_SPEED;
-        let speed =
+        let target =
             MmPerSecond(excess.0.saturating_mul_int(BACK_OUT_GAIN).clamp(slowest.0, fastest.0));
-        let duty = self.map.velocity_duty(speed, Kgf::ZERO, BACK_OUT_DUTY_MAX);
+        if self.back_drives() && speed.0.saturating_neg() >= target.0 {
+            return command;
+        }
+        let duty = self.map.velocity_duty(target, Kgf::ZERO, BACK_OUT_DUTY_MAX);
         DriveCommand::Drive { direction: Direction::Release, duty }
+    }
+
+    /// REQ-TEN-21: the release's speed at Hall count `steps`: [`RELEASE_APPROACH_GAIN`] per
+    /// second times the distance left to the pull's first count, within [`RELEASE_CREEP`]
+    /// and the configured release speed (which alone, without a pull to know home by).
+    fn release_speed(&self, steps: i32) -> MmPerSecond {
+        let fastest = self.profile.coefficients().release_speed;
+        let Some(origin) = self.origin else {
+            return fastest;
+        };
+        let left = Q16::from_bits(steps.saturating_sub(origin).saturating_mul(STEP_MM_BITS));
+        let speed = left.saturating_mul_int(RELEASE_APPROACH_GAIN);
+        MmPerSecond(speed.min(fastest.0).max(RELEASE_CREEP.0.min(fastest.0)))
     }
 
     /// The tension last estimated (what the machine shows).
@@ -899,6 +1016,176 @@ mod tests {
             out = controller.step(&m);
         }
         out
+    }
+
+    /// A taut controller in the hold at a 25 kgf reference.
+    fn holding() -> TensionController {
+        let mut controller = started(25);
+        let mut profile = controller.profile_state();
+        profile.phase = PullPhase::Hold;
+        profile.reference = Q32::from_q16(Kgf::from_int(25).0);
+        profile.goal = Kgf::from_int(25);
+        controller.set_profile_state(profile);
+        controller
+    }
+
+    /// One tick of `controller` at `tension` kgf (tenths) and Hall count `steps`.
+    fn tick_at(controller: &mut TensionController, tenths: i32, steps: i32) -> ControlOutput {
+        controller.step(&Measurement {
+            tension: Kgf::from_tenths(tenths),
+            drive: DriveStatus { steps, ..DriveStatus::default() },
+            ..Measurement::default()
+        })
+    }
+
+    /// REQ-TEN-17: an excess is backed out only once it has lasted [`BACK_OUT_CONFIRM`]
+    /// ticks in a row — longer than any burst of spikes — and the count restarts when it
+    /// stops.
+    #[test]
+    fn a_back_out_waits_for_an_excess_that_outlasts_any_burst() {
+        let mut controller = holding();
+        let mut first_release = None;
+        for tick in 0..80_u32 {
+            // Four ticks over, then seventeen at the reference (the filtered sample, a median
+            // of five here with the stiffness unknown, clipped to 0.1 kgf a tick, is back
+            // within the band by the 10th, before the count reaches 12), then over again
+            // from the 21st: the count restarts there.
+            let tenths = if (4..21).contains(&tick) { 250 } else { 255 };
+            let out = tick_at(&mut controller, tenths, 0);
+            if out.command.direction() == Some(Direction::Release) && first_release.is_none() {
+                first_release = Some(tick);
+            }
+        }
+        let first = first_release.unwrap();
+        assert!(first >= 21 + u32::from(BACK_OUT_CONFIRM) - 1, "released at tick {first}");
+        assert!(!controller.back_drives());
+    }
+
+    /// REQ-TEN-17: while the law still asks for some pull, no excess is backed out, however
+    /// long it lasts; with the law asking for none, it is once confirmed.
+    #[test]
+    fn a_back_out_never_overrides_a_pull_the_law_asks_for() {
+        let mut controller = holding();
+        let over = Estimate {
+            tension: Kgf::from_int(26),
+            sample: Kgf::from_int(26),
+            ..Estimate::default()
+        };
+        let still = MmPerSecond(Q16::ZERO);
+        let pull =
+            DriveCommand::Drive { direction: Direction::Pull, duty: Duty::from_raw_clamped(1_000) };
+        for _ in 0..3 * u32::from(BACK_OUT_CONFIRM) {
+            assert_eq!(controller.back_out(pull, &over, still), pull);
+        }
+        let brake = DriveCommand::Drive { direction: Direction::Pull, duty: Duty::ZERO };
+        let mut released = false;
+        for _ in 0..BACK_OUT_CONFIRM {
+            released |=
+                controller.back_out(brake, &over, still).direction() == Some(Direction::Release);
+        }
+        assert!(released);
+    }
+
+    /// REQ-TEN-20: a Hall step toward home while pulling, in the settle or the hold,
+    /// identifies a back-driving drivetrain ([`BACK_DRIVE_STEPS`] of them); its back-out then
+    /// releases only while the carriage backs off slower than the back-out's speed. Steps
+    /// toward home under a release, or before the settle, identify nothing; a new pull
+    /// forgets it.
+    #[test]
+    fn a_drivetrain_that_back_drives_is_identified_and_not_released_while_it_runs_home() {
+        // Under a pull in the hold: one step is not enough, two are.
+        let mut controller = holding();
+        tick_at(&mut controller, 250, 0);
+        tick_at(&mut controller, 250, -1);
+        assert!(!controller.back_drives());
+        tick_at(&mut controller, 250, -2);
+        assert!(controller.back_drives());
+        // The excess, with the carriage running home at one step a tick (53 mm/s, faster
+        // than the 5 mm/s the 0.5 kgf asks): the law's braking pull stands.
+        let mut steps = -2;
+        for _ in 0..40 {
+            steps -= 1;
+            let out = tick_at(&mut controller, 255, steps);
+            assert_ne!(out.command.direction(), Some(Direction::Release), "{steps}");
+        }
+        // Stopped, the excess still there: released.
+        let mut released = false;
+        for _ in 0..100 {
+            released |= tick_at(&mut controller, 255, steps).command.direction()
+                == Some(Direction::Release);
+        }
+        assert!(released);
+        // A holding drivetrain releases with the carriage running home too.
+        let mut holder = holding();
+        let mut steps = 0;
+        let mut released = false;
+        for _ in 0..60 {
+            let out = tick_at(&mut holder, 255, steps);
+            if out.command.direction() == Some(Direction::Release) {
+                released = true;
+                steps -= 1;
+            }
+        }
+        assert!(released && !holder.back_drives());
+        // Before the settle (the take-up), steps toward home identify nothing; a new pull
+        // forgets what the last one saw.
+        let mut pulling = started(25);
+        for tick in 0..10 {
+            tick_at(&mut pulling, 0, -tick);
+        }
+        assert!(!pulling.back_drives());
+        controller.start(
+            &valid(PullSettings::new(
+                Kgf::from_int(25),
+                Speed::MAX,
+                PreStretch::NONE,
+                KnotBoost::NONE,
+            )),
+            PullKind::Main,
+        );
+        assert!(!controller.back_drives());
+    }
+
+    /// REQ-TEN-21: the release's speed is 8 mm/s per millimetre left to the pull's first
+    /// Hall count, within the creep speed and the release speed; without a pull, the
+    /// release speed.
+    #[test]
+    fn the_release_brakes_onto_the_switch_from_any_speed() {
+        let fastest = ProfileConfig::TAUT.release_speed;
+        let mut controller = started(25);
+        assert_eq!(controller.release_speed(500), fastest, "no pull yet");
+        tick_at(&mut controller, 0, 100);
+        let at = |controller: &TensionController, steps: i32| {
+            controller.release_speed(steps).0.to_num::<i32>()
+        };
+        assert_eq!(at(&controller, 2_000), fastest.0.to_num::<i32>());
+        // 80 steps (4.23 mm) left: 33.9 mm/s; 40 steps: 16.9; 10 steps and at or past the
+        // count: the creep speed.
+        assert_eq!(at(&controller, 180), 33);
+        assert_eq!(at(&controller, 140), 16);
+        for steps in [110, 100, 50, -1_000] {
+            assert_eq!(controller.release_speed(steps), RELEASE_CREEP, "{steps}");
+        }
+        // The command follows it: less duty near home than far from it.
+        controller.release();
+        let far = tick_at(&mut controller, 0, 2_000).command;
+        let near = tick_at(&mut controller, 0, 110).command;
+        assert_eq!(far.direction(), Some(Direction::Release));
+        assert_eq!(near.direction(), Some(Direction::Release));
+        assert!(near.duty() < far.duty(), "{near:?} {far:?}");
+        // A new pull takes its own origin.
+        controller.start(
+            &valid(PullSettings::new(
+                Kgf::from_int(25),
+                Speed::MAX,
+                PreStretch::NONE,
+                KnotBoost::NONE,
+            )),
+            PullKind::Main,
+        );
+        assert_eq!(controller.release_speed(180), fastest);
+        tick_at(&mut controller, 0, 170);
+        assert_eq!(at(&controller, 180), RELEASE_CREEP.0.to_num::<i32>());
     }
 
     /// REQ-TEN-18: constant pull goes off only in the hold; locked, the force is the string's

@@ -9,7 +9,26 @@
 //! hand, is known without noise or lag to one Hall step (52.9 µm) from the drive's step
 //! counter. [`TensionEstimator::update`] combines the two, every tick:
 //!
-//! 1. **Median of five** samples removes isolated spikes (two ticks of delay on a ramp).
+//! 1. **Median**: before the string's stiffness is known (the take-up, where the carriage
+//!    runs and every sample is new tension) the median of the last five samples removes
+//!    isolated spikes (two ticks of delay on a ramp). Once the stiffness `K̂` is known the
+//!    median is taken over the last [`WINDOW`] = 15 samples, each first **moved along the
+//!    string** to where the carriage was two ticks ago, `y_i + K̂·(x_{t−2} − x_i)` (`x_i`
+//!    the Hall position when `y_i` was taken): what the carriage's travel explains is taken
+//!    out before the samples are compared, so the window adds no delay to it and keeps the
+//!    median of five's two ticks on a ramp. A **burst** of up to [`BURST_MAX`] = 5
+//!    consecutive spikes — a gate driver ringing across several conversions, which passes a
+//!    median of five from three spikes on — is then a minority of the window, even with
+//!    [`SPIKES_BESIDE`] = 2 single switching spikes of the same sign beside it (a few per
+//!    cent of the samples carry one), and never moves the median past the string's own
+//!    samples. The sizing: the amplifier's
+//!    bandwidth is at least 100 Hz (a time constant ≤ 1.6 ms), so a change of the string's
+//!    tension reaches the converter within two samples and stays; what the string does
+//!    with the carriage still is creep and relaxation, well under 0.01 kgf per ms; so a
+//!    jump of tenths of a kgf that is not in the Hall travel and is gone again within
+//!    5 ms is not the string. A change the travel does not explain (creep, a clamp
+//!    slipping, the amplifier's drift) reaches the median after 7 samples instead of 2;
+//!    the string-break rule reads the raw samples and is not delayed by it.
 //! 2. **Spike clip** (switchable): what is left of a burst is limited by physics — the
 //!    string cannot change its tension faster than the stiffest string (2 kgf/mm) times the
 //!    carriage's travel this tick, plus 0.1 kgf for noise and relaxation — so the filtered
@@ -53,6 +72,23 @@ pub const CLIP_STIFFNESS: Q16 = Q16::const_from_int(2);
 /// noise and relaxation, 0.1 kgf.
 pub const CLIP_ALLOWANCE: Kgf = Kgf(Q16::lit("0.1"));
 
+/// The longest burst of consecutive spikes the median rejects whole once the string's
+/// stiffness is known: 5 samples (see the module docs).
+pub const BURST_MAX: usize = 5;
+
+/// Single switching spikes (a few per cent of the samples, either sign) the window allows
+/// for besides a burst: 2.
+pub const SPIKES_BESIDE: usize = 2;
+
+/// The median's rank in its window: the number of samples that may be outliers on one side,
+/// `BURST_MAX + SPIKES_BESIDE` = 7.
+pub const MEDIAN_RANK: usize = BURST_MAX + SPIKES_BESIDE;
+
+/// The median's window once the stiffness is known: `2·MEDIAN_RANK + 1` = 15 samples, so a
+/// burst of up to [`BURST_MAX`] spikes with [`SPIKES_BESIDE`] single spikes of the same sign
+/// beside it is always a minority.
+pub const WINDOW: usize = 2 * MEDIAN_RANK + 1;
+
 /// The largest stiffness the observer accepts, kgf/mm (Q15.16): 4 kgf/mm.
 pub const STIFFNESS_MAX: Q16 = Q16::const_from_int(4);
 
@@ -94,8 +130,10 @@ pub struct Estimate {
 #[cfg_attr(kani, derive(kani::Arbitrary))]
 #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
 pub struct EstimatorState {
-    /// The last five raw samples, kgf bits, oldest first.
-    pub window: [i32; 5],
+    /// The last [`WINDOW`] raw samples, kgf bits, oldest first.
+    pub window: [i32; WINDOW],
+    /// The drive's Hall step count when each of them was taken, oldest first.
+    pub window_steps: [i32; WINDOW],
     /// The filtered sample `y_f`, kgf bits.
     pub filtered: i32,
     /// The observer's tension `ŷ`, kgf in Q31.32.
@@ -116,7 +154,8 @@ pub struct EstimatorState {
 
 /// An unprimed, zero state.
 const STATE_ZERO: EstimatorState = EstimatorState {
-    window: [0; 5],
+    window: [0; WINDOW],
+    window_steps: [0; WINDOW],
     filtered: 0,
     fused: 0,
     rate: 0,
@@ -160,6 +199,51 @@ pub fn median5(a: i32, b: i32, c: i32, d: i32, e: i32) -> i32 {
     let f = a.min(b).max(c.min(d));
     let g = a.max(b).min(c.max(d));
     e.min(f).max(e.max(f).min(g))
+}
+
+/// The median of [`WINDOW`] values: the one with at most [`MEDIAN_RANK`] values below it
+/// and more than [`MEDIAN_RANK`] at or below it (225 comparisons, a constant bound, no
+/// indexing).
+#[must_use]
+pub fn median_window(v: &[i32; WINDOW]) -> i32 {
+    let mut median = 0;
+    for &x in v {
+        let (mut below, mut at) = (0_usize, 0_usize);
+        for &y in v {
+            if y < x {
+                below = below.saturating_add(1);
+            } else if y == x {
+                at = at.saturating_add(1);
+            }
+        }
+        if below <= MEDIAN_RANK && below.saturating_add(at) > MEDIAN_RANK {
+            median = x;
+        }
+    }
+    median
+}
+
+/// `window` less its oldest value, with `newest` after its newest.
+fn shifted(window: &[i32; WINDOW], newest: i32) -> [i32; WINDOW] {
+    let mut next = [newest; WINDOW];
+    for (to, from) in next.iter_mut().zip(window.iter().skip(1)) {
+        *to = *from;
+    }
+    next
+}
+
+/// The burst-proof median (see the module docs): each sample of `window` moved along a
+/// string of stiffness `stiffness` (kgf/mm bits) from the Hall count it was taken at,
+/// `steps`, to the count two ticks ago, then the median of the [`WINDOW`].
+#[must_use]
+pub fn moved_median(window: &[i32; WINDOW], steps: &[i32; WINDOW], stiffness: i32) -> i32 {
+    let [.., reference, _, _] = *steps;
+    let mut moved = [0_i32; WINDOW];
+    for ((out, &sample), &at) in moved.iter_mut().zip(window).zip(steps) {
+        let travel = reference.wrapping_sub(at).saturating_mul(STEP_MM_BITS);
+        *out = sample.saturating_add(narrow(mul_wide(stiffness, travel)));
+    }
+    median_window(&moved)
 }
 
 impl TensionEstimator {
@@ -267,7 +351,8 @@ impl TensionEstimator {
         let s = &mut self.state;
         if !s.primed {
             *s = EstimatorState {
-                window: [raw; 5],
+                window: [raw; WINDOW],
+                window_steps: [steps; WINDOW],
                 filtered: raw,
                 fused: i64::from(raw) << 16,
                 rate: 0,
@@ -284,9 +369,14 @@ impl TensionEstimator {
         s.last_steps = steps;
         let [_, r1, r2, r3] = s.recent;
         s.recent = [r1, r2, r3, moved];
-        let [_, w1, w2, w3, w4] = s.window;
-        s.window = [w1, w2, w3, w4, raw];
-        let median = median5(w1, w2, w3, w4, raw);
+        s.window = shifted(&s.window, raw);
+        s.window_steps = shifted(&s.window_steps, steps);
+        let median = if s.stiffness > 0 {
+            moved_median(&s.window, &s.window_steps, s.stiffness)
+        } else {
+            let [.., w1, w2, w3, w4, w5] = s.window;
+            median5(w1, w2, w3, w4, w5)
+        };
 
         // Spike clip: |Δy_f| ≤ 2 kgf/mm · |Δx| + 0.1 kgf.
         let previous = s.filtered;
@@ -383,6 +473,110 @@ mod tests {
             cases += 1;
         }
         assert_eq!(cases, 3_125);
+    }
+
+    #[test]
+    fn median_window_is_the_median_of_every_pattern() {
+        // Sampled orderings of fifteen values with ties (0..4) and without: the middle of the
+        // sorted eleven.
+        let mut seed = 0x2545_f491_u32;
+        for case in 0..20_000 {
+            let mut v = [0_i32; WINDOW];
+            for x in &mut v {
+                seed ^= seed << 13;
+                seed ^= seed >> 17;
+                seed ^= seed << 5;
+                let span = if case % 2 == 0 { 4 } else { 1_000 };
+                *x = i32::try_from(seed % span).unwrap() - 2;
+            }
+            let mut sorted = v;
+            sorted.sort_unstable();
+            assert_eq!(median_window(&v), sorted[MEDIAN_RANK], "{v:?}");
+        }
+        assert_eq!(median_window(&[i32::MIN; WINDOW]), i32::MIN);
+        assert_eq!(median_window(&[7; WINDOW]), 7);
+    }
+
+    /// An estimator with the stiffness `k` kgf/mm known, primed at `base` and step 0.
+    fn known_stiffness(k: Q16, base: Kgf) -> TensionEstimator {
+        let mut est = estimator(true, true);
+        est.set_stiffness(k);
+        est.update(base, 0);
+        est
+    }
+
+    #[test]
+    fn a_burst_of_up_to_five_never_moves_the_filtered_sample_once_the_stiffness_is_known() {
+        let base = Kgf::from_int(25);
+        for len in 1..=BURST_MAX {
+            for sign in [1, -1] {
+                let mut est = known_stiffness(Q16::ONE, base);
+                for _ in 0..20 {
+                    est.update(base, 0);
+                }
+                let spike = Kgf::from_int(6 * sign);
+                for tick in 0..30 {
+                    let sample = if tick < len { base.saturating_add(spike) } else { base };
+                    let out = est.update(sample, 0);
+                    assert_eq!(out.sample, base, "burst of {len} ({sign}), tick {tick}");
+                    assert_eq!(out.tension, base, "burst of {len} ({sign}), tick {tick}");
+                }
+            }
+        }
+        // With two single spikes beside it, still nothing.
+        let mut est = known_stiffness(Q16::ONE, base);
+        for tick in 0..40 {
+            let spiked = matches!(tick, 3 | 5..=9 | 11);
+            let sample = if spiked { base.saturating_add(Kgf::from_int(6)) } else { base };
+            assert_eq!(est.update(sample, 0).sample, base, "tick {tick}");
+        }
+        // Eight in a row are a majority of the window: a step of the string, followed.
+        let mut est = known_stiffness(Q16::ONE, base);
+        let mut last = Estimate::default();
+        for _ in 0..MEDIAN_RANK {
+            last = est.update(base.saturating_add(Kgf::from_int(6)), 0);
+        }
+        assert_eq!(last.sample, base, "seven are not");
+        last = est.update(base.saturating_add(Kgf::from_int(6)), 0);
+        assert!(last.sample > base, "{last:?}");
+        // Before the stiffness is known the median is of five: three spikes pass (clipped).
+        let mut est = estimator(true, false);
+        est.update(base, 0);
+        let mut worst = Kgf::ZERO;
+        for tick in 0..10 {
+            let sample = if tick < 3 { base.saturating_add(Kgf::from_int(6)) } else { base };
+            worst = worst.max(est.update(sample, 0).sample.saturating_sub(base));
+        }
+        assert!(worst > Kgf::ZERO, "{worst:?}");
+    }
+
+    #[test]
+    fn the_moved_window_adds_no_delay_to_what_the_carriage_travel_explains() {
+        // A 1 kgf/mm string pulled by one Hall step per tick, each sample one tick late: the
+        // filtered sample trails the truth by three ticks of travel, as with the median of
+        // five (conversion, then the median's two), not by the window's six.
+        let step_kgf = STEP_MM_BITS;
+        let truth = |tick: i32| Kgf::from_bits(10 * 65_536 + tick.max(0) * step_kgf);
+        let mut est = known_stiffness(Q16::ONE, truth(0));
+        let mut out = Estimate::default();
+        for tick in 1..100 {
+            out = est.update(truth(tick - 1), tick);
+        }
+        let behind = truth(99).saturating_sub(out.sample).to_bits();
+        assert!((behind - 3 * step_kgf).abs() <= 2, "{behind} bits behind");
+        // A burst on the ramp moves it no more than a tick's travel.
+        let mut spiked = Estimate::default();
+        for tick in 100..140 {
+            let sample = if (110..115).contains(&tick) {
+                truth(tick - 1).saturating_add(Kgf::from_int(3))
+            } else {
+                truth(tick - 1)
+            };
+            spiked = est.update(sample, tick);
+            let off = spiked.sample.saturating_sub(truth(tick - 4)).to_bits().abs();
+            assert!(off <= step_kgf, "tick {tick}: {off} bits");
+        }
+        assert!((truth(139).saturating_sub(spiked.sample).to_bits() - 3 * step_kgf).abs() <= 2);
     }
 
     #[test]

@@ -78,13 +78,15 @@ pub enum LoadCellFault {
 pub struct LoadCell {
     params: LoadCellParams,
     filtered: f64,
+    /// The day's drift of the output (zero with temperature, creep), V ([`crate::drift`]).
+    drift_volts: f64,
 }
 
 impl LoadCell {
     /// A chain at rest with no load.
     #[must_use]
     pub fn new(params: &LoadCellParams) -> Self {
-        let mut cell = Self { params: *params, filtered: 0.0 };
+        let mut cell = Self { params: *params, filtered: 0.0, drift_volts: 0.0 };
         cell.filtered = cell.static_volts(0.0);
         cell
     }
@@ -96,7 +98,15 @@ impl LoadCell {
         let t = tension_kgf.max(0.0);
         let scale = p.low_load_scale_kgf.max(1e-9);
         let seated = t - p.low_load_deficit * scale * (1.0 - (-t / scale).exp());
-        p.zero_volts + p.volts_per_kgf * seated * (1.0 + p.quadratic_at_50_kgf * t / 50.0)
+        p.zero_volts
+            + self.drift_volts
+            + p.volts_per_kgf * seated * (1.0 + p.quadratic_at_50_kgf * t / 50.0)
+    }
+
+    /// Sets the day's drift of the output, kgf of the nominal sensitivity: the amplifier's
+    /// output follows it through its bandwidth like any change of load.
+    pub fn set_drift_kgf(&mut self, kgf: f64) {
+        self.drift_volts = kgf * self.params.volts_per_kgf;
     }
 
     /// Advances the amplifier's low-pass by `dt` toward the output for `tension_kgf`.

@@ -46,6 +46,7 @@ use crate::sense::calibration::{
     CalibrationPoint, CalibrationPoints, merge_passes,
 };
 use crate::sense::load_cell::LoadCellScale;
+use crate::sense::rezero::{RestSample, Retare, Rezero};
 use crate::settings::{
     KnotBoost, PreStretch, PullKind, PullSettings, Speed, TENSION_MAX, TENSION_MIN, Unit,
 };
@@ -420,8 +421,12 @@ pub struct Chart {
     pub record: Record,
     /// The load-cell correction (from the record's calibration, or identity).
     pub calibration: Calibration,
-    /// The load-cell scale, tared by the self-test.
+    /// The load-cell scale, tared by the self-test and again at rest in Ready.
     pub scale: LoadCellScale,
+    /// The re-zero at rest (REQ-ID-08): its reference is the self-test's tare.
+    pub rezero: Rezero,
+    /// Re-zeros taken since power-up (saturating).
+    pub rezeros: u16,
     /// The tension controller.
     pub controller: TensionController,
     /// A notice to show in Ready until a key is pressed.
@@ -479,6 +484,8 @@ impl Chart {
             record,
             calibration,
             scale: LoadCellScale::NOMINAL,
+            rezero: Rezero::new(LoadCellScale::NOMINAL.zero()),
+            rezeros: 0,
             controller: TensionController::taut(),
             notice,
             booting: true,
@@ -574,6 +581,25 @@ impl Chart {
 }
 
 impl Chart {
+    /// REQ-ID-08, one tick in Ready: the re-zero rule sees the limits, the Hall count, the
+    /// keys and the load cell, and an accepted zero becomes the scale's (same gain).
+    fn rezero_at_rest(&mut self, sample: &Sample) {
+        let inputs = &sample.inputs;
+        let rest = RestSample {
+            home: inputs.limits.home,
+            end: inputs.limits.end,
+            steps: inputs.drive.steps,
+            key: sample.key.is_some() || inputs.keys != crate::io::Keys::NONE,
+            code: inputs.load_cell,
+        };
+        if let Some(Retare::Zero(zero)) = self.rezero.observe(&rest, self.scale.zero()) {
+            if let Ok(scale) = LoadCellScale::new(zero, self.scale.kgf_per_volt()) {
+                self.scale = scale;
+                self.rezeros = self.rezeros.saturating_add(1);
+            }
+        }
+    }
+
     /// The final target of the present pull before any hold adjustment.
     fn base_target(&self) -> Kgf {
         let kind = if self.knot_mode { PullKind::Knot } else { PullKind::Main };
@@ -766,6 +792,7 @@ impl Chart {
                 match self.scale.tared_at_mean(*code_sum, averaged) {
                     Ok(scale) => {
                         self.scale = scale;
+                        self.rezero = Rezero::new(scale.zero());
                         let limits = sample.inputs.limits;
                         let direction =
                             if limits.end { Direction::Release } else { Direction::Pull };
@@ -974,6 +1001,7 @@ impl Chart {
         if *view != View::Tension && self.idle >= VIEW_TIMEOUT {
             *view = View::Tension;
         }
+        self.rezero_at_rest(sample);
         if let Some(notice) = self.notice {
             context.out.display = panel::notice(notice.number());
             if pressed(sample.key) {
@@ -989,11 +1017,12 @@ impl Chart {
         Super
     }
 
-    /// Entering Ready: the controller idles.
+    /// Entering Ready: the controller idles; the rest for a re-zero starts now.
     #[action]
     fn enter_ready(&mut self) {
         self.controller.stop();
         self.booting = false;
+        self.rezero.restart();
     }
 
     /// Closed-loop pull to the set tension (the controller's profile); any key aborts to

@@ -56,8 +56,10 @@ mod verification {
         };
         let zero = Volts::from_bits(kani::any());
         let verdict = rezero_step_bounded(&mut rule, &sample, zero);
-        kani::cover!(matches!(verdict, Some(Retare::Zero(_))), "a re-zero is accepted");
-        kani::cover!(matches!(verdict, Some(Retare::Loaded)), "a loaded gripper is refused");
+        // The accepting path is reachable (a harness that could only refuse would prove the
+        // bounds vacuously).
+        let accepted = matches!(verdict, Some(Retare::Zero(_)));
+        kani::cover!(accepted, "a re-zero is accepted");
         crate::harness_end_reached();
     }
 }

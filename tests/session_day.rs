@@ -22,9 +22,10 @@ fn a_drifting_machine_keeps_its_hold_over_consecutive_pulls() {
     assert_eq!(r.fault, None);
     assert!(r.notices.is_empty(), "{r:?}");
     assert!(r.rezeros > 20, "{r:?}");
-    // The day moved the load cell's apparent zero; the machine's zero followed it.
-    assert!(r.offset_kgf.abs() > 0.01, "{r:?}");
-    assert!((r.zero_moved_kgf - r.offset_kgf).abs() < 0.01, "{r:?}");
+    // Half an hour of the day moved the load cell's apparent zero by ≈ 6 g (its whole share
+    // of the hold's error without a re-zero); the machine's zero followed it to a few grams.
+    assert!(r.offset_kgf.abs() > 0.004, "{r:?}");
+    assert!((r.zero_moved_kgf - r.offset_kgf).abs() < 0.004, "{r:?}");
     assert!(r.hold_p99_kgf - r.first_p99_kgf <= DRIFT_BUDGET_KGF, "{r:?}");
     assert!(r.resistance_factor > 1.0 && r.friction_factor > 1.0, "{r:?}");
 }

@@ -52,7 +52,7 @@ use crate::settings::{
 };
 use crate::store::{PRESET_COUNT, Record};
 use crate::tension::{Measurement, TensionController};
-use crate::units::Kgf;
+use crate::units::{Kgf, Volts};
 
 /// Ticks the self-test takes: [`SELF_TEST_SETTLE`] ticks for the amplifier to settle,
 /// then 100 readings of the unloaded load cell averaged (the limits are watched throughout).
@@ -305,9 +305,12 @@ pub const LOG_FIELDS: [&[u8; 4]; 9] =
 /// The counters page's items: pulls, power-ups, string used (m).
 pub const COUNTER_ITEMS: [&[u8; 4]; 3] = [b"PULL", b"bOOt", b"Str "];
 /// The service page's items: the live load-cell code, the tare code, the four calibration
-/// points' raw readings (kgf), the bus voltage, the last three faults since power-up.
-pub const SERVICE_ITEMS: [&[u8; 4]; 10] =
-    [b"Cd  ", b"tArE", b"CAL1", b"CAL2", b"CAL3", b"CAL4", b"bUS ", b"Err1", b"Err2", b"Err3"];
+/// points' raw readings (kgf), the bus voltage, the last three faults since power-up, and the
+/// zero's drift since the self-test (kgf, the drift watch's, REQ-UI-12).
+pub const SERVICE_ITEMS: [&[u8; 4]; 11] = [
+    b"Cd  ", b"tArE", b"CAL1", b"CAL2", b"CAL3", b"CAL4", b"bUS ", b"Err1", b"Err2", b"Err3",
+    b"drFt",
+];
 /// How long an information page shows its item's label after a key, ms.
 pub const LABEL_MS: u32 = 1_000;
 
@@ -427,6 +430,8 @@ pub struct Chart {
     pub rezero: Rezero,
     /// Re-zeros taken since power-up (saturating).
     pub rezeros: u16,
+    /// The drift watch's notice was raised since power-up (once a boot).
+    pub drift_noticed: bool,
     /// The tension controller.
     pub controller: TensionController,
     /// A notice to show in Ready until a key is pressed.
@@ -486,6 +491,7 @@ impl Chart {
             scale: LoadCellScale::NOMINAL,
             rezero: Rezero::new(LoadCellScale::NOMINAL.zero()),
             rezeros: 0,
+            drift_noticed: false,
             controller: TensionController::taut(),
             notice,
             booting: true,
@@ -596,6 +602,11 @@ impl Chart {
             if let Ok(scale) = LoadCellScale::new(zero, self.scale.kgf_per_volt()) {
                 self.scale = scale;
                 self.rezeros = self.rezeros.saturating_add(1);
+                // REQ-UI-12: the drift watch, once a boot, never over another notice.
+                if !self.drift_noticed && self.notice.is_none() && self.rezero.drifted(zero) {
+                    self.notice = Some(Notice::ZeroDrift);
+                    self.drift_noticed = true;
+                }
             }
         }
     }
@@ -1515,6 +1526,12 @@ impl Chart {
                 }
             }
             6 => panel::tenths(sample.inputs.drive.bus.to_milli().checked_div(100).unwrap_or(0)),
+            // The zero's drift since the self-test, kgf to the hundredth at the scale's gain.
+            10 => {
+                let moved = Volts(self.scale.zero().0.saturating_sub(self.rezero.reference().0));
+                let kgf = Kgf(moved.0.saturating_mul(self.scale.kgf_per_volt()));
+                panel::hundredths(kgf.to_hundredths_rounded())
+            }
             _ => {
                 let index = usize::from(item.saturating_sub(7));
                 match self.fault_history.get(index).copied().flatten() {
@@ -1789,7 +1806,11 @@ mod tests {
         assert!(!View::Log { entry: 32, field: 0 }.is_valid());
         assert!(!View::Log { entry: 0, field: 9 }.is_valid());
         assert!(!View::Counters(3).is_valid() && !View::String(2).is_valid());
-        assert!(!View::Service(10).is_valid() && !View::Preset(9).is_valid());
+        assert!(
+            View::Service(10).is_valid()
+                && !View::Service(11).is_valid()
+                && !View::Preset(9).is_valid()
+        );
         assert_eq!(View::String(1).log_field(), Some((0, 8)));
         assert_eq!(View::Log { entry: 3, field: 2 }.log_field(), Some((3, 2)));
         assert_eq!(View::Counters(0).log_field(), None);

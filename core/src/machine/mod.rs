@@ -693,6 +693,42 @@ mod tests {
         );
     }
 
+    /// REQ-UI-12: the drift watch — a zero followed past 25 mV from the self-test's asks for a
+    /// recalibration (n-04) once; the service page shows the drift.
+    #[test]
+    fn a_zero_drifted_past_the_watch_raises_the_recalibration_notice_once() {
+        let mut machine = Machine::resume(Record::default(), &Checkpoint::at(MachineState::Ready));
+        let mut now = 0;
+        // Up to 20 codes (24.4 mV) above the tare: followed, no notice.
+        for code in 41..=61u16 {
+            at_home(&mut machine, 3_000, &mut now, |_| code, |_| 0);
+        }
+        assert_eq!(machine.load_cell_zero(), AdcCode::new(61).to_volts());
+        assert_eq!(machine.notice(), None);
+        // 21 codes (25.6 mV): the notice, shown in Ready.
+        at_home(&mut machine, 3_000, &mut now, |_| 62, |_| 0);
+        assert_eq!(machine.notice(), Some(Notice::ZeroDrift));
+        assert_eq!(machine.notice().map(Notice::number), Some(4));
+        // A key acknowledges it; further drift does not raise it again this boot.
+        let press = Inputs {
+            now_ms: now + 1,
+            keys: Keys::NONE.with(Key::Down),
+            limits: LimitSwitches { home: true, end: false },
+            load_cell: AdcCode::new(62),
+            ..Inputs::default()
+        };
+        for t in 0..40 {
+            let _ = machine.tick(&Inputs { now_ms: now + 1 + t, ..press });
+        }
+        now += 40;
+        at_home(&mut machine, 200, &mut now, |_| 62, |_| 0);
+        assert_eq!(machine.notice(), None);
+        for code in 62..=70u16 {
+            at_home(&mut machine, 3_000, &mut now, |_| code, |_| 0);
+        }
+        assert_eq!(machine.notice(), None);
+    }
+
     #[test]
     fn a_switching_spike_never_reaches_the_digits() {
         let mut machine =

@@ -88,6 +88,9 @@ pub enum ReportKind {
     /// The machine's string estimate (stiffness, creep) against the twin's truth, for every
     /// string preset on the nominal machine and machines of the family.
     String(StringArgs),
+    /// A working day: many consecutive pulls on each of several machines of the family with
+    /// the twin's slow drifts on (zero, creep, winding temperature, wear).
+    Session(SessionArgs),
 }
 
 // ───────────────────────────── value parsers ─────────────────────────────
@@ -581,6 +584,26 @@ pub struct MachineArgs {
     /// Also print one line per cycle.
     #[arg(long)]
     pub detail: bool,
+}
+
+/// `taut report session` options.
+#[derive(Args, Clone, Debug)]
+pub struct SessionArgs {
+    /// Machines of the family, one session each.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 10, value_parser = whole(1_u64, 10_000))]
+    pub machines: u64,
+    /// Consecutive pulls per session.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 200, value_parser = whole(1_u64, 100_000))]
+    pub pulls: u64,
+    /// Seed of the machine draw.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1, value_parser = seed)]
+    pub seed: u64,
+    /// Worker threads (default: the machine's cores).
+    #[arg(long, allow_negative_numbers = true, value_parser = whole(1_u16, 256))]
+    pub threads: Option<u16>,
+    /// Write the JSON summary here.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
 }
 
 /// `taut report string` options.

@@ -23,6 +23,7 @@ fn main() {
             ReportKind::Robustness(args) => taut::report::robustness::main(args),
             ReportKind::Machine(args) => taut::report::machine::main(args),
             ReportKind::String(args) => taut::report::string::main(args),
+            ReportKind::Session(args) => taut::report::session::main(args),
         },
     };
     std::process::exit(match status {

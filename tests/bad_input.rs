@@ -193,6 +193,13 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["report", "machine", "--axis", "slack=1", "--axis", "slack=1"], USAGE, "given twice"),
     (&["report", "machine", "--axis", "inertia=1", "--axis", "inertia=3"], USAGE, "not in -1–2"),
     (&["report", "machine", "--json", "UNWRITABLE/m.json"], USAGE, "error: --json "),
+    // ── report session ──
+    (&["report", "session", "--machines", "0"], USAGE, "--machines"),
+    (&["report", "session", "--pulls", "0"], USAGE, "--pulls"),
+    (&["report", "session", "--pulls", "abc"], USAGE, "--pulls"),
+    (&["report", "session", "--seed", "abc"], USAGE, "--seed"),
+    (&["report", "session", "--threads", "0"], USAGE, "--threads"),
+    (&["report", "session", "--json", "UNWRITABLE/s.json"], USAGE, "error: --json "),
     // ── report string ──
     (&["report", "string", "--seeds", "-1"], USAGE, "--seeds"),
     (&["report", "string", "--seeds", "1001"], USAGE, "--seeds"),

@@ -31,6 +31,7 @@ pub mod machine;
 pub mod machine_model;
 pub mod machine_store;
 pub mod record_fuzz;
+pub mod rezero;
 pub mod tension;
 pub mod tension_reference;
 

@@ -194,6 +194,7 @@
 )]
 
 pub mod bench;
+pub mod drift;
 pub mod family;
 pub mod motor;
 pub mod operator;
@@ -205,6 +206,7 @@ pub mod trace;
 pub mod twin;
 
 pub use bench::{Bench, ControllerBench, bang_bang_reach_time};
+pub use drift::{Drift, DriftParams};
 pub use family::{Axis, AxisSpan, Span};
 pub use params::{CurrentSenseParams, CurrentSensing, DcLinkSampling, StringKind, TwinConfig};
 pub use rng::SimRng;

@@ -88,6 +88,8 @@ pub struct LoadCell {
     burst_sign: f64,
     /// An injected burst: samples still to come and the volts each carries.
     injected: (u32, f64),
+    /// The day's drift of the output (zero with temperature, creep), V ([`crate::drift`]).
+    drift_volts: f64,
 }
 
 impl LoadCell {
@@ -100,6 +102,7 @@ impl LoadCell {
             burst_left: 0,
             burst_sign: 1.0,
             injected: (0, 0.0),
+            drift_volts: 0.0,
         };
         cell.filtered = cell.static_volts(0.0);
         cell
@@ -112,7 +115,15 @@ impl LoadCell {
         let t = tension_kgf.max(0.0);
         let scale = p.low_load_scale_kgf.max(1e-9);
         let seated = t - p.low_load_deficit * scale * (1.0 - (-t / scale).exp());
-        p.zero_volts + p.volts_per_kgf * seated * (1.0 + p.quadratic_at_50_kgf * t / 50.0)
+        p.zero_volts
+            + self.drift_volts
+            + p.volts_per_kgf * seated * (1.0 + p.quadratic_at_50_kgf * t / 50.0)
+    }
+
+    /// Sets the day's drift of the output, kgf of the nominal sensitivity: the amplifier's
+    /// output follows it through its bandwidth like any change of load.
+    pub fn set_drift_kgf(&mut self, kgf: f64) {
+        self.drift_volts = kgf * self.params.volts_per_kgf;
     }
 
     /// Adds `volts` to each of the next `samples` samples (a burst placed by a test; it

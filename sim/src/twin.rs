@@ -105,6 +105,7 @@ use taut_core::drive::{
 use taut_core::io::{Inputs, Keys, LimitSwitches, Outputs};
 use taut_core::units::AdcCode;
 
+use crate::drift::{Drift, DriftParams};
 use crate::motor::{Circuit, emf_shape, hall_code_placed, sector_shape_factor};
 use crate::params::{BOARD_DEAD_TIME, NEWTONS_PER_KGF, StringParams, TwinConfig};
 use crate::rng::SimRng;
@@ -288,6 +289,8 @@ struct TickSums {
     bus_peak: f64,
     clamped: bool,
     winding: f64,
+    /// Σ i² over the phases and periods, A² (the copper loss's sum).
+    current_squared: f64,
 }
 
 /// Which flank of the backlash the carriage rests on.
@@ -418,6 +421,19 @@ pub struct Twin {
     sampled: Inputs,
     outputs: Outputs,
     truth: Truth,
+    /// The working day's drifts, when a session enabled them.
+    drift: Option<DayDrift>,
+}
+
+/// The drifts of a working day and the twin's values they scale (see [`crate::drift`]).
+#[derive(Clone, Copy, Debug)]
+struct DayDrift {
+    drift: Drift,
+    cold_resistance: f64,
+    coulomb: f64,
+    motor_side_coulomb: f64,
+    slide_friction: f64,
+    position_m: f64,
 }
 
 impl Twin {
@@ -554,6 +570,7 @@ impl Twin {
             key_events: Vec::new(),
             sampled: Inputs::default(),
             outputs: Outputs::default(),
+            drift: None,
             truth: Truth {
                 time_s: 0.0,
                 tension_kgf: 0.0,
@@ -754,6 +771,64 @@ impl Twin {
         self.circuit.phase_scale = Circuit::HEALTHY;
     }
 
+    /// Enables the working day's drifts ([`crate::drift`]) from now on: the winding's
+    /// resistance, the load cell's zero and creep and the drivetrain's friction follow them
+    /// tick by tick (and over [`Twin::idle`]).
+    pub fn enable_drift(&mut self, params: DriftParams) {
+        self.drift = Some(DayDrift {
+            drift: Drift::new(params),
+            cold_resistance: self.circuit.resistance,
+            coulomb: self.coulomb,
+            motor_side_coulomb: self.motor_side_coulomb,
+            slide_friction: self.slide_friction,
+            position_m: self.position_m(),
+        });
+    }
+
+    /// The working day's drifts, if enabled.
+    #[must_use]
+    pub fn drift(&self) -> Option<&Drift> {
+        self.drift.as_ref().map(|d| &d.drift)
+    }
+
+    /// Lets `seconds` of the day pass at rest without simulating them tick by tick (the
+    /// stringer between pulls: the motor coasts, so no copper loss; the load cell's load is
+    /// the present one). Only the drifts move; the machine sees their result from the next
+    /// tick on.
+    pub fn idle(&mut self, seconds: f64) {
+        let load_kgf = self.load_cell_force_n / NEWTONS_PER_KGF;
+        if let Some(day) = &mut self.drift {
+            day.drift.step(seconds.max(0.0), 0.0, load_kgf, 0.0);
+        }
+        self.apply_drift();
+    }
+
+    /// One step of the drifts over the tick just simulated.
+    fn step_drift(&mut self, dt: f64) {
+        let periods = f64::from(PERIODS_PER_TICK);
+        let copper_w = self.sums.current_squared / periods * self.circuit.resistance;
+        let load_kgf = self.load_cell_force_n / NEWTONS_PER_KGF;
+        let position = self.position_m();
+        if let Some(day) = &mut self.drift {
+            day.drift.step(dt, copper_w, load_kgf, position - day.position_m);
+            day.position_m = position;
+        }
+        self.apply_drift();
+    }
+
+    /// Sets the drifted values.
+    fn apply_drift(&mut self) {
+        if let Some(day) = &self.drift {
+            let d = &day.drift;
+            self.circuit.resistance = day.cold_resistance * d.resistance_factor();
+            let wear = d.friction_factor();
+            self.coulomb = day.coulomb * wear;
+            self.motor_side_coulomb = day.motor_side_coulomb * wear;
+            self.slide_friction = day.slide_friction * wear;
+            self.load_cell.set_drift_kgf(d.offset_kgf());
+        }
+    }
+
     /// One millisecond of physics: twenty PWM periods, then the sensors are sampled.
     pub fn advance_tick(&mut self) {
         self.begin_tick();
@@ -782,6 +857,7 @@ impl Twin {
     /// sampled into [`Twin::inputs`].
     pub fn end_tick(&mut self) {
         self.ticks = self.ticks.wrapping_add(1);
+        self.step_drift(TICK_S);
         while let Some(&(at, keys)) = self.key_events.first() {
             if at > self.ticks {
                 break;
@@ -1017,6 +1093,7 @@ impl Twin {
         s.bus_peak = s.bus_peak.max(self.bus_volts);
         s.clamped |= clamped;
         s.winding += signed_winding;
+        s.current_squared += result.mean_current.iter().map(|i| i * i).sum::<f64>();
     }
 
     /// The bus voltage after `dt` with the bridge drawing `bridge_amps` on average, and

@@ -108,6 +108,9 @@ pub const fn notice_text(notice: Notice) -> (&'static str, &'static str) {
         Notice::StoredCalibrationInvalid => {
             ("the stored calibration is invalid: the sensor runs uncorrected", "any key; calibrate")
         }
+        Notice::ZeroDrift => {
+            ("the load cell's zero has drifted since power-up", "any key; calibrate again soon")
+        }
     }
 }
 

@@ -372,7 +372,7 @@ pub fn information_text(view: View) -> Option<String> {
             "the last pull's string: StiF kgf/mm, CrEP %/min of the tension (Up/Down; Function: service)"
         }
         View::Service(_) => {
-            "service (Up/Down: Cd load-cell code, tArE zero V, CAL1-4 raw kgf, bUS V, Err1-3 faults; Start: self-test again; Function: the tension)"
+            "service (Up/Down: Cd load-cell code, tArE zero V, CAL1-4 raw kgf, bUS V, Err1-3 faults, drFt zero drift kgf; Start: self-test again; Function: the tension)"
         }
         _ => return None,
     };

@@ -43,6 +43,7 @@ pub mod ablation;
 pub mod accuracy;
 pub mod machine;
 pub mod robustness;
+pub mod session;
 pub mod string;
 
 use taut_core::sense::calibration::Calibration;

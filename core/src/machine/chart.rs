@@ -46,12 +46,13 @@ use crate::sense::calibration::{
     CalibrationPoint, CalibrationPoints, merge_passes,
 };
 use crate::sense::load_cell::LoadCellScale;
+use crate::sense::rezero::{RestSample, Retare, Rezero};
 use crate::settings::{
     KnotBoost, PreStretch, PullKind, PullSettings, Speed, TENSION_MAX, TENSION_MIN, Unit,
 };
 use crate::store::{PRESET_COUNT, Record};
 use crate::tension::{Measurement, TensionController};
-use crate::units::Kgf;
+use crate::units::{Kgf, Volts};
 
 /// Ticks the self-test takes: [`SELF_TEST_SETTLE`] ticks for the amplifier to settle,
 /// then 100 readings of the unloaded load cell averaged (the limits are watched throughout).
@@ -304,9 +305,12 @@ pub const LOG_FIELDS: [&[u8; 4]; 9] =
 /// The counters page's items: pulls, power-ups, string used (m).
 pub const COUNTER_ITEMS: [&[u8; 4]; 3] = [b"PULL", b"bOOt", b"Str "];
 /// The service page's items: the live load-cell code, the tare code, the four calibration
-/// points' raw readings (kgf), the bus voltage, the last three faults since power-up.
-pub const SERVICE_ITEMS: [&[u8; 4]; 10] =
-    [b"Cd  ", b"tArE", b"CAL1", b"CAL2", b"CAL3", b"CAL4", b"bUS ", b"Err1", b"Err2", b"Err3"];
+/// points' raw readings (kgf), the bus voltage, the last three faults since power-up, and the
+/// zero's drift since the self-test (kgf, the drift watch's, REQ-UI-12).
+pub const SERVICE_ITEMS: [&[u8; 4]; 11] = [
+    b"Cd  ", b"tArE", b"CAL1", b"CAL2", b"CAL3", b"CAL4", b"bUS ", b"Err1", b"Err2", b"Err3",
+    b"drFt",
+];
 /// How long an information page shows its item's label after a key, ms.
 pub const LABEL_MS: u32 = 1_000;
 
@@ -420,8 +424,14 @@ pub struct Chart {
     pub record: Record,
     /// The load-cell correction (from the record's calibration, or identity).
     pub calibration: Calibration,
-    /// The load-cell scale, tared by the self-test.
+    /// The load-cell scale, tared by the self-test and again at rest in Ready.
     pub scale: LoadCellScale,
+    /// The re-zero at rest (REQ-ID-08): its reference is the self-test's tare.
+    pub rezero: Rezero,
+    /// Re-zeros taken since power-up (saturating).
+    pub rezeros: u16,
+    /// The drift watch's notice was raised since power-up (once a boot).
+    pub drift_noticed: bool,
     /// The tension controller.
     pub controller: TensionController,
     /// A notice to show in Ready until a key is pressed.
@@ -479,6 +489,9 @@ impl Chart {
             record,
             calibration,
             scale: LoadCellScale::NOMINAL,
+            rezero: Rezero::new(LoadCellScale::NOMINAL.zero()),
+            rezeros: 0,
+            drift_noticed: false,
             controller: TensionController::taut(),
             notice,
             booting: true,
@@ -574,6 +587,30 @@ impl Chart {
 }
 
 impl Chart {
+    /// REQ-ID-08, one tick in Ready: the re-zero rule sees the limits, the Hall count, the
+    /// keys and the load cell, and an accepted zero becomes the scale's (same gain).
+    fn rezero_at_rest(&mut self, sample: &Sample) {
+        let inputs = &sample.inputs;
+        let rest = RestSample {
+            home: inputs.limits.home,
+            end: inputs.limits.end,
+            steps: inputs.drive.steps,
+            key: sample.key.is_some() || inputs.keys != crate::io::Keys::NONE,
+            code: inputs.load_cell,
+        };
+        if let Some(Retare::Zero(zero)) = self.rezero.observe(&rest, self.scale.zero()) {
+            if let Ok(scale) = LoadCellScale::new(zero, self.scale.kgf_per_volt()) {
+                self.scale = scale;
+                self.rezeros = self.rezeros.saturating_add(1);
+                // REQ-UI-12: the drift watch, once a boot, never over another notice.
+                if !self.drift_noticed && self.notice.is_none() && self.rezero.drifted(zero) {
+                    self.notice = Some(Notice::ZeroDrift);
+                    self.drift_noticed = true;
+                }
+            }
+        }
+    }
+
     /// The final target of the present pull before any hold adjustment.
     fn base_target(&self) -> Kgf {
         let kind = if self.knot_mode { PullKind::Knot } else { PullKind::Main };
@@ -766,6 +803,7 @@ impl Chart {
                 match self.scale.tared_at_mean(*code_sum, averaged) {
                     Ok(scale) => {
                         self.scale = scale;
+                        self.rezero = Rezero::new(scale.zero());
                         let limits = sample.inputs.limits;
                         let direction =
                             if limits.end { Direction::Release } else { Direction::Pull };
@@ -974,6 +1012,7 @@ impl Chart {
         if *view != View::Tension && self.idle >= VIEW_TIMEOUT {
             *view = View::Tension;
         }
+        self.rezero_at_rest(sample);
         if let Some(notice) = self.notice {
             context.out.display = panel::notice(notice.number());
             if pressed(sample.key) {
@@ -989,11 +1028,12 @@ impl Chart {
         Super
     }
 
-    /// Entering Ready: the controller idles.
+    /// Entering Ready: the controller idles; the rest for a re-zero starts now.
     #[action]
     fn enter_ready(&mut self) {
         self.controller.stop();
         self.booting = false;
+        self.rezero.restart();
     }
 
     /// Closed-loop pull to the set tension (the controller's profile); any key aborts to
@@ -1486,6 +1526,12 @@ impl Chart {
                 }
             }
             6 => panel::tenths(sample.inputs.drive.bus.to_milli().checked_div(100).unwrap_or(0)),
+            // The zero's drift since the self-test, kgf to the hundredth at the scale's gain.
+            10 => {
+                let moved = Volts(self.scale.zero().0.saturating_sub(self.rezero.reference().0));
+                let kgf = Kgf(moved.0.saturating_mul(self.scale.kgf_per_volt()));
+                panel::hundredths(kgf.to_hundredths_rounded())
+            }
             _ => {
                 let index = usize::from(item.saturating_sub(7));
                 match self.fault_history.get(index).copied().flatten() {
@@ -1760,7 +1806,11 @@ mod tests {
         assert!(!View::Log { entry: 32, field: 0 }.is_valid());
         assert!(!View::Log { entry: 0, field: 9 }.is_valid());
         assert!(!View::Counters(3).is_valid() && !View::String(2).is_valid());
-        assert!(!View::Service(10).is_valid() && !View::Preset(9).is_valid());
+        assert!(
+            View::Service(10).is_valid()
+                && !View::Service(11).is_valid()
+                && !View::Preset(9).is_valid()
+        );
         assert_eq!(View::String(1).log_field(), Some((0, 8)));
         assert_eq!(View::Log { entry: 3, field: 2 }.log_field(), Some((3, 2)));
         assert_eq!(View::Counters(0).log_field(), None);

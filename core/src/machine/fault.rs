@@ -147,12 +147,19 @@ pub enum Notice {
     CalibrationRejected,
     /// n-03: the stored calibration failed validation; the sensor runs uncorrected.
     StoredCalibrationInvalid,
+    /// n-04: the load cell's zero has drifted past the drift watch since the self-test
+    /// (REQ-UI-12): recalibrate.
+    ZeroDrift,
 }
 
 impl Notice {
     /// Every notice, in number order.
-    pub const ALL: [Self; 3] =
-        [Self::StoreInvalid, Self::CalibrationRejected, Self::StoredCalibrationInvalid];
+    pub const ALL: [Self; 4] = [
+        Self::StoreInvalid,
+        Self::CalibrationRejected,
+        Self::StoredCalibrationInvalid,
+        Self::ZeroDrift,
+    ];
 
     /// The number shown after `n-`.
     #[must_use]
@@ -161,6 +168,7 @@ impl Notice {
             Self::StoreInvalid => 1,
             Self::CalibrationRejected => 2,
             Self::StoredCalibrationInvalid => 3,
+            Self::ZeroDrift => 4,
         }
     }
 

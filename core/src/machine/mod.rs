@@ -323,6 +323,7 @@ impl<const LOG: usize> Machine<LOG> {
         chart.knot_mode = checkpoint.knot_mode;
         if let Ok(scale) = chart.scale.tared_at(checkpoint.tare) {
             chart.scale = scale;
+            chart.rezero = crate::sense::rezero::Rezero::new(scale.zero());
         }
         let state = chart::state_at(checkpoint);
         let sample = Sample {
@@ -467,6 +468,18 @@ impl<const LOG: usize> Machine<LOG> {
         &self.chart.inner().record
     }
 
+    /// The load cell's zero in use: the self-test's tare, or the last re-zero at rest's.
+    #[must_use]
+    pub fn load_cell_zero(&self) -> crate::units::Volts {
+        self.chart.inner().scale.zero()
+    }
+
+    /// Re-zeros at rest taken since power-up (REQ-ID-08).
+    #[must_use]
+    pub fn rezeros(&self) -> u16 {
+        self.chart.inner().rezeros
+    }
+
     /// The current state.
     #[must_use]
     pub fn state(&self) -> MachineState {
@@ -585,6 +598,135 @@ mod tests {
             assert_eq!(machine.fault(), Some(FaultCode::LimitsBoth));
             assert!(out.beeper, "the fault sounds, muted {muted}");
         }
+    }
+
+    /// Ticks a machine in Ready at home, untouched, for `ticks` ticks with the load-cell code
+    /// `code(tick)` and the carriage's Hall count `steps(tick)`.
+    fn at_home(
+        machine: &mut Machine,
+        ticks: u32,
+        now: &mut u32,
+        code: impl Fn(u32) -> u16,
+        steps: impl Fn(u32) -> i32,
+    ) {
+        let home = LimitSwitches { home: true, end: false };
+        for t in 0..ticks {
+            *now = now.wrapping_add(1);
+            let drive = crate::drive::DriveStatus { steps: steps(t), ..Default::default() };
+            let inputs = Inputs {
+                now_ms: *now,
+                load_cell: AdcCode::new(code(t)),
+                limits: home,
+                drive,
+                ..Inputs::default()
+            };
+            let _ = machine.tick(&inputs);
+        }
+    }
+
+    /// REQ-ID-08: at rest in Ready the zero follows a drifted but unloaded load cell; a string
+    /// held in the gripper, a hand pushing it (steady or not), or a carriage that moves are
+    /// refused and the zero stays.
+    #[test]
+    fn a_rezero_is_taken_at_rest_and_refused_while_the_gripper_holds_a_string_or_is_pushed() {
+        let tare = AdcCode::new(41);
+        let fresh = || Machine::resume(Record::default(), &Checkpoint::at(MachineState::Ready));
+        let mut now = 0;
+        // Drifted by two codes, unloaded: re-zeroed after 2 s of rest and five windows.
+        let mut machine = fresh();
+        assert_eq!(machine.load_cell_zero(), tare.to_volts());
+        at_home(&mut machine, 2_499, &mut now, |_| 43, |_| 0);
+        assert_eq!(machine.load_cell_zero(), tare.to_volts(), "not before five windows");
+        at_home(&mut machine, 1, &mut now, |_| 43, |_| 0);
+        assert_eq!(machine.load_cell_zero(), AdcCode::new(43).to_volts());
+        assert_eq!(machine.rezeros(), 1);
+        // A string held in the gripper: 0.1 kgf, steady.
+        let held = LoadCellScale::NOMINAL.tared_at(tare).map(|s| s.to_code(Kgf::from_milli(100)));
+        let Ok(held) = held else { panic!("the nominal scale tares at 41") };
+        let mut machine = fresh();
+        at_home(&mut machine, 10_000, &mut now, |_| held.get(), |_| 0);
+        assert_eq!(machine.load_cell_zero(), tare.to_volts(), "a held string");
+        // A hand pushing the gripper: a few codes that wander from window to window.
+        let mut machine = fresh();
+        at_home(
+            &mut machine,
+            10_000,
+            &mut now,
+            |t| 41 + [0, 3, 1, 4, 2][(t / 70 % 5) as usize],
+            |_| 0,
+        );
+        assert_eq!(machine.load_cell_zero(), tare.to_volts(), "a pushed gripper");
+        // A hand pushing hard and steadily: refused as loaded.
+        let mut machine = fresh();
+        at_home(&mut machine, 10_000, &mut now, |_| 60, |_| 0);
+        assert_eq!(machine.load_cell_zero(), tare.to_volts(), "a steady push");
+        // The carriage nudged every second (a hand on the gripper moves it): never at rest.
+        let mut machine = fresh();
+        at_home(&mut machine, 10_000, &mut now, |_| 43, |t| (t / 1_000).cast_signed());
+        assert_eq!(machine.load_cell_zero(), tare.to_volts(), "a moving carriage");
+        assert_eq!(machine.rezeros(), 0);
+        // A tare is not taken away from home either.
+        let mut machine = fresh();
+        for t in 0..10_000u32 {
+            let inputs = Inputs { now_ms: t, load_cell: AdcCode::new(43), ..Inputs::default() };
+            let _ = machine.tick(&inputs);
+        }
+        assert_eq!(machine.load_cell_zero(), tare.to_volts(), "away from home");
+    }
+
+    /// REQ-ID-08: a zero that keeps drifting is followed step by step up to the range from
+    /// the self-test's tare, never beyond it.
+    #[test]
+    fn a_drifting_zero_is_followed_up_to_its_range_from_the_self_tests_tare() {
+        let mut machine = Machine::resume(Record::default(), &Checkpoint::at(MachineState::Ready));
+        let mut now = 0;
+        // One code (1.22 mV) every 3 s, for 60 codes (73 mV): the range is 50 mV.
+        for code in 41..=101u16 {
+            at_home(&mut machine, 3_000, &mut now, |_| code, |_| 0);
+        }
+        let reference = AdcCode::new(41).to_volts().0;
+        let moved = machine.load_cell_zero().0.saturating_sub(reference);
+        assert!(moved <= crate::sense::rezero::REZERO_RANGE.0, "{moved}");
+        assert!(
+            moved
+                > crate::sense::rezero::REZERO_RANGE.0.saturating_sub(AdcCode::new(2).to_volts().0)
+        );
+    }
+
+    /// REQ-UI-12: the drift watch — a zero followed past 25 mV from the self-test's asks for a
+    /// recalibration (n-04) once; the service page shows the drift.
+    #[test]
+    fn a_zero_drifted_past_the_watch_raises_the_recalibration_notice_once() {
+        let mut machine = Machine::resume(Record::default(), &Checkpoint::at(MachineState::Ready));
+        let mut now = 0;
+        // Up to 20 codes (24.4 mV) above the tare: followed, no notice.
+        for code in 41..=61u16 {
+            at_home(&mut machine, 3_000, &mut now, |_| code, |_| 0);
+        }
+        assert_eq!(machine.load_cell_zero(), AdcCode::new(61).to_volts());
+        assert_eq!(machine.notice(), None);
+        // 21 codes (25.6 mV): the notice, shown in Ready.
+        at_home(&mut machine, 3_000, &mut now, |_| 62, |_| 0);
+        assert_eq!(machine.notice(), Some(Notice::ZeroDrift));
+        assert_eq!(machine.notice().map(Notice::number), Some(4));
+        // A key acknowledges it; further drift does not raise it again this boot.
+        let press = Inputs {
+            now_ms: now + 1,
+            keys: Keys::NONE.with(Key::Down),
+            limits: LimitSwitches { home: true, end: false },
+            load_cell: AdcCode::new(62),
+            ..Inputs::default()
+        };
+        for t in 0..40 {
+            let _ = machine.tick(&Inputs { now_ms: now + 1 + t, ..press });
+        }
+        now += 40;
+        at_home(&mut machine, 200, &mut now, |_| 62, |_| 0);
+        assert_eq!(machine.notice(), None);
+        for code in 62..=70u16 {
+            at_home(&mut machine, 3_000, &mut now, |_| code, |_| 0);
+        }
+        assert_eq!(machine.notice(), None);
     }
 
     #[test]

@@ -7,3 +7,4 @@
 pub mod calibration;
 pub mod current;
 pub mod load_cell;
+pub mod rezero;

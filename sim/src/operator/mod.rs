@@ -181,6 +181,20 @@ impl Operator {
         }
     }
 
+    /// An operator about to work `plan` on a machine already in Ready (the next pull of a
+    /// working day): sets the panel up (knot mode, then the settings pages), then pulls.
+    #[must_use]
+    pub const fn at_ready(plan: Plan) -> Self {
+        Self {
+            plan,
+            step: Step::KnotMode,
+            busy_until: 0,
+            held: None,
+            presses: 0,
+            gauge_readings: Vec::new(),
+        }
+    }
+
     /// Whether the plan is finished (or abandoned at a fault).
     #[must_use]
     pub const fn finished(&self) -> bool {

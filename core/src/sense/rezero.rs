@@ -1,0 +1,426 @@
+//! Re-zero at rest: the load cell tared again whenever the string is slack.
+//!
+//! # Theory of operation
+//!
+//! The self-test tares the load cell at power-up (REQ-ID-01); over a working day the bridge's
+//! zero moves with temperature and the bar creeps, and every pull inherits the difference as
+//! an offset. The load cell's zero can be read again whenever nothing pulls on the gripper —
+//! in Ready, with the carriage at home. [`Rezero::observe`] runs once a tick there and takes a
+//! new tare (REQ-ID-08) when the evidence says the gripper is unloaded:
+//!
+//! 1. **At rest** — the home switch closed and the end switch open, the Hall count unchanged,
+//!    no key down, the reading off the converter's rails — continuously for
+//!    [`REZERO_SETTLE_MS`] before anything is averaged: the release's ringing has died, the
+//!    amplifier has settled, and a stringer who just touched the panel (and maybe the
+//!    gripper) has let go. Any tick not at rest starts the count again.
+//! 2. **Steady** — readings are summed in windows of [`REZERO_WINDOW`] ticks (100 ms: five
+//!    periods of 50 Hz mains and six of 60 Hz, so the hum averages out as in the self-test),
+//!    and the last [`REZERO_WINDOWS`] windows' means (half a second) must all agree within
+//!    [`REZERO_AGREE`]: a hand on the gripper is never that still (its tremor averages out
+//!    of a window, but its force wanders by tens of grams over half a second), while the
+//!    noise of a window's mean is a tenth of a sample's.
+//! 3. **Near the zero in use** — the windows' mean may differ from the present zero by
+//!    at most [`REZERO_STEP_MAX`]: the zero's drift between two re-zeros (seconds to minutes
+//!    apart) is a few grams, while a string held in the gripper or a hand pushing on it
+//!    loads it by far more and is refused as loaded.
+//! 4. **Near the self-test's zero** — and from the zero the self-test tared (the reference)
+//!    by at most [`REZERO_RANGE`]: a zero that has walked further is not corrected step by
+//!    step behind the operator's back (creeping tare steps cannot accumulate a held load
+//!    into the zero beyond this bound either).
+//!
+//! Windows accepted under all four become the load cell's zero (the mean of their 500
+//! readings, to a fraction of a code, like the self-test's), and the windows go on: at rest
+//! the zero follows its drift every 100 ms. The calibration's correction is relative to
+//! the tare (its zero point is the tare's raw 0), so a new tare restores exactly the
+//! condition the calibration was made in.
+//!
+//! Cost: one addition and a few comparisons a tick; a pass over five sums and two divisions
+//! every 100 ms at rest.
+
+use crate::units::{AdcCode, Q16, Volts};
+
+/// Ticks the carriage must have rested at home, untouched, before readings are averaged.
+pub const REZERO_SETTLE_MS: u16 = 2_000;
+/// Readings in one averaging window (whole periods of 50 and 60 Hz mains).
+pub const REZERO_WINDOW: u16 = 100;
+/// Consecutive windows that must agree: half a second.
+pub const REZERO_WINDOWS: usize = 5;
+const _: () = assert!(REZERO_WINDOWS == 5, "the mean's count below is 5 windows");
+/// How far the agreeing windows' means may spread: 1.5 mV (≈ 0.016 kgf at 92 mV/kgf,
+/// ≈ 1.2 codes); a window's mean has ≈ 0.3 mV of noise at the family's noisiest 3 mV rms.
+pub const REZERO_AGREE: Volts = Volts(Q16::lit("0.0015"));
+/// How far a new zero may lie from the zero in use: 5 mV (≈ 0.054 kgf, 4 codes).
+pub const REZERO_STEP_MAX: Volts = Volts(Q16::lit("0.005"));
+/// How far a new zero may lie from the self-test's: 50 mV (≈ 0.54 kgf).
+pub const REZERO_RANGE: Volts = Volts(Q16::lit("0.05"));
+/// The drift watch (REQ-UI-12): a zero that has moved more than 25 mV (≈ 0.27 kgf, half the
+/// re-zero's range) from the self-test's asks for a recalibration. The re-zero removes the
+/// offset itself, but a bridge whose zero moved that far has seen a temperature change (or a
+/// knock) that moves its sensitivity too — a strain-gauge chain's span coefficient is of
+/// the order of its zero's, ≈ 0.02 % per kelvin, so ≈ 25 K at the family's largest zero
+/// coefficient, 0.25 kgf at 50 kgf, more than the hold's accuracy — which only a
+/// calibration measures; and the operator hears of it before the zero reaches the range the
+/// re-zero no longer follows.
+pub const DRIFT_WATCH: Volts = Volts(Q16::lit("0.025"));
+
+/// What one tick tells the re-zero rule.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct RestSample {
+    /// The home limit switch is closed.
+    pub home: bool,
+    /// The end limit switch is closed.
+    pub end: bool,
+    /// The drive's Hall count.
+    pub steps: i32,
+    /// A key is down or a key event came this tick.
+    pub key: bool,
+    /// The load-cell code.
+    pub code: AdcCode,
+}
+
+/// The verdict on a pair of windows.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Retare {
+    /// Accepted: the load cell's new zero.
+    Zero(Volts),
+    /// The two windows disagree: something moves the gripper.
+    Unsteady,
+    /// Farther than [`REZERO_STEP_MAX`] from the zero in use: the gripper is loaded.
+    Loaded,
+    /// Farther than [`REZERO_RANGE`] from the self-test's zero.
+    OutOfRange,
+}
+
+/// The re-zero rule's state (see the module docs): 40 bytes.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct Rezero {
+    /// The self-test's zero.
+    reference: Volts,
+    /// Consecutive ticks at rest, up to [`REZERO_SETTLE_MS`].
+    rest_ms: u16,
+    /// Readings in the present window.
+    ticks: u16,
+    /// The Hall count the rest started at.
+    steps: i32,
+    /// The present window's code sum.
+    sum: u32,
+    /// Windows completed in this rest, up to [`REZERO_WINDOWS`].
+    windows: u8,
+    /// Where the next window's sum goes in `sums`.
+    next: u8,
+    /// The last windows' code sums (a ring).
+    sums: [u32; REZERO_WINDOWS],
+}
+
+/// Any re-zero state, for proofs ([`Rezero::is_valid`] states which are reachable): every
+/// field drawn whole (`Volts` wraps a `fixed` number, which has no `Arbitrary`: its bits are
+/// drawn instead).
+#[cfg(kani)]
+impl kani::Arbitrary for Rezero {
+    fn any() -> Self {
+        Self {
+            reference: Volts::from_bits(kani::any()),
+            rest_ms: kani::any(),
+            ticks: kani::any(),
+            steps: kani::any(),
+            sum: kani::any(),
+            windows: kani::any(),
+            next: kani::any(),
+            sums: kani::any(),
+        }
+    }
+}
+
+/// The largest code sum of a window.
+const WINDOW_SUM_MAX: u32 = 4_095 * REZERO_WINDOW as u32;
+
+/// `|a − b|` of two voltages, saturating.
+fn distance(a: Volts, b: Volts) -> Q16 {
+    a.0.saturating_sub(b.0).saturating_abs()
+}
+
+impl Rezero {
+    /// A rule whose reference is the self-test's zero `reference`, no rest yet.
+    #[must_use]
+    pub const fn new(reference: Volts) -> Self {
+        Self {
+            reference,
+            rest_ms: 0,
+            ticks: 0,
+            steps: 0,
+            sum: 0,
+            windows: 0,
+            next: 0,
+            sums: [0; REZERO_WINDOWS],
+        }
+    }
+
+    /// The self-test's zero the rule keeps to.
+    #[must_use]
+    pub const fn reference(&self) -> Volts {
+        self.reference
+    }
+
+    /// Whether the zero in use, `zero`, has drifted past [`DRIFT_WATCH`] from the
+    /// self-test's.
+    #[must_use]
+    pub fn drifted(&self, zero: Volts) -> bool {
+        distance(zero, self.reference) > DRIFT_WATCH.0
+    }
+
+    /// Whether a real run can be in this state: the counts within their lengths, the sums
+    /// within what their readings can add to.
+    #[must_use]
+    pub fn is_valid(&self) -> bool {
+        self.rest_ms <= REZERO_SETTLE_MS
+            && self.ticks < REZERO_WINDOW
+            && self.sum <= 4_095u32.saturating_mul(u32::from(self.ticks))
+            && usize::from(self.windows) <= REZERO_WINDOWS
+            && usize::from(self.next) < REZERO_WINDOWS
+            && self.sums.iter().all(|&sum| sum <= WINDOW_SUM_MAX)
+            && (self.ticks == 0 || self.rest_ms == REZERO_SETTLE_MS)
+            && (self.windows == 0 || self.rest_ms == REZERO_SETTLE_MS)
+    }
+
+    /// Starts over: the rest is broken (or Ready was just entered).
+    pub fn restart(&mut self) {
+        *self = Self::new(self.reference);
+    }
+
+    /// One tick (REQ-ID-08): `sample` what the machine sees, `zero` the load cell's zero in
+    /// use. A verdict every [`REZERO_WINDOW`] ticks once the rest has settled and one window
+    /// is complete; `None` otherwise.
+    pub fn observe(&mut self, sample: &RestSample, zero: Volts) -> Option<Retare> {
+        let code = sample.code.get();
+        let at_rest = sample.home
+            && !sample.end
+            && !sample.key
+            && code > 0
+            && code < AdcCode::MAX.get()
+            && (self.rest_ms == 0 || sample.steps == self.steps);
+        if !at_rest {
+            self.restart();
+            return None;
+        }
+        if self.rest_ms < REZERO_SETTLE_MS {
+            if self.rest_ms == 0 {
+                self.steps = sample.steps;
+            }
+            self.rest_ms = self.rest_ms.saturating_add(1);
+            return None;
+        }
+        self.sum = self.sum.saturating_add(u32::from(code));
+        self.ticks = self.ticks.saturating_add(1);
+        if self.ticks < REZERO_WINDOW {
+            return None;
+        }
+        let window = self.sum;
+        self.sum = 0;
+        self.ticks = 0;
+        if let Some(slot) = self.sums.get_mut(usize::from(self.next)) {
+            *slot = window;
+        }
+        let next = self.next.saturating_add(1);
+        self.next = if usize::from(next) >= REZERO_WINDOWS { 0 } else { next };
+        if usize::from(self.windows) < REZERO_WINDOWS {
+            self.windows = self.windows.saturating_add(1);
+        }
+        if usize::from(self.windows) < REZERO_WINDOWS {
+            return None;
+        }
+        // Constant bound: REZERO_WINDOWS (5) sums.
+        let (mut low, mut high, mut total) = (u32::MAX, 0u32, 0u32);
+        for &sum in &self.sums {
+            low = low.min(sum);
+            high = high.max(sum);
+            total = total.saturating_add(sum);
+        }
+        let spread = AdcCode::mean_volts(high, REZERO_WINDOW)
+            .0
+            .saturating_sub(AdcCode::mean_volts(low, REZERO_WINDOW).0);
+        if spread > REZERO_AGREE.0 {
+            return Some(Retare::Unsteady);
+        }
+        // 5 × 100 readings.
+        let mean = AdcCode::mean_volts(total, REZERO_WINDOW.saturating_mul(5));
+        Some(if distance(mean, zero) > REZERO_STEP_MAX.0 {
+            Retare::Loaded
+        } else if distance(mean, self.reference) > REZERO_RANGE.0 {
+            Retare::OutOfRange
+        } else {
+            Retare::Zero(mean)
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ZERO: Volts = Volts(Q16::lit("0.05"));
+
+    fn rest(code: u16) -> RestSample {
+        RestSample { home: true, end: false, steps: 7, key: false, code: AdcCode::new(code) }
+    }
+
+    /// How many verdicts of each kind a run gave, and the last one.
+    #[derive(Debug, Default, PartialEq)]
+    struct Tally {
+        zero: u32,
+        unsteady: u32,
+        loaded: u32,
+        out_of_range: u32,
+        last: Option<Retare>,
+    }
+
+    impl Tally {
+        fn total(&self) -> u32 {
+            self.zero + self.unsteady + self.loaded + self.out_of_range
+        }
+    }
+
+    /// Feeds `sample(tick)` for `ticks` ticks; the verdicts.
+    fn feed(
+        rule: &mut Rezero,
+        ticks: u32,
+        zero: Volts,
+        mut sample: impl FnMut(u32) -> RestSample,
+    ) -> Tally {
+        let mut tally = Tally::default();
+        for t in 0..ticks {
+            if let Some(verdict) = rule.observe(&sample(t), zero) {
+                match verdict {
+                    Retare::Zero(_) => tally.zero += 1,
+                    Retare::Unsteady => tally.unsteady += 1,
+                    Retare::Loaded => tally.loaded += 1,
+                    Retare::OutOfRange => tally.out_of_range += 1,
+                }
+                tally.last = Some(verdict);
+            }
+        }
+        tally
+    }
+
+    #[test]
+    fn a_steady_unloaded_gripper_is_tared_after_the_settling_and_five_windows() {
+        let mut rule = Rezero::new(ZERO);
+        // Readings alternating 41 and 42 codes: their mean, 41.5 codes, is the zero.
+        let settle = u32::from(REZERO_SETTLE_MS);
+        let window = u32::from(REZERO_WINDOW);
+        let verdicts =
+            feed(&mut rule, settle + 5 * window - 1, ZERO, |t| rest(41 + (t % 2) as u16));
+        assert_eq!(verdicts.total(), 0, "{verdicts:?}");
+        let last = rule.observe(&rest(42), ZERO);
+        assert_eq!(last, Some(Retare::Zero(AdcCode::mean_volts(41 * 250 + 42 * 250, 500))));
+        // Every window after that gives a verdict.
+        let more = feed(&mut rule, 3 * window, ZERO, |t| rest(41 + (t % 2) as u16));
+        assert_eq!(more.zero, 3, "{more:?}");
+        assert!(rule.is_valid());
+    }
+
+    /// Each clause of the invariant, violated alone, makes the state invalid; states a run
+    /// reaches, at each clause's limit, are valid.
+    #[test]
+    fn the_invariant_refuses_each_unreachable_state_alone() {
+        let settled = Rezero {
+            rest_ms: REZERO_SETTLE_MS,
+            ticks: 99,
+            sum: 4_095 * 99,
+            windows: 5,
+            next: 4,
+            sums: [WINDOW_SUM_MAX; REZERO_WINDOWS],
+            ..Rezero::new(ZERO)
+        };
+        assert!(settled.is_valid());
+        assert!(Rezero::new(ZERO).is_valid());
+        let settling = Rezero { rest_ms: REZERO_SETTLE_MS - 1, ..Rezero::new(ZERO) };
+        assert!(settling.is_valid());
+        let broken = [
+            Rezero { rest_ms: REZERO_SETTLE_MS + 1, ..settled },
+            Rezero { ticks: REZERO_WINDOW, ..settled },
+            Rezero { sum: 4_095 * 99 + 1, ..settled },
+            Rezero { windows: 6, ..settled },
+            Rezero { next: 5, ..settled },
+            Rezero { sums: [0, 0, WINDOW_SUM_MAX + 1, 0, 0], ..settled },
+            Rezero { ticks: 1, sum: 0, windows: 0, ..settling },
+            Rezero { windows: 1, ..settling },
+        ];
+        for (index, state) in broken.iter().enumerate() {
+            assert!(!state.is_valid(), "clause {index}: {state:?}");
+        }
+        assert_eq!(WINDOW_SUM_MAX, 409_500);
+    }
+
+    #[test]
+    fn the_drift_watch_is_past_twenty_five_millivolts_either_way() {
+        let rule = Rezero::new(ZERO);
+        let at = |mv: i32| Volts(ZERO.0.saturating_add(Volts::from_milli(mv).0));
+        assert!(!rule.drifted(ZERO));
+        assert!(!rule.drifted(at(25)) && !rule.drifted(at(-25)));
+        assert!(rule.drifted(at(26)) && rule.drifted(at(-26)));
+    }
+
+    #[test]
+    fn a_string_held_in_the_gripper_is_refused_as_loaded() {
+        let mut rule = Rezero::new(ZERO);
+        // 0.1 kgf of string: ≈ 7.5 codes above the zero; steady.
+        let verdicts = feed(&mut rule, 4_000, ZERO, |_| rest(49));
+        assert!(verdicts.loaded > 10 && verdicts.loaded == verdicts.total(), "{verdicts:?}");
+    }
+
+    #[test]
+    fn a_hand_pushing_the_gripper_is_refused_as_unsteady() {
+        let mut rule = Rezero::new(ZERO);
+        // A push wandering by 2 codes over 0.4 s, within the step.
+        let verdicts = feed(&mut rule, 4_000, ZERO, |t| rest(41 + 2 * ((t / 200) % 2) as u16));
+        assert!(verdicts.unsteady > 10 && verdicts.unsteady == verdicts.total(), "{verdicts:?}");
+    }
+
+    #[test]
+    fn a_zero_walked_past_the_range_is_refused_and_one_within_it_accepted() {
+        // The zero in use has followed the drift to 0.099 V; the reference is 0.05 V.
+        let far = Volts(Q16::lit("0.1"));
+        let mut rule = Rezero::new(ZERO);
+        let verdicts = feed(&mut rule, 4_000, far, |_| rest(82)); // 0.1001 V
+        assert!(verdicts.out_of_range > 10 && verdicts.out_of_range == verdicts.total());
+        let near = Volts(Q16::lit("0.095"));
+        let mut rule = Rezero::new(ZERO);
+        let verdicts = feed(&mut rule, 4_000, near, |_| rest(78)); // 0.0952 V
+        assert!(verdicts.zero > 10 && verdicts.zero == verdicts.total(), "{verdicts:?}");
+    }
+
+    #[test]
+    fn a_key_a_moving_carriage_or_leaving_home_starts_the_rest_again() {
+        let settle = u32::from(REZERO_SETTLE_MS);
+        let breaks: [fn(RestSample) -> RestSample; 6] = [
+            |s| RestSample { key: true, ..s },
+            |s| RestSample { steps: s.steps + 1, ..s },
+            |s| RestSample { home: false, ..s },
+            |s| RestSample { end: true, ..s },
+            |s| RestSample { code: AdcCode::new(0), ..s },
+            |s| RestSample { code: AdcCode::MAX, ..s },
+        ];
+        for broken in breaks {
+            let mut rule = Rezero::new(ZERO);
+            // One broken tick before the second window completes: no verdict until a whole
+            // new settling and two windows have passed (then one every window).
+            let broken_at = settle + 150;
+            let ticks = broken_at + 1 + settle + 600;
+            let verdicts = feed(&mut rule, ticks, ZERO, |t| {
+                if t == broken_at { broken(rest(41)) } else { rest(41) }
+            });
+            assert_eq!(verdicts.zero, 2, "{verdicts:?}");
+            assert_eq!(verdicts.total(), 2, "{verdicts:?}");
+            let mut rule = Rezero::new(ZERO);
+            let verdicts = feed(&mut rule, ticks - 2, ZERO, |t| {
+                if t == broken_at { broken(rest(41)) } else { rest(41) }
+            });
+            assert_eq!(verdicts.total(), 1, "{verdicts:?}");
+            let mut rule = Rezero::new(ZERO);
+            let verdicts = feed(&mut rule, broken_at + settle, ZERO, |t| {
+                if t == broken_at { broken(rest(41)) } else { rest(41) }
+            });
+            assert_eq!(verdicts.total(), 0, "{verdicts:?}");
+        }
+    }
+}

@@ -1205,3 +1205,115 @@ impl Soc {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn oscillators_and_the_pll_are_ready_once_on_and_the_switch_reports_itself() {
+        let mut soc = Soc::new();
+        soc.write(0x4002_1000, 4, (1 << 8) | (1 << 24));
+        let cr = soc.read(0x4002_1000, 4);
+        assert_ne!(cr & (1 << 10), 0, "HSIRDY");
+        assert_ne!(cr & (1 << 25), 0, "PLLRDY");
+        soc.write(0x4002_1008, 4, 1);
+        assert_eq!(soc.read(0x4002_1008, 4) >> 2 & 3, 1, "SWS follows SW");
+    }
+
+    #[test]
+    fn the_pll_at_170_mhz_needs_boost_and_four_wait_states() {
+        let mut soc = Soc::new();
+        soc.write(0x4002_1000, 4, (1 << 8) | (1 << 24));
+        soc.write(0x4002_1008, 4, 3);
+        assert!(matches!(soc.stop, Some(Stop::Misuse(_))), "normal mode, 0 wait states");
+        let mut soc = Soc::new();
+        soc.write(0x4002_1000, 4, (1 << 8) | (1 << 24));
+        soc.write(0x4000_7080, 4, 0);
+        soc.write(0x4002_2000, 4, 4);
+        soc.write(0x4002_1008, 4, 3);
+        assert_eq!(soc.stop, None);
+    }
+
+    #[test]
+    fn flash_programs_erased_double_words_only_after_the_unlock_and_with_pg() {
+        let mut soc = Soc::new();
+        assert!(!soc.flash_store(0x0801_E000, 4, 1, u32::MAX), "locked");
+        let mut soc = Soc::new();
+        soc.write(0x4002_2008, 4, 0x4567_0123);
+        soc.write(0x4002_2008, 4, 0xCDEF_89AB);
+        soc.write(0x4002_2014, 4, 1);
+        assert!(soc.flash_store(0x0801_E000, 4, 1, u32::MAX));
+        assert!(soc.flash_store(0x0801_E004, 4, 2, u32::MAX));
+        assert_eq!(soc.flash.programmed, 1);
+        assert!(soc.stall > 0, "programming stalls the core");
+        assert!(!soc.flash_store(0x0801_E008, 4, 3, 0), "not erased: PROGERR");
+    }
+
+    #[test]
+    fn a_page_erase_fills_the_page_and_stalls() {
+        let mut soc = Soc::new();
+        soc.write(0x4002_2008, 4, 0x4567_0123);
+        soc.write(0x4002_2008, 4, 0xCDEF_89AB);
+        soc.write(0x4002_2014, 4, 2 | (60 << 3) | (1 << 16));
+        assert_eq!(soc.flash_fill.len(), 1);
+        assert_eq!(soc.flash_fill[0].0, 0x0801_E000);
+        assert_eq!(soc.stall, PAGE_ERASE_CYCLES);
+    }
+
+    #[test]
+    fn pins_read_what_drives_them() {
+        let mut soc = Soc::new();
+        // PC6 input with pull-up, nothing outside: high; a pressed key: low.
+        soc.write(0x4800_0800, 4, soc.gpio[2].regs.value(0) & !(3 << 12));
+        soc.write(0x4800_080C, 4, 1 << 12);
+        assert_ne!(soc.read(0x4800_0810, 4) & (1 << 6), 0);
+        soc.drive_pin(2, 6, Some(false));
+        assert_eq!(soc.read(0x4800_0810, 4) & (1 << 6), 0);
+        // PB11 push-pull output set through BSRR, cleared through BRR.
+        soc.write(0x4800_0400, 4, soc.gpio[1].regs.value(0) & !(3 << 22) | (1 << 22));
+        soc.write(0x4800_0418, 4, 1 << 11);
+        assert!(soc.gpio[1].level(11));
+        soc.write(0x4800_0428, 4, 1 << 11);
+        assert!(!soc.gpio[1].level(11));
+    }
+
+    #[test]
+    fn the_nvic_picks_the_highest_priority_then_the_lowest_number() {
+        let mut soc = Soc::new();
+        soc.write(0xE000_E100, 4, (1 << irq::TIM1_UP_TIM16) | (1 << irq::TIM2));
+        soc.write(0xE000_E104, 4, 1 << (irq::TIM6_DAC - 32));
+        soc.write(0xE000_E400 + irq::TIM6_DAC, 1, 0);
+        soc.write(0xE000_E400 + irq::TIM1_UP_TIM16, 1, 0x10);
+        soc.nvic.pend(irq::TIM1_UP_TIM16);
+        soc.nvic.pend(irq::TIM6_DAC);
+        assert_eq!(soc.nvic.highest_pending(), Some((irq::TIM6_DAC, 0)));
+        soc.nvic.unpend(irq::TIM6_DAC);
+        soc.nvic.pend(irq::TIM2);
+        assert_eq!(soc.nvic.highest_pending(), Some((irq::TIM2, 0)), "priority 0 before 0x10");
+    }
+
+    #[test]
+    fn the_watchdog_expires_its_reload_after_the_last_key() {
+        let mut soc = Soc::new();
+        soc.cycles = 1000;
+        soc.write(0x4000_3000, 4, 0xCCCC);
+        soc.write(0x4000_3000, 4, 0x5555);
+        soc.write(0x4000_3004, 4, 3);
+        soc.write(0x4000_3008, 4, 100);
+        soc.write(0x4000_3000, 4, 0xAAAA);
+        // (100 + 1) × 32 / 32 kHz = 101 ms at 16 MHz (the reset clock).
+        assert_eq!(soc.iwdg.expiry(16_000_000), Some(1000 + 101 * 16_000));
+        let mut locked = Soc::new();
+        locked.write(0x4000_3004, 4, 3);
+        assert!(matches!(locked.stop, Some(Stop::Misuse(_))), "PR written while locked");
+    }
+
+    #[test]
+    fn an_unmodelled_register_stops_the_run_with_its_name() {
+        let mut soc = Soc::new();
+        let _ = soc.read(0x4000_4400, 4);
+        let stop = soc.stop.clone().expect("stopped");
+        assert!(stop.to_string().contains("USART2+0x000"), "{stop}");
+    }
+}

@@ -118,6 +118,16 @@ impl Scenario {
         TwinConfig::nominal(self.string)
     }
 
+    /// The job session's plan: the scenario's settings, pull, hold, release.
+    pub fn job_plan(&self) -> Plan {
+        Plan {
+            calibrate: false,
+            settings: self.settings(),
+            knot_mode: false,
+            pull_hold_ms: Some(self.hold_ms),
+        }
+    }
+
     /// The target, kgf.
     pub fn target_kgf(&self) -> f64 {
         f64::from(self.tension_tenths_kg) / 10.0
@@ -147,12 +157,7 @@ pub fn host(scenario: &Scenario) -> Result<Run, String> {
         host_bench::commission(&factory_config(&config), scenario.calibrate, &mut |_| {})
             .map_err(|e| format!("host commissioning: {e:?}"))?;
     let mut bench = HostBench::power_up(&config, &commissioning.flash).recording();
-    let plan = Plan {
-        calibrate: false,
-        settings: scenario.settings(),
-        knot_mode: false,
-        pull_hold_ms: Some(scenario.hold_ms),
-    };
+    let plan = scenario.job_plan();
     let mut operator = Operator::new(plan);
     let mut tail = None;
     run_session(&mut bench, &mut operator, Session::Job, &mut |_| {}, |bench, operator| {
@@ -307,12 +312,7 @@ pub fn pil(
     bench.checker = checker;
     bench.periods = periods;
     bench.set_window_start(window_start);
-    let plan = Plan {
-        calibrate: false,
-        settings: scenario.settings(),
-        knot_mode: false,
-        pull_hold_ms: Some(scenario.hold_ms),
-    };
+    let plan = scenario.job_plan();
     let mut operator = Operator::new(plan);
     let mut samples = Vec::new();
     let mut tail = None;

@@ -15,7 +15,9 @@
 //! at the block boundary after each peripheral event's instant, where the peripherals are
 //! advanced and pending interrupts are taken. The firmware's busy-wait loops
 //! (`cortex_m::asm::delay`: `subs rN, #1; bne`) are fast-forwarded, each skipped iteration
-//! counting its two instructions, never past the next event.
+//! counting its two instructions, never past the next event. An interrupt pending while
+//! masked is taken at the first block after the mask lifts (`CPSIE I`, or an `MSR` to
+//! `PRIMASK`/`BASEPRI`/`FAULTMASK`, which is how a critical section ends).
 
 use std::collections::HashMap;
 
@@ -90,9 +92,6 @@ pub struct Mcu {
     cc4_done: Option<u64>,
     /// The period whose TRGO2 has fired.
     trgo2_done: Option<u64>,
-    /// The flash image as built (for power-on and watchdog resets the flash keeps what was
-    /// written since).
-    instructions: HashMap<u32, u32>,
 }
 
 fn err(e: unicorn_engine::uc_error) -> String {
@@ -224,7 +223,6 @@ impl Mcu {
             pc: 0,
             processed: 0,
             cpu: CpuState::default(),
-            instructions: HashMap::new(),
             cc4_done: None,
             trgo2_done: None,
             it_block_wait: false,
@@ -273,26 +271,19 @@ impl Mcu {
                 match hw {
                     // WFE, WFI: sleep until an event.
                     0xBF20 | 0xBF30 => {
-                        self.uc
-                            .add_code_hook(
-                                u64::from(address),
-                                u64::from(address),
-                                |uc: &mut Unicorn<'_, Soc>, a: u64, _s: u32| {
-                                    // The instruction is this hook's: Unicorn does not execute
-                                    // WFE/WFI in M-profile mode. Skip it, sleeping unless the
-                                    // event register was set.
-                                    let soc = uc.get_data_mut();
-                                    if soc.event_register {
-                                        soc.event_register = false;
-                                    } else {
-                                        soc.sleeping = true;
-                                    }
-                                    soc.resume_at = Some(a as u32 + 2);
-                                    let _ = uc.emu_stop();
-                                },
-                            )
-                            .map_err(err)?;
-                        self.instructions.insert(address, u32::from(hw));
+                        self.hook_at(address, |uc: &mut Unicorn<'_, Soc>, a: u64, _s: u32| {
+                            // The instruction is this hook's: Unicorn does not execute WFE/WFI
+                            // in M-profile mode. Skip it, sleeping unless the event register
+                            // was set.
+                            let soc = uc.get_data_mut();
+                            if soc.event_register {
+                                soc.event_register = false;
+                            } else {
+                                soc.sleeping = true;
+                            }
+                            soc.resume_at = Some(a as u32 + 2);
+                            let _ = uc.emu_stop();
+                        })?;
                     }
                     // CPSIE I, or MSR to PRIMASK/BASEPRI/BASEPRI_MAX/FAULTMASK (a critical
                     // section's end restores PRIMASK): a pending interrupt masked until now is
@@ -303,31 +294,19 @@ impl Mcu {
                                 next & 0xFF00 == 0x8800 && (0x10..=0x13).contains(&(next & 0xFF))
                             })) =>
                     {
-                        self.uc
-                            .add_code_hook(
-                                u64::from(address),
-                                u64::from(address),
-                                |uc: &mut Unicorn<'_, Soc>, _a: u64, _s: u32| {
-                                    let soc = uc.get_data_mut();
-                                    soc.latch_interrupt_lines();
-                                    if soc.nvic.highest_pending().is_some() {
-                                        soc.deadline = 0;
-                                    }
-                                },
-                            )
-                            .map_err(err)?;
+                        self.hook_at(address, |uc: &mut Unicorn<'_, Soc>, _a: u64, _s: u32| {
+                            let soc = uc.get_data_mut();
+                            soc.latch_interrupt_lines();
+                            if soc.nvic.highest_pending().is_some() {
+                                soc.deadline = 0;
+                            }
+                        })?;
                     }
                     // SEV.
                     0xBF40 => {
-                        self.uc
-                            .add_code_hook(
-                                u64::from(address),
-                                u64::from(address),
-                                |uc: &mut Unicorn<'_, Soc>, _a: u64, _s: u32| {
-                                    uc.get_data_mut().event_register = true;
-                                },
-                            )
-                            .map_err(err)?;
+                        self.hook_at(address, |uc: &mut Unicorn<'_, Soc>, _a: u64, _s: u32| {
+                            uc.get_data_mut().event_register = true;
+                        })?;
                     }
                     // `subs rN, #1` followed by `bne` back to it: cortex_m::asm::delay.
                     _ if hw & 0xF8FF == 0x3801 && halfwords.get(i + 1) == Some(&0xD1FD) => {
@@ -342,28 +321,34 @@ impl Mcu {
                             RegisterARM::R6,
                             RegisterARM::R7,
                         ][reg as usize];
-                        self.uc
-                            .add_code_hook(
-                                u64::from(address),
-                                u64::from(address),
-                                move |uc: &mut Unicorn<'_, Soc>, _a: u64, _s: u32| {
-                                    let left = uc.reg_read(register).unwrap_or(0);
-                                    let soc = uc.get_data();
-                                    let room = soc.deadline.saturating_sub(soc.cycles) / 2;
-                                    let skip = left.saturating_sub(1).min(room);
-                                    if skip > 0 {
-                                        let _ = uc.reg_write(register, left - skip);
-                                        uc.get_data_mut().cycles += 2 * skip;
-                                    }
-                                },
-                            )
-                            .map_err(err)?;
+                        self.hook_at(
+                            address,
+                            move |uc: &mut Unicorn<'_, Soc>, _a: u64, _s: u32| {
+                                let left = uc.reg_read(register).unwrap_or(0);
+                                let soc = uc.get_data();
+                                let room = soc.deadline.saturating_sub(soc.cycles) / 2;
+                                let skip = left.saturating_sub(1).min(room);
+                                if skip > 0 {
+                                    let _ = uc.reg_write(register, left - skip);
+                                    uc.get_data_mut().cycles += 2 * skip;
+                                }
+                            },
+                        )?;
                     }
                     _ => {}
                 }
             }
         }
         Ok(())
+    }
+
+    /// A code hook on the one instruction at `address`.
+    fn hook_at(
+        &mut self,
+        address: u32,
+        hook: impl FnMut(&mut Unicorn<'_, Soc>, u64, u32) + 'static,
+    ) -> Result<(), String> {
+        self.uc.add_code_hook(u64::from(address), u64::from(address), hook).map(|_| ()).map_err(err)
     }
 
     /// The image.

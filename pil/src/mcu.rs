@@ -27,6 +27,18 @@ use crate::adc::Trigger;
 use crate::elf::Image;
 use crate::soc::{self, FLASH_BASE, FLASH_SIZE, RAM_BASE, RAM_SIZE, Soc, Stop};
 
+/// R0-R7, the registers a 16-bit Thumb instruction names.
+const LOW_REGISTERS: [RegisterARM; 8] = [
+    RegisterARM::R0,
+    RegisterARM::R1,
+    RegisterARM::R2,
+    RegisterARM::R3,
+    RegisterARM::R4,
+    RegisterARM::R5,
+    RegisterARM::R6,
+    RegisterARM::R7,
+];
+
 /// The word free RAM is painted with at reset.
 const STACK_PAINT: u32 = 0x5AC3_5AC3;
 
@@ -311,16 +323,7 @@ impl Mcu {
                     // `subs rN, #1` followed by `bne` back to it: cortex_m::asm::delay.
                     _ if hw & 0xF8FF == 0x3801 && halfwords.get(i + 1) == Some(&0xD1FD) => {
                         let reg = u32::from((hw >> 8) & 7);
-                        let register = [
-                            RegisterARM::R0,
-                            RegisterARM::R1,
-                            RegisterARM::R2,
-                            RegisterARM::R3,
-                            RegisterARM::R4,
-                            RegisterARM::R5,
-                            RegisterARM::R6,
-                            RegisterARM::R7,
-                        ][reg as usize];
+                        let register = LOW_REGISTERS[reg as usize];
                         self.hook_at(
                             address,
                             move |uc: &mut Unicorn<'_, Soc>, _a: u64, _s: u32| {
@@ -427,21 +430,13 @@ impl Mcu {
                 STACK_PAINT.to_le_bytes().iter().copied().cycle().take(words * 4).collect();
             let _ = self.uc.mem_write(u64::from(bottom), &paint);
         }
-        for r in [
-            RegisterARM::R0,
-            RegisterARM::R1,
-            RegisterARM::R2,
-            RegisterARM::R3,
-            RegisterARM::R4,
-            RegisterARM::R5,
-            RegisterARM::R6,
-            RegisterARM::R7,
+        for r in LOW_REGISTERS.into_iter().chain([
             RegisterARM::R8,
             RegisterARM::R9,
             RegisterARM::R10,
             RegisterARM::R11,
             RegisterARM::R12,
-        ] {
+        ]) {
             self.set_reg(r, 0);
         }
         self.set_reg(RegisterARM::CONTROL, 0);

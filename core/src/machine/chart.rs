@@ -119,6 +119,10 @@ pub const CLEAR_ATTEMPT: u16 = 100;
 pub const STORE_DELAY: u32 = 2_000;
 /// Ticks without a key before the panel returns from a settings page to the tension.
 pub const VIEW_TIMEOUT: u32 = 5_000;
+/// Ticks after the panel returned to the tension by itself in which a key only wakes the
+/// panel: an operator who was still looking at the page (and did not see it go) must not
+/// change the set tension with a key meant for the page.
+pub const VIEW_WAKE: u32 = 1_500;
 
 /// How long the digits show the new target after a hold adjustment (or `LOCK` / `PULL`
 /// after Function), ms.
@@ -442,12 +446,18 @@ pub struct Chart {
     pub dirty: bool,
     /// Ticks since the last key event (saturating).
     pub idle: u32,
+    /// The panel returned to the tension page by itself since the last key ([`VIEW_WAKE`]).
+    pub view_returned: bool,
     /// Knot mode: the next pulls are knot pulls.
     pub knot_mode: bool,
     /// The tension rules' state for the present pull.
     pub watch: TensionWatch,
     /// The present pull's peak target (for the overload rule).
     pub peak_target: Kgf,
+    /// The highest tension the panel showed in the present pull: the calibrated running
+    /// average, the display's own filter (the pull log's peak; the safety rules' tracked peak
+    /// follows the load cell's noise and is theirs alone).
+    pub shown_peak: Kgf,
     /// Ticks from Start to "at tension" of the present pull.
     pub time_to_tension: u32,
     /// String-encoder counts of the present pull.
@@ -497,9 +507,11 @@ impl Chart {
             booting: true,
             dirty: false,
             idle: 0,
+            view_returned: false,
             knot_mode: false,
             watch: TensionWatch::new(0),
             peak_target: Kgf::ZERO,
+            shown_peak: Kgf::ZERO,
             time_to_tension: 0,
             string_counts: 0,
             probe: StringProbe::NEW,
@@ -579,6 +591,7 @@ impl Chart {
             self.watch = TensionWatch::new(context.sample.inputs.drive.steps);
         }
         self.peak_target = peak;
+        self.shown_peak = Kgf::ZERO;
         self.time_to_tension = 0;
         self.string_counts = 0;
         self.probe = StringProbe::NEW;
@@ -623,7 +636,7 @@ impl Chart {
         PullRecord {
             target: LoggedKgf::from_kgf(hold_target(self.base_target(), unit, hold.adjust)),
             reached: LoggedKgf::from_kgf(self.calibration.correct(sample.raw_average)),
-            peak: LoggedKgf::from_kgf(self.watch.peak),
+            peak: LoggedKgf::from_kgf(self.shown_peak),
             adjust: LoggedKgf::from_kgf(unit.tenths_to_kgf(i32::from(hold.adjust))),
             time_to_tension_ms: u16::try_from(self.time_to_tension).unwrap_or(u16::MAX),
             held_s: u16::try_from(hold.held_ms.checked_div(1_000).unwrap_or(0)).unwrap_or(u16::MAX),
@@ -632,7 +645,7 @@ impl Chart {
             // At constant pull only: a locked carriage does not creep.
             creep: if self.controller.constant_pull() {
                 let held = hold_target(self.base_target(), unit, hold.adjust);
-                self.probe.creep(sample.inputs.drive.steps, hold.held_ms, held)
+                self.probe.creep(held)
             } else {
                 None
             },
@@ -1004,6 +1017,10 @@ impl Chart {
     fn ready(&mut self, context: &mut Context, event: &Tick, view: &mut View) -> Outcome<State> {
         let Tick(sample) = event;
         context.out.leds = self.unit_leds();
+        // A key within `VIEW_WAKE` of the page's timeout only wakes the panel.
+        let waking = sample.key.is_some()
+            && core::mem::take(&mut self.view_returned)
+            && self.idle < VIEW_TIMEOUT.saturating_add(VIEW_WAKE);
         self.idle = if sample.key.is_some() { 0 } else { self.idle.saturating_add(1) };
         if self.dirty && self.idle >= STORE_DELAY {
             self.dirty = false;
@@ -1011,6 +1028,7 @@ impl Chart {
         }
         if *view != View::Tension && self.idle >= VIEW_TIMEOUT {
             *view = View::Tension;
+            self.view_returned = true;
         }
         self.rezero_at_rest(sample);
         if let Some(notice) = self.notice {
@@ -1021,7 +1039,7 @@ impl Chart {
             }
             return Super;
         }
-        if let Some(key) = sample.key {
+        if let Some(key) = sample.key.filter(|_| !waking) {
             context.next = self.ready_key(context, sample, view, key);
         }
         context.out.display = self.render(*view, sample);
@@ -1052,6 +1070,7 @@ impl Chart {
         context.out.leds = Leds { pulling: true, ..self.unit_leds() };
         self.show_working_tension(context, sample);
         let averaged = self.calibration.correct(sample.raw_average);
+        self.shown_peak = self.shown_peak.max(averaged);
         self.probe.pulling(sample.steps_average, averaged, self.base_target());
         *elapsed = elapsed.saturating_add(1);
         context.next = if pressed(sample.key) {
@@ -1098,6 +1117,7 @@ impl Chart {
         context.out.leds = Leds { holding: true, ..self.unit_leds() };
         hold.held_ms = hold.held_ms.saturating_add(1);
         self.probe.holding(sample.inputs.drive.steps, hold.held_ms);
+        self.shown_peak = self.shown_peak.max(self.calibration.correct(sample.raw_average));
         let unit = self.record.settings.set_point().unit();
         match sample.key {
             Some(KeyEvent::Press(Key::Start)) => {

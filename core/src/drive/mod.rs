@@ -251,22 +251,24 @@ impl DriveCommand {
     }
 }
 
-/// A latched drive fault.
-#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
-pub enum DriveFault {
-    /// A current sample at or above [`OVERCURRENT_LIMIT`].
-    Overcurrent,
-    /// The hardware overcurrent comparator (break input) fired.
-    OvercurrentTrip,
-    /// The DC bus reached the configured maximum (regenerated energy with nowhere to go, or
-    /// a supply above the rating).
-    BusOvervoltage,
-    /// The current sense's tared zero is outside its tolerance (amplifier offset or a fault).
-    CurrentSenseZero,
-    /// The Hall sensors read `000` or `111` (confirmed): sensor supply lost or a line broken.
-    HallInvalid,
-    /// The rotor position jumped two or more sectors: Hall edges lost or misread.
-    SectorSkipped,
+crate::codes::numbered! {
+    /// A latched drive fault; its number is the one recorded sessions and links carry.
+    #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+    pub enum DriveFault {
+        /// A current sample at or above [`OVERCURRENT_LIMIT`].
+        Overcurrent = 1,
+        /// The hardware overcurrent comparator (break input) fired.
+        OvercurrentTrip = 2,
+        /// The Hall sensors read `000` or `111` (confirmed): sensor supply lost or a line broken.
+        HallInvalid = 3,
+        /// The rotor position jumped two or more sectors: Hall edges lost or misread.
+        SectorSkipped = 4,
+        /// The DC bus reached the configured maximum (regenerated energy with nowhere to go, or
+        /// a supply above the rating).
+        BusOvervoltage = 5,
+        /// The current sense's tared zero is outside its tolerance (amplifier offset or a fault).
+        CurrentSenseZero = 6,
+    }
 }
 
 /// One fast-loop sample, taken by the firmware just before calling [`Drive::step`].

@@ -612,7 +612,7 @@ pub struct StringArgs {
     /// Machines of the family per string preset, beside the nominal machine.
     #[arg(long, allow_negative_numbers = true, default_value_t = 2, value_parser = whole(0_u64, 1_000))]
     pub seeds: u64,
-    /// Seconds the operator holds before releasing (the creep window is from 1 s to 6 s of the hold).
+    /// Seconds the operator holds before releasing (the creep window is from 1 s to 5 s of the hold).
     #[arg(long, allow_negative_numbers = true, default_value_t = 20, value_parser = whole(5_u32, 600))]
     pub hold: u32,
     /// Write the JSON summary here.

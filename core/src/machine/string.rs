@@ -52,7 +52,7 @@ pub const UPPER_SHARE: (i32, i32) = (3, 4);
 pub const CREEP_SETTLE_MS: u32 = 1_000;
 /// How long the creep window lasts, ms: the creep rate is always the travel over this long,
 /// from [`CREEP_SETTLE_MS`] into the hold (or after its last change).
-pub const CREEP_WINDOW_MS: u32 = 5_000;
+pub const CREEP_WINDOW_MS: u32 = 4_000;
 
 /// A string's stiffness, thousandths of a kgf per mm of carriage travel (0.001–65.535;
 /// never zero, so an unmeasured one costs the log no space: `Option<Stiffness>` is 2 bytes).
@@ -340,11 +340,11 @@ mod tests {
         }
         assert_eq!(probe.creep(tension), None, "not open before 1 s");
         probe.holding(1_000, 1_000);
-        probe.holding(1_004, 5_999);
+        probe.holding(1_003, 4_999);
         assert_eq!(probe.creep(tension), None, "the window is still open");
-        probe.holding(1_005, 6_000);
+        probe.holding(1_004, 5_000);
         let closed = probe.creep(tension).map(CreepRate::centi_percent_per_minute);
-        assert_eq!(closed, Some(1_584), "1.247 kgf/mm × 5 steps in 5 s at 25 kgf");
+        assert_eq!(closed, Some(1_584), "1.247 kgf/mm × 4 steps in 4 s at 25 kgf");
         // The window is fixed: later travel, however long the hold, does not move it.
         probe.holding(1_200, 120_000);
         assert_eq!(probe.creep(tension).map(CreepRate::centi_percent_per_minute), closed);
@@ -353,9 +353,9 @@ mod tests {
         assert_eq!(probe.creep(tension), None);
         probe.holding(1_300, 7_999);
         probe.holding(1_300, 8_000);
-        probe.holding(1_302, 13_000);
+        probe.holding(1_302, 12_000);
         let after = probe.creep(tension).map(CreepRate::centi_percent_per_minute);
-        assert_eq!(after, Some(633), "2 steps in 5 s");
+        assert_eq!(after, Some(792), "2 steps in 4 s");
     }
 
     #[test]

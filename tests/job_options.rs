@@ -30,7 +30,7 @@ struct Cli {
 fn args(line: &[&str]) -> Result<CycleOptions, String> {
     let cli = Cli::try_parse_from(std::iter::once("taut").chain(line.iter().copied()))
         .map_err(|e| e.to_string())?;
-    Ok(CycleOptions::from_args(&cli.job))
+    Ok(taut::job::options_from_args(&cli.job))
 }
 
 #[test]

@@ -34,7 +34,7 @@ use clap::Parser as _;
 use resvg::tiny_skia::{Pixmap, Transform};
 use resvg::usvg::{Options, Tree, fontdb};
 use taut::cli::{Cli, Command, ReportKind};
-use taut::job::{CycleOptions, CycleRun};
+use taut::job::CycleRun;
 use taut::plot::{Content, Figure, Geometry, Series};
 use taut::report::accuracy;
 
@@ -168,7 +168,7 @@ fn parse(args: &[&str]) -> Cli {
 #[test]
 fn the_main_jobs_plot() {
     let cli = parse(&["--hold", "4"]);
-    let options = CycleOptions::from_args(&cli.job);
+    let options = taut::job::options_from_args(&cli.job);
     let run: CycleRun = taut::job::run(&options, None, &mut |_| {}).expect("the job runs");
     let figure = taut::job::figure::figure(&run);
     let picture = check("cycle", &figure);
@@ -178,7 +178,7 @@ fn the_main_jobs_plot() {
 /// The main job's figure for `args`, checked and rendered as `name`.
 fn main_job(name: &str, args: &[&str]) -> (CycleRun, Figure, Picture) {
     let cli = parse(args);
-    let options = CycleOptions::from_args(&cli.job);
+    let options = taut::job::options_from_args(&cli.job);
     let run: CycleRun = taut::job::run(&options, None, &mut |_| {}).expect("the job runs");
     let figure = taut::job::figure::figure(&run);
     let picture = check(name, &figure);

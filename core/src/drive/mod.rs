@@ -502,6 +502,20 @@ impl Drive {
         self.command
     }
 
+    /// Applies one machine tick's drive outputs: holds `command`, then — if the machine asks —
+    /// releases a latched fault. The order is the rule: the clear is only granted with the
+    /// command already at coast (`clear_fault`), so a clear can never release a fault into a
+    /// drive command. Every binding (the firmware, the twin, the tick-cost replay) applies the
+    /// machine's outputs through this one function.
+    ///
+    /// # Errors
+    /// The clear was refused ([`Drive::clear_fault`]); the fault stays latched and the machine
+    /// sees it in the next status. Without a clear request, always `Ok`.
+    pub fn apply(&mut self, command: DriveCommand, clear_fault: bool) -> Result<(), ClearRefused> {
+        self.set_command(command);
+        if clear_fault { self.clear_fault() } else { Ok(()) }
+    }
+
     /// Releases a latched fault.
     ///
     /// # Errors
@@ -1428,6 +1442,27 @@ mod tests {
         drive.set_command(DriveCommand::Coast);
         assert_eq!(drive.clear_fault(), Ok(()));
         drive.set_command(pull(3_000));
+        assert_eq!(drive.step(sample(Sector::S0)).duty.raw(), 3_000);
+    }
+
+    #[test]
+    fn applying_outputs_sets_the_command_first_and_clears_only_when_asked_with_coast() {
+        let mut drive = settled(Sector::S0);
+        let hot = DriveSample { current: AdcCode::MAX, ..sample(Sector::S0) };
+        drive.set_command(pull(30_000));
+        assert_eq!(drive.step(hot), DriveOutput::OFF);
+        assert_eq!(drive.fault(), Some(DriveFault::Overcurrent));
+        // A clear together with a pull command is refused: the command is set first.
+        assert_eq!(drive.apply(pull(3_000), true), Err(ClearRefused::CommandNotZero));
+        assert_eq!(drive.command(), pull(3_000));
+        assert_eq!(drive.fault(), Some(DriveFault::Overcurrent));
+        // Coast without a clear request: the fault stays latched.
+        assert_eq!(drive.apply(DriveCommand::Coast, false), Ok(()));
+        assert_eq!(drive.fault(), Some(DriveFault::Overcurrent));
+        // Coast with the request: cleared, and the next command drives.
+        assert_eq!(drive.apply(DriveCommand::Coast, true), Ok(()));
+        assert_eq!(drive.fault(), None);
+        assert_eq!(drive.apply(pull(3_000), false), Ok(()));
         assert_eq!(drive.step(sample(Sector::S0)).duty.raw(), 3_000);
     }
 

@@ -23,8 +23,9 @@
 //!
 //! The drive's fast loop is separate ([`crate::drive::Drive`]): the machine sees it only
 //! through [`Inputs::drive`] and steers it only through [`Outputs::drive`] and
-//! [`Outputs::clear_drive_fault`]. The firmware applies `Outputs::drive` *before*
-//! `clear_drive_fault`, so a clear is always requested with the command already at coast.
+//! [`Outputs::clear_drive_fault`], which every binding hands to
+//! [`crate::drive::Drive::apply`]: the command first, then the clear, so a clear is always
+//! requested with the command already at coast.
 //!
 //! # Cost per tick
 //!

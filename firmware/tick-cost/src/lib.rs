@@ -525,10 +525,7 @@ pub fn replay(session: &Session<'_>, machine: &mut Machine, meter: &mut impl Met
         let outputs = meter.measure(Call::Tick(state), || tick_call(machine, &now));
         replayed.ticks = replayed.ticks.saturating_add(1);
         replayed.fingerprint = fold_outputs(replayed.fingerprint, &outputs);
-        drive.set_command(outputs.drive);
-        if outputs.clear_drive_fault {
-            let _refused = drive.clear_fault();
-        }
+        let _refused = drive.apply(outputs.drive, outputs.clear_drive_fault);
         if outputs.store {
             replayed.stores = replayed.stores.saturating_add(1);
             let record = *machine.record();

@@ -23,7 +23,8 @@
 //!   cell reads `m_g·a_t` above its reading at rest; summed over the window that is the
 //!   momentum `m_g·Δv`, which gives `m_g`. While the carriage brakes at `a` the cell reads
 //!   `m_g·a` low (a 1.1 kg gripper braked at 1.3 m/s²: 0.15 kgf) — a tension the braking
-//!   parabola would otherwise drive on into — so the controller adds [`Profile::gripper_bias`] to the reading
+//!   parabola would otherwise drive on into — so the controller adds
+//!   [`Profile::gripper_bias`] to the reading
 //!   for the observer in [`PullPhase::Approach`].
 //! - **Braking onset** ([`Profile::braking_due`]): a carriage at speed `v` into a string of
 //!   stiffness `K = ẏ/v`, braked at a constant deceleration `a`, adds `ẏ·v/(2a)` of tension

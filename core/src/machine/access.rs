@@ -194,4 +194,39 @@ mod tests {
             assert_eq!(machine.state(), state);
         }
     }
+
+    /// The reads: the fault history the service page shows, and a tick's figures.
+    #[test]
+    fn the_link_reads_the_fault_history_and_the_ticks_figures() {
+        use crate::drive::{Direction, DriveCommand, Duty};
+        use crate::io::LimitSwitches;
+        let record = Record { settings: settings_30kg(), ..Record::default() };
+        let mut machine: Machine = Machine::resume(record, &Checkpoint::at(MachineState::Ready));
+        let inputs = Inputs {
+            now_ms: 7,
+            drive: crate::drive::DriveStatus { steps: 17, ..Default::default() },
+            ..Inputs::default()
+        };
+        let outputs = Outputs {
+            drive: DriveCommand::Drive {
+                direction: Direction::Pull,
+                duty: Duty::from_raw_clamped(1_234),
+            },
+            ..Outputs::default()
+        };
+        let figures = LinkAccess::new(&mut machine).figures(&inputs, &outputs);
+        assert_eq!(figures.now_ms, 7);
+        assert_eq!(figures.state, MachineState::Ready);
+        assert_eq!(figures.target, Kgf::from_int(30));
+        assert_eq!(figures.carriage_steps, 17);
+        assert_eq!(figures.duty_raw, 1_234);
+        assert_eq!(LinkAccess::new(&mut machine).fault_history(), [None; 3]);
+        let both = LimitSwitches { home: true, end: true };
+        let _ = machine.tick(&Inputs { now_ms: 8, limits: both, ..Inputs::default() });
+        let access = LinkAccess::new(&mut machine);
+        assert_eq!(access.state(), MachineState::Fault(FaultCode::LimitsBoth));
+        assert_eq!(access.fault_history()[0], Some(FaultCode::LimitsBoth));
+        assert_eq!(access.record().settings, settings_30kg());
+        assert_eq!(access.log().len(), 0);
+    }
 }

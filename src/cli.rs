@@ -72,6 +72,14 @@ pub enum Command {
     },
     /// One pull, hold and release with a tension controller alone on the twin.
     Pull(PullArgs),
+    /// Live tension and events from a machine over its link (--port PORT, or --twin).
+    Connect(crate::link::commands::ConnectArgs),
+    /// A machine's pull log, to CSV, JSON or the terminal, over its link.
+    Log(crate::link::commands::LogArgs),
+    /// A machine's settings, presets and calibration to a backup file, over its link.
+    Backup(crate::link::commands::BackupArgs),
+    /// A backup's settings, presets and calibration back onto a machine, over its link.
+    Restore(crate::link::commands::RestoreArgs),
 }
 
 /// The reports.

@@ -34,6 +34,7 @@
 
 pub mod cli;
 pub mod job;
+pub mod link;
 pub mod output;
 pub mod panel;
 pub mod paper;

@@ -17,6 +17,10 @@ fn main() {
         Some(Command::Panel(args)) => taut::panel::main(args),
         Some(Command::Paper(args)) => taut::paper::main(args),
         Some(Command::Pull(args)) => taut::pull::main(args),
+        Some(Command::Connect(args)) => taut::link::commands::connect(args),
+        Some(Command::Log(args)) => taut::link::commands::log(args),
+        Some(Command::Backup(args)) => taut::link::commands::backup(args),
+        Some(Command::Restore(args)) => taut::link::commands::restore(args),
         Some(Command::Report { which }) => match which {
             ReportKind::Accuracy(args) => taut::report::accuracy::main(args),
             ReportKind::Ablation(args) => taut::report::ablation::main(args),

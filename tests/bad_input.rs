@@ -209,6 +209,28 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     // ── unknown subcommands and options ──
     (&["report", "speed"], USAGE, "unrecognized subcommand"),
     (&["pull", "--force", "9"], USAGE, "--force"),
+    // ── the machine link ──
+    (&["connect", "--port", "SCRIPTS/no-such-port"], RUNTIME, "cannot open"),
+    (&["connect", "--twin", "--port", "x"], USAGE, "cannot be used with"),
+    (&["connect", "--twin", "--pulls", "21"], USAGE, "--pulls"),
+    (&["connect", "--twin", "--period-ms", "5"], USAGE, "--period-ms"),
+    (&["connect", "--twin", "--seconds", "0"], USAGE, "--seconds"),
+    (&["log", "--port", "SCRIPTS/no-such-port"], RUNTIME, "cannot open"),
+    (&["log", "--twin", "--pulls", "abc"], USAGE, "--pulls"),
+    (&["log", "--twin", "--csv", "UNWRITABLE/log.csv"], USAGE, "error: --csv "),
+    (&["log", "--twin", "--json", "UNWRITABLE/log.json"], USAGE, "error: --json "),
+    (
+        &["backup", "--port", "SCRIPTS/no-such-port", "--out", "SCRIPTS/b.json"],
+        RUNTIME,
+        "cannot open",
+    ),
+    (&["backup", "--twin", "--out", "UNWRITABLE/backup.json"], USAGE, "error: --out "),
+    (
+        &["restore", "SCRIPTS/missing.json", "--port", "SCRIPTS/no-such-port"],
+        RUNTIME,
+        "cannot read",
+    ),
+    (&["restore", "SCRIPTS/bad.script", "--twin"], RUNTIME, "not a taut backup"),
 ];
 
 #[test]

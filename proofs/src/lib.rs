@@ -27,6 +27,7 @@
 
 pub mod drive;
 pub mod fixed_point;
+pub mod link;
 pub mod machine;
 pub mod machine_model;
 pub mod machine_store;

@@ -34,6 +34,7 @@
 //! superstates, one controller step in the moving states and a four-digit render. Nothing
 //! loops over the log or the record.
 
+pub mod access;
 mod chart;
 pub mod fault;
 pub mod log;

@@ -1,0 +1,320 @@
+//! The machine's side of the link: requests in, replies, samples and events out.
+//!
+//! # Theory of operation
+//!
+//! The board's binding (the firmware's link task, or the twin) owns a [`Server`] and calls
+//!
+//! - [`Server::receive`] with the bytes that arrived on the line: they are deframed, each
+//!   complete request is answered ([`Server::respond`]) and the answer framed into the
+//!   [`Sink`]; a frame that does not decode is answered with
+//!   [`Refusal::BadFrame`](crate::message::Refusal::BadFrame);
+//! - [`Server::observe`] after each machine tick, with that tick's inputs and outputs: while
+//!   the host asked for a stream, a [`LiveSample`] every period, an [`Event`] at each state
+//!   change, latched fault (with the inputs that latched it) and logged pull.
+//!
+//! Both take the machine only as a [`LinkAccess`], whose only write is a record proposal
+//! that core accepts only while idle in Ready, so nothing here can move the machine
+//! (REQ-LINK-02). Neither blocks: a sink that is full drops the message and the server
+//! reports the count in the next [`Event::Dropped`] it can send. The work per call is
+//! bounded by the bytes handed in (the binding hands in what the line delivered, at most a
+//! DMA buffer).
+
+use taut_core::io::{Inputs, Outputs};
+use taut_core::machine::MachineState;
+use taut_core::machine::access::{LinkAccess, WriteRefused};
+use taut_core::store::{FORMAT_VERSION, RECORD_LEN, Record};
+
+use crate::frame::{Deframer, MAX_FRAME, encode};
+use crate::message::{
+    BoardId, Command, Event, Faults, Identity, InputSnapshot, LOG_PAGE_ENTRIES, LiveSample,
+    LogEntry, LogPage, Message, PROTOCOL_VERSION, RECORD_PART_LEN, RECORD_PARTS, Refusal, Request,
+    Response, SAMPLE_PERIOD_MIN_MS, Status, WireSettings, WireState,
+};
+
+/// Where the server's frames go: the line's transmit queue.
+pub trait Sink {
+    /// Queues one whole frame; `false` when there is no room (the frame is dropped).
+    fn send(&mut self, frame: &[u8]) -> bool;
+}
+
+/// The machine's side of the link (see the module docs).
+#[derive(Clone, Debug)]
+pub struct Server {
+    board: BoardId,
+    firmware: [u8; 3],
+    deframer: Deframer,
+    staged: [u8; RECORD_LEN],
+    staged_parts: u8,
+    period_ms: u16,
+    last_sample_ms: Option<u32>,
+    last_state: Option<MachineState>,
+    last_pulls: Option<u32>,
+    dropped: u16,
+}
+
+impl Server {
+    /// A server for board `board` running firmware `firmware` (major, minor, patch).
+    #[must_use]
+    pub const fn new(board: BoardId, firmware: [u8; 3]) -> Self {
+        Self {
+            board,
+            firmware,
+            deframer: Deframer::new(),
+            staged: [0; RECORD_LEN],
+            staged_parts: 0,
+            period_ms: 0,
+            last_sample_ms: None,
+            last_state: None,
+            last_pulls: None,
+            dropped: 0,
+        }
+    }
+
+    /// The sample period the host asked for, ms (0: not streaming).
+    #[must_use]
+    pub const fn period_ms(&self) -> u16 {
+        self.period_ms
+    }
+
+    /// Takes `bytes` from the line; answers every request they complete.
+    pub fn receive<const LOG: usize>(
+        &mut self,
+        bytes: &[u8],
+        machine: &mut LinkAccess<'_, LOG>,
+        sink: &mut impl Sink,
+    ) {
+        for &byte in bytes {
+            let (reply_to, response) = match self.deframer.push::<Command>(byte) {
+                None => continue,
+                Some(Ok(command)) => (Some(command.seq), self.respond(&command.request, machine)),
+                Some(Err(_)) => (None, Response::Refused(Refusal::BadFrame)),
+            };
+            self.send(&Message { reply_to, response }, sink);
+        }
+    }
+
+    /// The answer to `request` (the only place a request acts).
+    pub fn respond<const LOG: usize>(
+        &mut self,
+        request: &Request,
+        machine: &mut LinkAccess<'_, LOG>,
+    ) -> Response {
+        let record = *machine.record();
+        match *request {
+            Request::Hello => Response::Identity(Identity {
+                protocol: PROTOCOL_VERSION,
+                firmware: self.firmware,
+                board: self.board,
+                record_format: FORMAT_VERSION,
+                boots: record.counters.boots,
+                pulls: record.counters.pulls,
+                calibrated: record.calibration.is_some(),
+                calibration_age_boots: None,
+            }),
+            Request::ReadLog { page } => Self::log_page(page, machine),
+            Request::ReadStatus => Response::Status(Status {
+                state: machine.state().into(),
+                pulls: record.counters.pulls,
+                string_used_mm: record.counters.string_used_mm,
+                boots: record.counters.boots,
+                settings: record.settings.into(),
+                preferences: record.preferences.into(),
+            }),
+            Request::ReadPreset { index } => match record.presets.get(usize::from(index)) {
+                Some(preset) => Response::Preset { index, settings: (*preset).into() },
+                None => Response::Refused(Refusal::OutOfRange),
+            },
+            Request::ReadRecord { part } => {
+                let bytes = record.encode();
+                match part_range(part).and_then(|range| bytes.get(range)) {
+                    Some(slice) => {
+                        let mut part_bytes = [0u8; RECORD_PART_LEN];
+                        part_bytes.copy_from_slice(slice);
+                        Response::RecordPart { part, bytes: part_bytes }
+                    }
+                    None => Response::Refused(Refusal::OutOfRange),
+                }
+            }
+            Request::ReadFaults => Response::Faults(Faults {
+                latched: match machine.state() {
+                    MachineState::Fault(code) => Some(code.number()),
+                    _ => None,
+                },
+                history: machine.fault_history().map(|code| code.map(|c| c.number())),
+            }),
+            Request::Stream { period_ms } => {
+                self.period_ms =
+                    if period_ms == 0 { 0 } else { period_ms.max(SAMPLE_PERIOD_MIN_MS) };
+                self.last_sample_ms = None;
+                Response::Accepted
+            }
+            Request::WriteSettings { settings, preferences } => match settings.to_settings() {
+                Ok(settings) => Self::propose(
+                    machine,
+                    &Record { settings, preferences: preferences.into(), ..record },
+                ),
+                Err(error) => Response::Refused(Refusal::Settings(error)),
+            },
+            Request::WritePreset { index, settings } => {
+                Self::write_preset(machine, record, index, settings)
+            }
+            Request::StageRecord { part, bytes } => {
+                match part_range(part).and_then(|range| self.staged.get_mut(range)) {
+                    Some(slot) => {
+                        slot.copy_from_slice(&bytes);
+                        self.staged_parts |= 1u8.checked_shl(u32::from(part)).unwrap_or(0);
+                        Response::Accepted
+                    }
+                    None => Response::Refused(Refusal::OutOfRange),
+                }
+            }
+            Request::CommitRecord => {
+                let complete = self.staged_parts == (1u8 << RECORD_PARTS).wrapping_sub(1);
+                self.staged_parts = 0;
+                match Record::decode(&self.staged) {
+                    Ok(staged) if complete => Self::propose(machine, &staged),
+                    _ => Response::Refused(Refusal::InvalidRecord),
+                }
+            }
+        }
+    }
+
+    /// After each machine tick: samples and events while streaming (see the module docs).
+    pub fn observe<const LOG: usize>(
+        &mut self,
+        inputs: &Inputs,
+        outputs: &Outputs,
+        machine: &LinkAccess<'_, LOG>,
+        sink: &mut impl Sink,
+    ) {
+        let figures = machine.figures(inputs, outputs);
+        let state = figures.state;
+        let pulls = machine.record().counters.pulls;
+        let previous_state = self.last_state.replace(state);
+        let previous_pulls = self.last_pulls.replace(pulls);
+        if self.period_ms == 0 {
+            return;
+        }
+        if self.dropped > 0 {
+            let count = core::mem::take(&mut self.dropped);
+            self.notify(Response::Event(Event::Dropped { count }), sink);
+        }
+        if let Some(from) = previous_state.filter(|from| *from != state) {
+            let time_ms = inputs.now_ms;
+            let change = Event::State { time_ms, from: from.into(), to: state.into() };
+            self.notify(Response::Event(change), sink);
+            if let MachineState::Fault(code) = state {
+                let snapshot = InputSnapshot {
+                    load_cell_code: inputs.load_cell.get(),
+                    motor_current_code: inputs.motor_current.get(),
+                    bus_voltage_code: inputs.bus_voltage.get(),
+                    carriage_steps: inputs.drive.steps,
+                    current_milli_amps: inputs.drive.current.to_milli(),
+                    bus_milli_volts: inputs.drive.bus.to_milli(),
+                    home_limit: inputs.limits.home,
+                    end_limit: inputs.limits.end,
+                    drive_fault: inputs.drive.fault.is_some(),
+                };
+                let fault = Event::Fault { time_ms, code: code.number(), inputs: snapshot };
+                self.notify(Response::Event(fault), sink);
+            }
+        }
+        if previous_pulls.is_some_and(|before| before != pulls) {
+            if let Some(last) = machine.log().last() {
+                let entry = LogEntry::from_record(pulls, last);
+                self.notify(Response::Event(Event::Logged(entry)), sink);
+            }
+        }
+        let due = self
+            .last_sample_ms
+            .is_none_or(|last| inputs.now_ms.wrapping_sub(last) >= u32::from(self.period_ms));
+        if due {
+            self.last_sample_ms = Some(inputs.now_ms);
+            let sample = LiveSample {
+                time_ms: figures.now_ms,
+                state: WireState::from(state),
+                target_milli_kgf: figures.target.to_milli(),
+                tension_milli_kgf: figures.tension.to_milli(),
+                carriage_steps: figures.carriage_steps,
+                duty_raw: figures.duty_raw,
+                current_milli_amps: figures.current.to_milli(),
+                bus_milli_volts: figures.bus.to_milli(),
+            };
+            self.notify(Response::Sample(sample), sink);
+        }
+    }
+
+    /// Frames `message` into `sink`, counting it when it cannot be sent.
+    fn send(&mut self, message: &Message, sink: &mut impl Sink) {
+        let mut frame = [0u8; MAX_FRAME];
+        let sent = match encode(message, &mut frame) {
+            Ok(len) => frame.get(..len).is_some_and(|bytes| sink.send(bytes)),
+            Err(_) => false,
+        };
+        if !sent {
+            self.dropped = self.dropped.saturating_add(1);
+        }
+    }
+
+    /// Sends a sample or an event (a message that answers no command).
+    fn notify(&mut self, response: Response, sink: &mut impl Sink) {
+        self.send(&Message { reply_to: None, response }, sink);
+    }
+
+    /// Page `page` of the log, latest first.
+    fn log_page<const LOG: usize>(page: u8, machine: &LinkAccess<'_, LOG>) -> Response {
+        let log = machine.log();
+        let first = usize::from(page).saturating_mul(LOG_PAGE_ENTRIES);
+        if page > 0 && first >= log.len() {
+            return Response::Refused(Refusal::OutOfRange);
+        }
+        let pulls = machine.record().counters.pulls;
+        let mut entries = [None; LOG_PAGE_ENTRIES];
+        for (offset, slot) in entries.iter_mut().enumerate() {
+            let back = first.saturating_add(offset);
+            *slot = log.back(back).map(|record| {
+                let number = pulls.saturating_sub(u32::try_from(back).unwrap_or(u32::MAX));
+                LogEntry::from_record(number, record)
+            });
+        }
+        let total = u8::try_from(log.len()).unwrap_or(u8::MAX);
+        Response::LogPage(LogPage { page, total, entries })
+    }
+
+    /// Proposes `record` with preset `index` replaced by `settings`.
+    fn write_preset<const LOG: usize>(
+        machine: &mut LinkAccess<'_, LOG>,
+        mut record: Record,
+        index: u8,
+        settings: WireSettings,
+    ) -> Response {
+        let settings = match settings.to_settings() {
+            Ok(settings) => settings,
+            Err(error) => return Response::Refused(Refusal::Settings(error)),
+        };
+        match record.presets.get_mut(usize::from(index)) {
+            Some(slot) => *slot = settings,
+            None => return Response::Refused(Refusal::OutOfRange),
+        }
+        Self::propose(machine, &record)
+    }
+
+    /// Proposes `record` to the machine.
+    fn propose<const LOG: usize>(machine: &mut LinkAccess<'_, LOG>, record: &Record) -> Response {
+        match machine.propose_record(record) {
+            Ok(()) => Response::Accepted,
+            Err(WriteRefused::NotIdle) => Response::Refused(Refusal::NotIdle),
+            Err(WriteRefused::InvalidSettings) => Response::Refused(Refusal::InvalidRecord),
+            Err(WriteRefused::InvalidCalibration) => Response::Refused(Refusal::InvalidCalibration),
+        }
+    }
+}
+
+/// The byte range of record part `part`, if there is one.
+fn part_range(part: u8) -> Option<core::ops::Range<usize>> {
+    if part >= RECORD_PARTS {
+        return None;
+    }
+    let start = usize::from(part).saturating_mul(RECORD_PART_LEN);
+    Some(start..start.saturating_add(RECORD_PART_LEN))
+}

@@ -4,6 +4,12 @@
 //! nothing, and a run whose tool is missing proves nothing, so both must fail loudly. These
 //! tests hold the tables to today's tree (`--check`) and show that the scripts do fail: on a
 //! tree without the text, and when Kani is not there. Nothing here writes into the repository.
+#![allow(
+    clippy::expect_used,
+    clippy::unwrap_used,
+    clippy::panic,
+    reason = "a test: a panic is how it reports"
+)]
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

@@ -342,7 +342,8 @@ pub fn to_json(rows: &[Estimate], hold_ms: u64) -> Value {
 /// The JSON file cannot be written.
 pub fn main(args: &StringArgs) -> Status {
     let outputs = Outputs::new().file("--json", args.json.as_deref()).check()?;
-    let hold_ms = u64::from(args.hold) * 1_000;
+    // Within HOLD_MIN_MS..=HOLD_MAX_MS (the parser's range): the cast is exact.
+    let hold_ms = u64::from((args.hold * 1_000.0).round() as u32);
     let rows = run(args.seeds, hold_ms);
     let files: Vec<_> =
         args.json.iter().map(|path| (path.clone(), json_bytes(&to_json(&rows, hold_ms)))).collect();

@@ -266,7 +266,16 @@ fn the_pull_plot() {
     let cli = parse(&["pull", "--tension", "25", "--hold", "4"]);
     let Some(Command::Pull(args)) = &cli.command else { panic!("pull") };
     let pull = taut::pull::run(args).expect("the pull runs");
-    check("pull", &pull.figure(args));
+    let figure = pull.figure(args);
+    check("pull", &figure);
+    // In the hold zoom the measured tension does not bury the true one: within 0.05 kgf rms.
+    let zoom = figure.panels.len() - 1;
+    let measured = series(&figure, zoom, "measured").expect("the measured tension");
+    let truth = series(&figure, zoom, "true").expect("the true tension");
+    let squares: f64 =
+        measured.points.iter().zip(&truth.points).map(|(m, t)| (m.1 - t.1).powi(2)).sum();
+    let rms = (squares / truth.points.len() as f64).sqrt();
+    assert!(rms < 0.05, "the measured tension strays {rms:.3} kgf rms from the true one");
 }
 
 #[test]

@@ -1,7 +1,7 @@
 //! The reports: Monte-Carlo runs on the family of machines, each through the one bench.
 //!
 //! - [`accuracy`]: controllers on scenarios of the family (machine, string, target), the
-//!   figures issue 8 defines, against the *true* tension;
+//!   figures its goals are stated in (`docs/RESULTS.md`), against the *true* tension;
 //! - [`ablation`]: taut with each improvement switched off in turn, on the same scenarios;
 //! - [`robustness`]: each uncertainty axis of the family swept alone;
 //! - [`machine`]: whole machine cycles with injected string breaks and faults;

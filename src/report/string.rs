@@ -20,7 +20,7 @@
 //!   over the twin's relaxation arms, averaged over the same window the machine measures in
 //!   (from 1 s into the hold to the release), as a share of the true tension per minute.
 //!
-//! Acceptance (issue 15): stiffness within 10 % and creep within 20 % of the truth.
+//! Acceptance: stiffness within 10 % and creep within 20 % of the truth.
 
 use std::fmt::Write as _;
 

@@ -354,3 +354,31 @@ pub fn main(args: &StringArgs) -> Status {
     }
     Ok(rows.iter().all(Estimate::accepted))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_report_is_markdown_with_rounded_rows() {
+        let row = Estimate {
+            kind: StringKind::TennisSynthetic,
+            machine: "nominal".to_owned(),
+            speed: 3,
+            target_kgf: 25.0,
+            stiffness_true: 0.748_123_456,
+            stiffness_instantaneous: 0.758_333_333,
+            stiffness_estimate: 0.747_654_321,
+            creep_true: 35.281_234,
+            creep_estimate: 35.391_234,
+            failure: None,
+        };
+        let text = text(&[row], 20_000);
+        let lines: Vec<&str> = text.lines().collect();
+        let header = lines.iter().position(|l| l.starts_with("| string |"));
+        let header = header.unwrap_or(usize::MAX);
+        assert!(header < lines.len(), "no table header in\n{text}");
+        assert!(lines.get(header + 1).is_some_and(|l| l.starts_with("|---|")), "{text}");
+        assert!(super::super::rounded(&text, 3), "a raw float in\n{text}");
+    }
+}

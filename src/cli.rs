@@ -11,7 +11,7 @@ use std::ops::RangeInclusive;
 use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use taut_core::machine::string::{CREEP_MIN_MS, CREEP_SETTLE_MS};
+use taut_core::machine::string::{CREEP_SETTLE_MS, CREEP_WINDOW_MS};
 use taut_core::settings::{SetPoint, Unit};
 use taut_sim::{CurrentSenseParams, StringKind, TwinConfig};
 
@@ -96,10 +96,10 @@ pub enum ReportKind {
 
 // ───────────────────────────── value parsers ─────────────────────────────
 
-/// The shortest hold every command accepts, ms: the machine's creep window opens
-/// [`CREEP_SETTLE_MS`] into the hold and needs [`CREEP_MIN_MS`] to give a rate, so a shorter
-/// hold logs a pull without its creep.
-pub const HOLD_MIN_MS: u32 = CREEP_SETTLE_MS + CREEP_MIN_MS;
+/// The shortest hold every command accepts, ms: the machine measures the creep over a fixed
+/// window, [`CREEP_WINDOW_MS`] long from [`CREEP_SETTLE_MS`] into the hold, so a shorter hold
+/// logs a pull without its creep.
+pub const HOLD_MIN_MS: u32 = CREEP_SETTLE_MS + CREEP_WINDOW_MS;
 
 /// The longest hold every command accepts, ms: ten minutes, longer than a stringer holds a
 /// string, and still a few seconds of the twin's time per pull.
@@ -322,8 +322,8 @@ pub struct JobArgs {
     /// sensors and board drawn from their ranges) instead of the nominal machine.
     #[arg(long, allow_negative_numbers = true, value_name = "N", value_parser = seed)]
     pub seed: Option<u64>,
-    /// Seconds the operator lets the machine hold before releasing (4–600, as in every
-    /// command: the creep window needs 4 s).
+    /// Seconds the operator lets the machine hold before releasing (5–600, as in every
+    /// command: the creep window ends 5 s into the hold).
     #[arg(long, allow_negative_numbers = true, default_value = "5", value_name = "SECONDS", value_parser = hold_seconds)]
     pub hold: f64,
     /// Skip the commissioning calibration: the machine runs on the tared, uncorrected sensor.
@@ -417,7 +417,7 @@ pub struct PullArgs {
     /// Speed setting, 1–9.
     #[arg(long, allow_negative_numbers = true, default_value_t = 9, value_parser = whole(1_u8, 9))]
     pub speed: u8,
-    /// Seconds to hold after Start before releasing (4–600, as in every command).
+    /// Seconds to hold after Start before releasing (5–600, as in every command).
     #[arg(long, allow_negative_numbers = true, default_value = "12", value_name = "SECONDS", value_parser = hold_seconds)]
     pub hold: f64,
     /// Machine N of the twin's family instead of the nominal machine.
@@ -632,8 +632,8 @@ pub struct StringArgs {
     /// Machines of the family per string preset, beside the nominal machine.
     #[arg(long, allow_negative_numbers = true, default_value_t = 2, value_parser = whole(0_u64, 1_000))]
     pub seeds: u64,
-    /// Seconds the operator holds before releasing (4–600, as in every command; the creep
-    /// window is the hold less 1 s).
+    /// Seconds the operator holds before releasing (5–600, as in every command; the creep
+    /// window is from 1 s to 5 s of the hold).
     #[arg(long, allow_negative_numbers = true, default_value = "20", value_name = "SECONDS", value_parser = hold_seconds)]
     pub hold: f64,
     /// Write the JSON summary here.

@@ -34,7 +34,7 @@ use clap::Parser as _;
 use resvg::tiny_skia::{Pixmap, Transform};
 use resvg::usvg::{Options, Tree, fontdb};
 use taut::cli::{Cli, Command, ReportKind};
-use taut::job::{CycleOptions, CycleRun};
+use taut::job::CycleRun;
 use taut::plot::{Content, Figure, Geometry, Series};
 use taut::report::accuracy;
 
@@ -174,8 +174,8 @@ fn parse(args: &[&str]) -> Cli {
 
 #[test]
 fn the_main_jobs_plot() {
-    let cli = parse(&["--hold", "4"]);
-    let options = CycleOptions::from_args(&cli.job);
+    let cli = parse(&["--hold", "5"]);
+    let options = taut::job::options_from_args(&cli.job);
     let run: CycleRun = taut::job::run(&options, None, &mut |_| {}).expect("the job runs");
     let figure = taut::job::figure::figure(&run);
     let picture = check("cycle", &figure);
@@ -185,7 +185,7 @@ fn the_main_jobs_plot() {
 /// The main job's figure for `args`, checked and rendered as `name`.
 fn main_job(name: &str, args: &[&str]) -> (CycleRun, Figure, Picture) {
     let cli = parse(args);
-    let options = CycleOptions::from_args(&cli.job);
+    let options = taut::job::options_from_args(&cli.job);
     let run: CycleRun = taut::job::run(&options, None, &mut |_| {}).expect("the job runs");
     let figure = taut::job::figure::figure(&run);
     let picture = check(name, &figure);
@@ -205,7 +205,7 @@ fn series<'a>(figure: &'a Figure, panel: usize, label: &str) -> Option<&'a Serie
 /// marked off scale.
 #[test]
 fn an_uncalibrated_runs_hold_zoom_shows_the_hold() {
-    let (_, figure, picture) = main_job("cycle-uncalibrated", &["--uncalibrated", "--hold", "4"]);
+    let (_, figure, picture) = main_job("cycle-uncalibrated", &["--uncalibrated", "--hold", "5"]);
     let zoom = figure.panels.last().unwrap();
     let (lo, hi) = zoom.y_range.expect("a fixed zoom");
     let held = series(&figure, figure.panels.len() - 1, "true tension").unwrap();
@@ -233,7 +233,7 @@ fn an_uncalibrated_runs_hold_zoom_shows_the_hold() {
 fn a_job_in_pounds_with_a_pre_stretch_is_plotted_in_pounds_with_its_peak_target() {
     let (run, figure, _) = main_job(
         "cycle-lb-prestretch",
-        &["--tension", "55lb", "--pre-stretch", "10", "--hold", "4"],
+        &["--tension", "55lb", "--pre-stretch", "10", "--hold", "5"],
     );
     assert!(run.completed);
     assert_eq!(figure.panels[0].y_label, "tension (lb)");
@@ -253,7 +253,7 @@ fn a_job_in_pounds_with_a_pre_stretch_is_plotted_in_pounds_with_its_peak_target(
 /// across the tension panel.
 #[test]
 fn a_faulted_runs_plot_marks_the_fault() {
-    let (run, figure, _) = main_job("cycle-fault", &["--string", "none", "--hold", "4"]);
+    let (run, figure, _) = main_job("cycle-fault", &["--string", "none", "--hold", "5"]);
     assert!(!run.completed);
     assert!(figure.title.contains("fault E-16 at"), "{}", figure.title);
     let mark = series(&figure, 0, "fault E-16 at").expect("the fault is marked");
@@ -263,7 +263,7 @@ fn a_faulted_runs_plot_marks_the_fault() {
 
 #[test]
 fn the_pull_plot() {
-    let cli = parse(&["pull", "--tension", "25", "--hold", "4"]);
+    let cli = parse(&["pull", "--tension", "25", "--hold", "5"]);
     let Some(Command::Pull(args)) = &cli.command else { panic!("pull") };
     let pull = taut::pull::run(args).expect("the pull runs");
     let figure = pull.figure(args);

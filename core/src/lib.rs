@@ -41,6 +41,7 @@
 #[cfg(feature = "arbitrary")]
 extern crate std;
 
+mod codes;
 pub mod drive;
 pub mod fixed;
 pub mod io;

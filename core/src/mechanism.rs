@@ -9,7 +9,7 @@
 //! conversion between Hall steps and carriage travel in taut — the controller's speed and
 //! travel, the observer's stiffness, the no-string rule's 150 mm — is computed here from
 //! these three numbers at compile time, so a machine with another gearbox or screw is a change
-//! of one constant, not a hunt for the four places that had 52.9 µm written into them.
+//! of one constant.
 //!
 //! These are nameplate facts (what the motor and the screw are sold as), not identified ones:
 //! the mechanism's dynamics (inertia, friction, efficiency) are identified on the machine

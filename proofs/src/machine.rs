@@ -85,15 +85,7 @@ impl TickInput {
     /// The machine inputs this stands for.
     #[must_use]
     pub fn inputs(&self) -> Inputs {
-        let fault = match self.drive_fault {
-            1 => Some(DriveFault::Overcurrent),
-            2 => Some(DriveFault::OvercurrentTrip),
-            3 => Some(DriveFault::HallInvalid),
-            4 => Some(DriveFault::SectorSkipped),
-            5 => Some(DriveFault::BusOvervoltage),
-            6 => Some(DriveFault::CurrentSenseZero),
-            _ => None,
-        };
+        let fault = DriveFault::from_number(self.drive_fault);
         Inputs {
             now_ms: self.now_ms,
             load_cell: AdcCode::new(self.load_cell),

@@ -196,6 +196,7 @@
 pub mod bench;
 pub mod drift;
 pub mod family;
+pub mod job;
 pub mod motor;
 pub mod operator;
 pub mod params;

@@ -621,15 +621,11 @@ impl Twin {
         Inputs { keys: self.keys, limits: self.wired_limits(), ..self.sampled }
     }
 
-    /// Applies one tick's outputs: the drive command goes to `Drive::set_command`, a clear
-    /// request to `Drive::clear_fault` (after the command, so clearing works only together
-    /// with coast), and the panel outputs are recorded.
+    /// Applies one tick's outputs: the drive's through `Drive::apply` (the command, then a
+    /// clear request), and the panel outputs are recorded.
     pub fn apply(&mut self, outputs: &Outputs) {
-        self.drive.set_command(outputs.drive);
-        if outputs.clear_drive_fault {
-            // A refusal leaves the fault latched; the machine sees it in `Inputs::drive`.
-            let _refused = self.drive.clear_fault();
-        }
+        // A refused clear leaves the fault latched; the machine sees it in `Inputs::drive`.
+        let _refused = self.drive.apply(outputs.drive, outputs.clear_drive_fault);
         self.outputs = *outputs;
     }
 

@@ -30,102 +30,32 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use taut_core::machine::PullRecord;
-use taut_core::settings::{PullKind, SetPoint, Settings};
+use taut_core::settings::Settings;
 use taut_core::store::Record;
+use taut_sim::TwinConfig;
 use taut_sim::bench::{
     Bench, Commissioning, Progress, Row, Session, SessionError, Transition, commission,
     factory_config, kgf, run_session, state_name,
 };
-use taut_sim::operator::{Operator, Plan, display};
-use taut_sim::{StringKind, TwinConfig};
+use taut_sim::operator::{Operator, display};
 
 use crate::cli::{DEFAULT_CYCLE_SVG, JobArgs};
 use crate::output::{Failure, Outputs, Status, json_bytes, to_stderr};
 
-/// Default hold time of the job, ms: a few seconds of constant pull while the string creeps.
-pub const DEFAULT_HOLD_MS: u32 = 5_000;
+pub use taut_sim::job::{CycleOptions, DEFAULT_HOLD_MS};
 
-/// What the main job does: the operator's settings, the machine's string and scenario, how
-/// long to hold.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub struct CycleOptions {
-    /// The tension to set, in the unit the operator keys it in.
-    pub set_point: SetPoint,
-    /// The string on the machine.
-    pub string: StringKind,
-    /// Speed setting, 1–9.
-    pub speed: u8,
-    /// Pre-stretch, percent (0–30, steps of 5).
-    pub pre_stretch_percent: u8,
-    /// `Some(p)`: a knot pull with the knot increase set to `p` % (0–20, steps of 5).
-    pub knot_percent: Option<u8>,
-    /// Machine `seed` of the twin's family instead of the nominal machine.
-    pub seed: Option<u64>,
-    /// How long the operator lets the machine hold before releasing, ms.
-    pub hold_ms: u32,
-    /// Whether the commissioning session calibrates the load cell (otherwise the machine
-    /// runs on the uncorrected, tared sensor).
-    pub calibrate: bool,
-}
-
-impl Default for CycleOptions {
-    fn default() -> Self {
-        Self {
-            set_point: SetPoint::DEFAULT,
-            string: StringKind::TennisSynthetic,
-            speed: 5,
-            pre_stretch_percent: 0,
-            knot_percent: None,
-            seed: None,
-            hold_ms: DEFAULT_HOLD_MS,
-            calibrate: true,
-        }
-    }
-}
-
-impl CycleOptions {
-    /// The options the command line asks for (clap has validated every value).
-    #[must_use]
-    pub fn from_args(args: &JobArgs) -> Self {
-        Self {
-            set_point: args.tension,
-            string: args.string.into(),
-            speed: args.speed,
-            pre_stretch_percent: args.pre_stretch,
-            knot_percent: args.knot,
-            seed: args.seed,
-            hold_ms: (args.hold * 1_000.0).round() as u32,
-            calibrate: !args.uncalibrated,
-        }
-    }
-
-    /// The panel settings the operator will key in.
-    ///
-    /// # Errors
-    /// [`JobError::Settings`] when a value is out of the panel's range.
-    pub fn settings(&self) -> Result<Settings, JobError> {
-        Settings::new(
-            self.set_point,
-            self.speed,
-            self.pre_stretch_percent,
-            self.knot_percent.unwrap_or(0),
-        )
-        .map_err(|_| JobError::Settings)
-    }
-
-    /// The twin's configuration: nominal, or machine [`Self::seed`] of the family.
-    #[must_use]
-    pub fn twin_config(&self) -> TwinConfig {
-        self.seed.map_or_else(
-            || TwinConfig::nominal(self.string),
-            |seed| TwinConfig::family_kind(self.string, seed),
-        )
-    }
-
-    /// The kind of pull the job makes.
-    #[must_use]
-    pub const fn pull_kind(&self) -> PullKind {
-        if self.knot_percent.is_some() { PullKind::Knot } else { PullKind::Main }
+/// The options the command line asks for (clap has validated every value).
+#[must_use]
+pub fn options_from_args(args: &JobArgs) -> CycleOptions {
+    CycleOptions {
+        set_point: args.tension,
+        string: args.string.into(),
+        speed: args.speed,
+        pre_stretch_percent: args.pre_stretch,
+        knot_percent: args.knot,
+        seed: args.seed,
+        hold_ms: (args.hold * 1_000.0).round() as u32,
+        calibrate: !args.uncalibrated,
     }
 }
 
@@ -199,7 +129,8 @@ pub fn run(
     progress: &mut dyn FnMut(&Progress<'_>),
 ) -> Result<CycleRun, JobError> {
     let started = Instant::now();
-    let settings = options.settings()?;
+    let plan = options.plan().map_err(|_| JobError::Settings)?;
+    let settings = plan.settings;
     let config = options.twin_config();
     let commissioning = match commissioning {
         Some(c) => c.clone(),
@@ -207,12 +138,6 @@ pub fn run(
             .map_err(JobError::Session)?,
     };
     let mut bench = Bench::power_up(&config, &commissioning.flash).recording();
-    let plan = Plan {
-        calibrate: false,
-        settings,
-        knot_mode: options.knot_percent.is_some(),
-        pull_hold_ms: Some(options.hold_ms),
-    };
     let mut operator = Operator::new(plan);
     let mut tail: Option<u64> = None;
     run_session(&mut bench, &mut operator, Session::Job, progress, |bench, operator| {
@@ -271,7 +196,7 @@ pub fn main(args: &JobArgs) -> Status {
         .file_or_default("--svg", args.svg.as_deref(), &svg)
         .file("--json", args.json.as_deref())
         .check()?;
-    let options = CycleOptions::from_args(args);
+    let options = options_from_args(args);
     let terminal = std::io::stderr().is_terminal();
     let mut shown = 0_u32;
     let mut progress = |p: &Progress<'_>| {

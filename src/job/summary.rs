@@ -117,6 +117,8 @@ pub struct Summary {
 
 /// The machine's creep window opens this long into the hold, ms (its `CREEP_SETTLE_MS`).
 const CREEP_WINDOW_FROM_MS: u64 = taut_core::machine::string::CREEP_SETTLE_MS as u64;
+/// The machine's creep window lasts this long, ms (its `CREEP_WINDOW_MS`).
+const CREEP_WINDOW_MS: u64 = taut_core::machine::string::CREEP_WINDOW_MS as u64;
 
 /// The first time `state` was entered at or after `from` ms.
 #[must_use]
@@ -170,7 +172,11 @@ pub fn summary(run: &CycleRun) -> Summary {
     let at = |t: Option<u64>| t.and_then(|t| run.rows.iter().find(|r| r.t_ms >= t));
     let creep_mm =
         at(holding).zip(at(releasing)).map(|(h, r)| r.truth.carriage_mm - h.truth.carriage_mm);
-    let creep_window = holding.zip(releasing).map(|(h, r)| (h + CREEP_WINDOW_FROM_MS, r));
+    let creep_window = holding
+        .zip(releasing)
+        .map(|(h, r)| (h + CREEP_WINDOW_FROM_MS, h + CREEP_WINDOW_FROM_MS + CREEP_WINDOW_MS, r))
+        .filter(|&(_, to, released)| to <= released)
+        .map(|(from, to, _)| (from, to));
     let true_creep_percent_per_min = creep_window.and_then(|(from, to)| {
         let (mut rate, mut tension, mut n) = (0.0, 0.0, 0u32);
         for row in rows_between(run, from, to) {

@@ -40,6 +40,8 @@ pub const STIFFNESS_TOLERANCE: f64 = 0.10;
 pub const CREEP_TOLERANCE: f64 = 0.20;
 /// The machine's creep window opens this long into the hold, ms (its `CREEP_SETTLE_MS`).
 const WINDOW_OPENS_MS: u64 = taut_core::machine::string::CREEP_SETTLE_MS as u64;
+/// The machine's creep window closes this long into the hold, ms (`CREEP_WINDOW_MS` later).
+const WINDOW_CLOSES_MS: u64 = WINDOW_OPENS_MS + taut_core::machine::string::CREEP_WINDOW_MS as u64;
 
 /// One string on one machine: the estimate beside the truth.
 #[derive(Clone, Debug)]
@@ -182,7 +184,7 @@ pub fn pull_and_hold(
     let (mut rate_sum, mut tension_sum, mut samples) = (0.0, 0.0, 0u64);
     for held in 1..=hold_ms {
         bench.tick();
-        if held > WINDOW_OPENS_MS {
+        if held > WINDOW_OPENS_MS && held <= WINDOW_CLOSES_MS {
             let truth = bench.twin().truth();
             rate_sum += truth.string_relaxation_kgf_per_s;
             tension_sum += truth.tension_kgf;

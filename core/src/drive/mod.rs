@@ -251,22 +251,24 @@ impl DriveCommand {
     }
 }
 
-/// A latched drive fault.
-#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
-pub enum DriveFault {
-    /// A current sample at or above [`OVERCURRENT_LIMIT`].
-    Overcurrent,
-    /// The hardware overcurrent comparator (break input) fired.
-    OvercurrentTrip,
-    /// The DC bus reached the configured maximum (regenerated energy with nowhere to go, or
-    /// a supply above the rating).
-    BusOvervoltage,
-    /// The current sense's tared zero is outside its tolerance (amplifier offset or a fault).
-    CurrentSenseZero,
-    /// The Hall sensors read `000` or `111` (confirmed): sensor supply lost or a line broken.
-    HallInvalid,
-    /// The rotor position jumped two or more sectors: Hall edges lost or misread.
-    SectorSkipped,
+crate::codes::numbered! {
+    /// A latched drive fault; its number is the one recorded sessions and links carry.
+    #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+    pub enum DriveFault {
+        /// A current sample at or above [`OVERCURRENT_LIMIT`].
+        Overcurrent = 1,
+        /// The hardware overcurrent comparator (break input) fired.
+        OvercurrentTrip = 2,
+        /// The Hall sensors read `000` or `111` (confirmed): sensor supply lost or a line broken.
+        HallInvalid = 3,
+        /// The rotor position jumped two or more sectors: Hall edges lost or misread.
+        SectorSkipped = 4,
+        /// The DC bus reached the configured maximum (regenerated energy with nowhere to go, or
+        /// a supply above the rating).
+        BusOvervoltage = 5,
+        /// The current sense's tared zero is outside its tolerance (amplifier offset or a fault).
+        CurrentSenseZero = 6,
+    }
 }
 
 /// One fast-loop sample, taken by the firmware just before calling [`Drive::step`].
@@ -498,6 +500,20 @@ impl Drive {
     #[must_use]
     pub const fn command(&self) -> DriveCommand {
         self.command
+    }
+
+    /// Applies one machine tick's drive outputs: holds `command`, then — if the machine asks —
+    /// releases a latched fault. The order is the rule: the clear is only granted with the
+    /// command already at coast (`clear_fault`), so a clear can never release a fault into a
+    /// drive command. Every binding (the firmware, the twin, the tick-cost replay) applies the
+    /// machine's outputs through this one function.
+    ///
+    /// # Errors
+    /// The clear was refused ([`Drive::clear_fault`]); the fault stays latched and the machine
+    /// sees it in the next status. Without a clear request, always `Ok`.
+    pub fn apply(&mut self, command: DriveCommand, clear_fault: bool) -> Result<(), ClearRefused> {
+        self.set_command(command);
+        if clear_fault { self.clear_fault() } else { Ok(()) }
     }
 
     /// Releases a latched fault.
@@ -1426,6 +1442,27 @@ mod tests {
         drive.set_command(DriveCommand::Coast);
         assert_eq!(drive.clear_fault(), Ok(()));
         drive.set_command(pull(3_000));
+        assert_eq!(drive.step(sample(Sector::S0)).duty.raw(), 3_000);
+    }
+
+    #[test]
+    fn applying_outputs_sets_the_command_first_and_clears_only_when_asked_with_coast() {
+        let mut drive = settled(Sector::S0);
+        let hot = DriveSample { current: AdcCode::MAX, ..sample(Sector::S0) };
+        drive.set_command(pull(30_000));
+        assert_eq!(drive.step(hot), DriveOutput::OFF);
+        assert_eq!(drive.fault(), Some(DriveFault::Overcurrent));
+        // A clear together with a pull command is refused: the command is set first.
+        assert_eq!(drive.apply(pull(3_000), true), Err(ClearRefused::CommandNotZero));
+        assert_eq!(drive.command(), pull(3_000));
+        assert_eq!(drive.fault(), Some(DriveFault::Overcurrent));
+        // Coast without a clear request: the fault stays latched.
+        assert_eq!(drive.apply(DriveCommand::Coast, false), Ok(()));
+        assert_eq!(drive.fault(), Some(DriveFault::Overcurrent));
+        // Coast with the request: cleared, and the next command drives.
+        assert_eq!(drive.apply(DriveCommand::Coast, true), Ok(()));
+        assert_eq!(drive.fault(), None);
+        assert_eq!(drive.apply(pull(3_000), false), Ok(()));
         assert_eq!(drive.step(sample(Sector::S0)).duty.raw(), 3_000);
     }
 

@@ -492,6 +492,35 @@ mod tests {
     }
 
     #[test]
+    fn a_burst_of_distinct_quick_presses_counts_every_press() {
+        // 25 presses of Up, each 30 ms down and 30 ms up (an operator tapping as fast as a
+        // finger can, ≈ 16 a second): each is a press of its own, none merged.
+        for (down, up) in [(30_u32, 30_u32), (DEBOUNCE_MS.into(), DEBOUNCE_MS.into()), (60, 25)] {
+            let mut pad = KeyPad::new();
+            let mut presses = 0;
+            for _ in 0..25 {
+                let pressed = run(&mut pad, Keys::NONE.with(Key::Up), down);
+                let released = run(&mut pad, Keys::NONE, up);
+                presses += pressed
+                    .iter()
+                    .chain(released.iter())
+                    .filter(|(_, e)| *e == KeyEvent::Press(Key::Up))
+                    .count();
+            }
+            assert_eq!(presses, 25, "{down} ms down, {up} ms up");
+        }
+        // Bounce shorter than the debounce time is no press.
+        let mut pad = KeyPad::new();
+        let mut presses = 0;
+        for _ in 0..25 {
+            let bounce = run(&mut pad, Keys::NONE.with(Key::Up), u32::from(DEBOUNCE_MS) - 1);
+            let gap = run(&mut pad, Keys::NONE, u32::from(DEBOUNCE_MS));
+            presses += bounce.len() + gap.len();
+        }
+        assert_eq!(presses, 0);
+    }
+
+    #[test]
     fn a_press_is_reported_once_after_the_debounce_time() {
         let mut pad = KeyPad::new();
         let events = run(&mut pad, Keys::NONE.with(Key::Start), 1_000);

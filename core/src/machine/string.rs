@@ -27,10 +27,14 @@
 //! it would have lost at constant length is `K·ẋ` (with relaxation arms `aᵢ` of time
 //! constants `τᵢ`, `dT/dt = K·ẋ − Σ aᵢ/τᵢ = 0` in a hold, so `K·ẋ = Σ aᵢ/τᵢ` exactly). The
 //! probe opens a window [`CREEP_SETTLE_MS`] after the hold began — the reference's closure
-//! and the fastest relaxation are over by then — and at the release turns the travel in it
-//! into the creep rate: `100 · K · Δx / (T · Δt)`, per cent of the held tension per minute.
-//! A window shorter than [`CREEP_MIN_MS`] gives none (a few Hall steps are no measure), and
-//! any change of the hold (an adjustment, constant pull off or on) restarts the window.
+//! and the fastest relaxation are over by then — closes it [`CREEP_WINDOW_MS`] later, and
+//! turns the travel in it into the creep rate: `100 · K · Δx / (T · Δt)`, per cent of the
+//! held tension per minute. The window is fixed because a string's relaxation slows through
+//! the hold (its arms decay one after another): a rate over "the whole hold" would read
+//! several times higher for a short hold than for a long one, and two pulls could not be
+//! compared. A hold released before the window closes logs no creep (a few Hall steps are
+//! no measure), and any change of the hold (an adjustment, constant pull off or on)
+//! restarts the window.
 //!
 //! Both are integer arithmetic on the Hall count and the tension, saturating, in a few
 //! operations per tick at most; the results are logged per pull ([`super::PullRecord`]).
@@ -46,8 +50,9 @@ pub const LOWER_SHARE: (i32, i32) = (1, 2);
 pub const UPPER_SHARE: (i32, i32) = (3, 4);
 /// How long into the hold the creep window opens, ms.
 pub const CREEP_SETTLE_MS: u32 = 1_000;
-/// The shortest creep window that gives a creep rate, ms.
-pub const CREEP_MIN_MS: u32 = 3_000;
+/// How long the creep window lasts, ms: the creep rate is always the travel over this long,
+/// from [`CREEP_SETTLE_MS`] into the hold (or after its last change).
+pub const CREEP_WINDOW_MS: u32 = 4_000;
 
 /// A string's stiffness, thousandths of a kgf per mm of carriage travel (0.001–65.535;
 /// never zero, so an unmeasured one costs the log no space: `Option<Stiffness>` is 2 bytes).
@@ -105,6 +110,8 @@ pub struct StringProbe {
     stiffness: Option<Stiffness>,
     /// The creep window: the Hall count and the hold's time when it opened.
     window: Option<(i32, u32)>,
+    /// The Hall steps crept over the whole window, once it closed.
+    crept: Option<i32>,
     /// The hold's time at which the creep window opens.
     opens_at: u32,
 }
@@ -135,8 +142,7 @@ pub fn stiffness_between(from: (i64, Kgf), to: (i64, Kgf)) -> Option<Stiffness> 
 
 /// The creep rate of a string of stiffness `stiffness` held at `tension` whose carriage
 /// crept `steps` Hall steps in `elapsed_ms`: `100 · K · Δx / (T · Δt)` per minute, in
-/// hundredths of a per cent; `None` for a window shorter than [`CREEP_MIN_MS`] or a tension
-/// below 1 kgf. A carriage that moved back (the string tightened) creeps at zero.
+/// hundredths of a per cent; `None` for an empty window or a tension below 1 kgf. A carriage that moved back (the string tightened) creeps at zero.
 #[must_use]
 pub fn creep_rate(
     stiffness: Stiffness,
@@ -144,7 +150,7 @@ pub fn creep_rate(
     steps: i32,
     elapsed_ms: u32,
 ) -> Option<CreepRate> {
-    if elapsed_ms < CREEP_MIN_MS || tension < Kgf::from_int(1) {
+    if elapsed_ms == 0 || tension < Kgf::from_int(1) {
         return None;
     }
     let travel_nm = i64::from(steps.max(0)).checked_mul(NM_PER_STEP)?;
@@ -173,6 +179,7 @@ impl StringProbe {
         upper_passed: false,
         stiffness: None,
         window: None,
+        crept: None,
         opens_at: CREEP_SETTLE_MS,
     };
 
@@ -198,10 +205,16 @@ impl StringProbe {
     }
 
     /// One holding tick at Hall count `steps`, `held_ms` into the hold: opens the creep
-    /// window once the hold has settled.
+    /// window once the hold has settled and closes it [`CREEP_WINDOW_MS`] later.
     pub fn holding(&mut self, steps: i32, held_ms: u32) {
-        if self.window.is_none() && held_ms >= self.opens_at {
-            self.window = Some((steps, held_ms));
+        match self.window {
+            None if held_ms >= self.opens_at => self.window = Some((steps, held_ms)),
+            Some((from_steps, from_ms))
+                if self.crept.is_none() && held_ms.saturating_sub(from_ms) >= CREEP_WINDOW_MS =>
+            {
+                self.crept = Some(steps.saturating_sub(from_steps));
+            }
+            _ => {}
         }
     }
 
@@ -209,6 +222,7 @@ impl StringProbe {
     /// creep window restarts [`CREEP_SETTLE_MS`] from now.
     pub fn hold_changed(&mut self, held_ms: u32) {
         self.window = None;
+        self.crept = None;
         self.opens_at = held_ms.saturating_add(CREEP_SETTLE_MS);
     }
 
@@ -218,17 +232,10 @@ impl StringProbe {
         self.stiffness
     }
 
-    /// The creep rate at the release, at Hall count `steps`, `held_ms` into the hold, at
-    /// tension `tension`.
+    /// The creep rate over the window at tension `tension`; `None` until the window closed.
     #[must_use]
-    pub fn creep(&self, steps: i32, held_ms: u32, tension: Kgf) -> Option<CreepRate> {
-        let (from_steps, from_ms) = self.window?;
-        creep_rate(
-            self.stiffness?,
-            tension,
-            steps.saturating_sub(from_steps),
-            held_ms.saturating_sub(from_ms),
-        )
+    pub fn creep(&self, tension: Kgf) -> Option<CreepRate> {
+        creep_rate(self.stiffness?, tension, self.crept?, CREEP_WINDOW_MS)
     }
 }
 
@@ -308,8 +315,8 @@ mod tests {
         // 1.25 kgf/mm × 20 steps (1.058 mm) = 1.323 kgf over 20 s at 25 kgf: 15.88 %/min.
         let rate = creep_rate(k, Kgf::from_int(25), 20, 20_000);
         assert_eq!(rate.map(CreepRate::centi_percent_per_minute), Some(1_588));
-        // Too short a window, too low a tension: none; a carriage that moved back: zero.
-        assert_eq!(creep_rate(k, Kgf::from_int(25), 20, CREEP_MIN_MS - 1), None);
+        // An empty window, too low a tension: none; a carriage that moved back: zero.
+        assert_eq!(creep_rate(k, Kgf::from_int(25), 20, 0), None);
         assert_eq!(creep_rate(k, Kgf::from_milli(999), 20, 20_000), None);
         assert_eq!(
             creep_rate(k, Kgf::from_int(25), -20, 20_000).map(CreepRate::centi_percent_per_minute),
@@ -324,25 +331,31 @@ mod tests {
     }
 
     #[test]
-    fn the_creep_window_opens_after_the_settle_and_restarts_on_a_change() {
+    fn the_creep_window_opens_after_the_settle_closes_after_its_length_and_restarts_on_a_change() {
         let mut probe = StringProbe::NEW;
         ramp(&mut probe, 66, Kgf::from_int(25), 1_000);
         let tension = Kgf::from_int(25);
         for ms in 1..=999 {
             probe.holding(1_000, ms);
         }
-        assert_eq!(probe.creep(1_100, 999, tension), None, "not open before 1 s");
+        assert_eq!(probe.creep(tension), None, "not open before 1 s");
         probe.holding(1_000, 1_000);
-        assert_eq!(probe.creep(1_020, 3_999, tension), None, "shorter than the minimum");
-        let full = probe.creep(1_020, 21_000, tension).map(CreepRate::centi_percent_per_minute);
-        assert_eq!(full, Some(1_584), "1.247 kgf/mm × 20 steps in 20 s at 25 kgf");
-        // An adjustment at 5 s: the window reopens at 6 s from the count then.
-        probe.hold_changed(5_000);
-        probe.holding(1_010, 5_999);
-        assert_eq!(probe.creep(1_020, 21_000, tension), None);
-        probe.holding(1_010, 6_000);
-        let after = probe.creep(1_020, 21_000, tension).map(CreepRate::centi_percent_per_minute);
-        assert_eq!(after, Some(1_056), "10 steps in 15 s");
+        probe.holding(1_003, 4_999);
+        assert_eq!(probe.creep(tension), None, "the window is still open");
+        probe.holding(1_004, 5_000);
+        let closed = probe.creep(tension).map(CreepRate::centi_percent_per_minute);
+        assert_eq!(closed, Some(1_584), "1.247 kgf/mm × 4 steps in 4 s at 25 kgf");
+        // The window is fixed: later travel, however long the hold, does not move it.
+        probe.holding(1_200, 120_000);
+        assert_eq!(probe.creep(tension).map(CreepRate::centi_percent_per_minute), closed);
+        // An adjustment at 7 s: the window reopens at 8 s from the count then.
+        probe.hold_changed(7_000);
+        assert_eq!(probe.creep(tension), None);
+        probe.holding(1_300, 7_999);
+        probe.holding(1_300, 8_000);
+        probe.holding(1_302, 12_000);
+        let after = probe.creep(tension).map(CreepRate::centi_percent_per_minute);
+        assert_eq!(after, Some(792), "2 steps in 4 s");
     }
 
     #[test]

@@ -12,9 +12,9 @@
 //! **Two passes.** The machine pulls the four points twice, homing in between, and the
 //! operator reads the gauge eight times ([`CALIBRATION_PASSES`]); each point is the mean of
 //! its two readings ([`merge_passes`]), so the gauge's own reading error reaches the fit with
-//! σ/√2. On the twin's family (gauge σ = 0.02 kgf, 1 000 scenarios) the calibrated hold's
-//! sensing offset is the largest part of the hold error's tail, and half its variance is the
-//! difference between hold p99 0.057 and 0.052 kgf. The two readings of one point must agree:
+//! σ/√2 — the gauge's reading error is what the calibrated hold's sensing offset is made of,
+//! so halving its variance is worth two passes (the figures are in `docs/RESULTS.md`). The two
+//! readings of one point must agree:
 //! their corrections (reference − raw) more than [`REPEAT_LIMIT`] apart is a mistyped or
 //! misread entry, or a gauge or hook that slipped between the passes, and the calibration is
 //! refused ([`CalibrationError::PassesDisagree`]). Homing between the passes makes the

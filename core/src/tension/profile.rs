@@ -15,17 +15,16 @@
 //!   quarter to three quarters of the speed limit measure the acceleration this machine's
 //!   carriage and rotor allow. The braking is planned at [`BRAKING_PER_TAKE_UP`] times it
 //!   where that is below [`ProfileConfig::braking_deceleration`]: a heavier rotor, a weaker
-//!   motor or a low bus brakes from further out instead of overshooting (at 4× the twin's
-//!   nominal inertia, overshoot 0.75 → 0.01 kgf), while a machine that can brake harder than
-//!   configured keeps the configured plan.
+//!   motor or a low bus brakes from further out instead of overshooting, while a machine that
+//!   can brake harder than configured keeps the configured plan.
 //! - **Gripper identification** (the same window, REQ-ID-07): the gripper hangs on the load
 //!   cell outboard of it, so the cell carries the string's pull *less* the force that
 //!   accelerates the gripper, `F = T − m_g·a`. In the take-up the string is slack and the
 //!   cell reads `m_g·a_t` above its reading at rest; summed over the window that is the
 //!   momentum `m_g·Δv`, which gives `m_g`. While the carriage brakes at `a` the cell reads
-//!   `m_g·a` low — a tension the braking parabola would otherwise drive on into (on the
-//!   family, a 1.1 kg gripper braked at 1.3 m/s² reads 0.15 kgf low and overshot a soft
-//!   string by 0.09 kgf) — so the controller adds [`Profile::gripper_bias`] to the reading
+//!   `m_g·a` low (a 1.1 kg gripper braked at 1.3 m/s²: 0.15 kgf) — a tension the braking
+//!   parabola would otherwise drive on into — so the controller adds
+//!   [`Profile::gripper_bias`] to the reading
 //!   for the observer in [`PullPhase::Approach`].
 //! - **Braking onset** ([`Profile::braking_due`]): a carriage at speed `v` into a string of
 //!   stiffness `K = ẏ/v`, braked at a constant deceleration `a`, adds `ẏ·v/(2a)` of tension

@@ -215,11 +215,8 @@ impl Tick {
         };
         let outputs = self.machine.tick(&inputs);
         fast_loop::with_drive(|drive| {
-            drive.set_command(outputs.drive);
-            if outputs.clear_drive_fault {
-                // A refusal leaves the fault latched; the machine sees it in the next status.
-                let _refused = drive.clear_fault();
-            }
+            // A refused clear leaves the fault latched; the machine sees it in the next status.
+            let _refused = drive.apply(outputs.drive, outputs.clear_drive_fault);
         });
         self.beeper.set_level(Level::from(outputs.beeper));
         display::PANEL.signal((outputs.display, outputs.leds));

@@ -12,9 +12,9 @@
 
 use std::process::ExitCode;
 
-use taut::job::CycleOptions;
 use taut_sim::bench::{Bench, Session, commission, factory_config, run_session};
-use taut_sim::operator::{Operator, Plan};
+use taut_sim::job::CycleOptions;
+use taut_sim::operator::Operator;
 use taut_tick_cost::{FINGERPRINT_START, Header, encode_header, encode_inputs, fold_outputs};
 
 /// Ticks recorded after the operator is done (the machine settling at home).
@@ -23,7 +23,7 @@ const TAIL_TICKS: u32 = 200;
 /// The recorded session: header and per-tick inputs, as the file's bytes.
 fn record() -> Result<Vec<u8>, String> {
     let options = CycleOptions::default();
-    let settings = options.settings().map_err(|error| error.to_string())?;
+    let plan = options.plan().map_err(|error| format!("settings: {error:?}"))?;
     let config = options.twin_config();
     let commissioning = commission(&factory_config(&config), options.calibrate, &mut |_| {})
         .map_err(|error| format!("commissioning failed: {error}"))?;
@@ -31,12 +31,6 @@ fn record() -> Result<Vec<u8>, String> {
     // The one bench, as the main job runs it: the machine on the twin tick by tick, the
     // operator looking and pressing between the machine's outputs and the physics.
     let mut bench = Bench::power_up(&config, &commissioning.flash).recording();
-    let plan = Plan {
-        calibrate: false,
-        settings,
-        knot_mode: options.knot_percent.is_some(),
-        pull_hold_ms: Some(options.hold_ms),
-    };
     let mut operator = Operator::new(plan);
     let mut tail = None;
     run_session(&mut bench, &mut operator, Session::Job, &mut |_| {}, |_, operator| {

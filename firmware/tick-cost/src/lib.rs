@@ -157,28 +157,17 @@ const fn direction_from(code: u8) -> Option<Direction> {
     }
 }
 
+/// A drive fault's byte: its number in core's table, 0 for none.
 const fn fault_code(fault: Option<DriveFault>) -> u8 {
     match fault {
         None => 0,
-        Some(DriveFault::Overcurrent) => 1,
-        Some(DriveFault::OvercurrentTrip) => 2,
-        Some(DriveFault::HallInvalid) => 3,
-        Some(DriveFault::SectorSkipped) => 4,
-        Some(DriveFault::BusOvervoltage) => 5,
-        Some(DriveFault::CurrentSenseZero) => 6,
+        Some(fault) => fault.number(),
     }
 }
 
+/// The drive fault a byte stands for (core's table; 0 or an unknown number: none).
 const fn fault_from(code: u8) -> Option<DriveFault> {
-    match code {
-        1 => Some(DriveFault::Overcurrent),
-        2 => Some(DriveFault::OvercurrentTrip),
-        3 => Some(DriveFault::HallInvalid),
-        4 => Some(DriveFault::SectorSkipped),
-        5 => Some(DriveFault::BusOvervoltage),
-        6 => Some(DriveFault::CurrentSenseZero),
-        _ => None,
-    }
+    DriveFault::from_number(code)
 }
 
 /// One tick's [`Inputs`] as bytes. The destructuring names every field: a new field in
@@ -536,10 +525,7 @@ pub fn replay(session: &Session<'_>, machine: &mut Machine, meter: &mut impl Met
         let outputs = meter.measure(Call::Tick(state), || tick_call(machine, &now));
         replayed.ticks = replayed.ticks.saturating_add(1);
         replayed.fingerprint = fold_outputs(replayed.fingerprint, &outputs);
-        drive.set_command(outputs.drive);
-        if outputs.clear_drive_fault {
-            let _refused = drive.clear_fault();
-        }
+        let _refused = drive.apply(outputs.drive, outputs.clear_drive_fault);
         if outputs.store {
             replayed.stores = replayed.stores.saturating_add(1);
             let record = *machine.record();

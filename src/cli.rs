@@ -11,6 +11,7 @@ use std::ops::RangeInclusive;
 use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use taut_core::machine::string::{CREEP_SETTLE_MS, CREEP_WINDOW_MS};
 use taut_core::settings::{SetPoint, Unit};
 use taut_sim::{CurrentSenseParams, StringKind, TwinConfig};
 
@@ -102,6 +103,24 @@ pub enum ReportKind {
 }
 
 // ───────────────────────────── value parsers ─────────────────────────────
+
+/// The shortest hold every command accepts, ms: the machine measures the creep over a fixed
+/// window, [`CREEP_WINDOW_MS`] long from [`CREEP_SETTLE_MS`] into the hold, so a shorter hold
+/// logs a pull without its creep.
+pub const HOLD_MIN_MS: u32 = CREEP_SETTLE_MS + CREEP_WINDOW_MS;
+
+/// The longest hold every command accepts, ms: ten minutes, longer than a stringer holds a
+/// string, and still a few seconds of the twin's time per pull.
+pub const HOLD_MAX_MS: u32 = 600_000;
+
+/// The hold in seconds, for every command alike ([`HOLD_MIN_MS`]–[`HOLD_MAX_MS`], fractions
+/// allowed).
+///
+/// # Errors
+/// Not a number, not finite, or outside the range (the message says the range).
+pub fn hold_seconds(text: &str) -> Result<f64, String> {
+    ranged_f64(f64::from(HOLD_MIN_MS) / 1e3..=f64::from(HOLD_MAX_MS) / 1e3)(text)
+}
 
 /// A parser of finite `f64` values within `range` (NaN, infinities and values outside are
 /// rejected with the range in the message).
@@ -311,8 +330,9 @@ pub struct JobArgs {
     /// sensors and board drawn from their ranges) instead of the nominal machine.
     #[arg(long, allow_negative_numbers = true, value_name = "N", value_parser = seed)]
     pub seed: Option<u64>,
-    /// Seconds the operator lets the machine hold before releasing (0–120).
-    #[arg(long, allow_negative_numbers = true, default_value = "5", value_name = "SECONDS", value_parser = ranged_f64(0.0..=120.0))]
+    /// Seconds the operator lets the machine hold before releasing (5–600, as in every
+    /// command: the creep window ends 5 s into the hold).
+    #[arg(long, allow_negative_numbers = true, default_value = "5", value_name = "SECONDS", value_parser = hold_seconds)]
     pub hold: f64,
     /// Skip the commissioning calibration: the machine runs on the tared, uncorrected sensor.
     #[arg(long)]
@@ -405,8 +425,8 @@ pub struct PullArgs {
     /// Speed setting, 1–9.
     #[arg(long, allow_negative_numbers = true, default_value_t = 9, value_parser = whole(1_u8, 9))]
     pub speed: u8,
-    /// Seconds to hold after Start before releasing (1–120).
-    #[arg(long, allow_negative_numbers = true, default_value = "12", value_name = "SECONDS", value_parser = ranged_f64(1.0..=120.0))]
+    /// Seconds to hold after Start before releasing (5–600, as in every command).
+    #[arg(long, allow_negative_numbers = true, default_value = "12", value_name = "SECONDS", value_parser = hold_seconds)]
     pub hold: f64,
     /// Machine N of the twin's family instead of the nominal machine.
     #[arg(long, allow_negative_numbers = true, value_name = "N", value_parser = seed, conflicts_with = "scenario")]
@@ -620,9 +640,10 @@ pub struct StringArgs {
     /// Machines of the family per string preset, beside the nominal machine.
     #[arg(long, allow_negative_numbers = true, default_value_t = 2, value_parser = whole(0_u64, 1_000))]
     pub seeds: u64,
-    /// Seconds the operator holds before releasing (the creep window is from 1 s to 5 s of the hold).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 20, value_parser = whole(5_u32, 600))]
-    pub hold: u32,
+    /// Seconds the operator holds before releasing (5–600, as in every command; the creep
+    /// window is from 1 s to 5 s of the hold).
+    #[arg(long, allow_negative_numbers = true, default_value = "20", value_name = "SECONDS", value_parser = hold_seconds)]
+    pub hold: f64,
     /// Write the JSON summary here.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,

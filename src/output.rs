@@ -403,33 +403,53 @@ fn temp_beside(target: &Path) -> PathBuf {
 /// How often a progress line is written when stderr is not a terminal (a log, a pipe).
 pub const PROGRESS_LINE_EVERY: std::time::Duration = std::time::Duration::from_secs(5);
 
+/// How often [`parallel`]'s heartbeat looks at the clock (a terminal's bar is redrawn as
+/// often).
+pub const HEARTBEAT: std::time::Duration = std::time::Duration::from_millis(250);
+
 /// A progress counter on stderr. On a terminal a bar redrawn in place with the time left,
 /// `[#####-----] 12/100 runs, 0:34 elapsed, about 0:41 left`; otherwise (a log, a pipe)
 /// the same figures as a line when the run starts, every [`PROGRESS_LINE_EVERY`] and when it
-/// ends, so a long report is never silent for a minute.
+/// ends, so a long report is never silent for a minute. The lines come on time even while
+/// no item finishes (a working-day session takes a minute): [`parallel`] keeps a heartbeat
+/// beside its workers that calls [`Progress::tick`].
 pub struct Progress {
     total: usize,
     done: AtomicUsize,
     label: String,
     terminal: bool,
     started: std::time::Instant,
+    /// How often a line is written when stderr is not a terminal.
+    every: std::time::Duration,
     /// When the last line was written (not on a terminal).
     last_line: Mutex<std::time::Instant>,
+    /// Lines and redraws written so far.
+    written: AtomicUsize,
 }
 
 impl Progress {
     /// A counter of `total` items.
     #[must_use]
     pub fn new(total: usize, label: &str) -> Self {
+        Self::with_line_every(total, label, PROGRESS_LINE_EVERY)
+    }
+
+    /// A counter of `total` items that writes a line every `every` when stderr is not a
+    /// terminal.
+    #[must_use]
+    pub fn with_line_every(total: usize, label: &str, every: std::time::Duration) -> Self {
         let progress = Self {
             total,
             done: AtomicUsize::new(0),
             label: label.to_owned(),
             terminal: std::io::stderr().is_terminal(),
             started: std::time::Instant::now(),
+            every,
             last_line: Mutex::new(std::time::Instant::now()),
+            written: AtomicUsize::new(0),
         };
         if !progress.terminal {
+            progress.written.fetch_add(1, Ordering::Relaxed);
             to_stderr(&format!("{}\n", progress_text(0, total, label, std::time::Duration::ZERO)));
         }
         progress
@@ -438,18 +458,36 @@ impl Progress {
     /// One more item done.
     pub fn step(&self) {
         let done = self.done.fetch_add(1, Ordering::Relaxed) + 1;
+        self.show(done, done >= self.total);
+    }
+
+    /// The clock moved on: a line if one is due (the time elapsed and left change while an
+    /// item runs); on a terminal the bar is redrawn.
+    pub fn tick(&self) {
+        self.show(self.done.load(Ordering::Relaxed), false);
+    }
+
+    /// Lines and redraws written so far.
+    #[must_use]
+    pub fn written(&self) -> usize {
+        self.written.load(Ordering::Relaxed)
+    }
+
+    fn show(&self, done: usize, last: bool) {
         let Ok(mut last_line) = self.last_line.lock() else { return };
         let text = progress_text(done, self.total, &self.label, self.started.elapsed());
         if self.terminal {
             let width = 40;
             let filled = (done * width / self.total.max(1)).min(width);
+            self.written.fetch_add(1, Ordering::Relaxed);
             to_stderr(&format!(
                 "\r\x1b[2K[{}{}] {text}",
                 "#".repeat(filled),
                 "-".repeat(width - filled)
             ));
-        } else if done >= self.total || last_line.elapsed() >= PROGRESS_LINE_EVERY {
+        } else if last || last_line.elapsed() >= self.every {
             *last_line = std::time::Instant::now();
+            self.written.fetch_add(1, Ordering::Relaxed);
             to_stderr(&format!("{text}\n"));
         }
     }
@@ -497,7 +535,8 @@ pub fn threads(requested: Option<u16>) -> usize {
 }
 
 /// Runs `job(i)` for `i` in `0..count` on `threads` threads, in any order, calling
-/// `progress.step()` after each; returns the results in index order.
+/// `progress.step()` after each and `progress.tick()` every [`HEARTBEAT`] while they run;
+/// returns the results in index order.
 pub fn parallel<T: Send>(
     count: u64,
     threads: usize,
@@ -505,7 +544,14 @@ pub fn parallel<T: Send>(
     job: &(dyn Fn(u64) -> T + Sync),
 ) -> Vec<T> {
     let next = std::sync::atomic::AtomicU64::new(0);
+    let finished = std::sync::atomic::AtomicBool::new(false);
     let mut results: Vec<(u64, T)> = std::thread::scope(|scope| {
+        scope.spawn(|| {
+            while !finished.load(Ordering::Relaxed) {
+                std::thread::sleep(HEARTBEAT);
+                progress.tick();
+            }
+        });
         let workers: Vec<_> = (0..threads.max(1))
             .map(|_| {
                 scope.spawn(|| {
@@ -523,9 +569,12 @@ pub fn parallel<T: Send>(
             })
             .collect();
         // A worker that panicked has hit a bug: its panic is re-raised here.
-        workers
+        let joined =
+            workers.into_iter().map(std::thread::ScopedJoinHandle::join).collect::<Vec<_>>();
+        finished.store(true, Ordering::Relaxed);
+        joined
             .into_iter()
-            .flat_map(|w| w.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+            .flat_map(|w| w.unwrap_or_else(|e| std::panic::resume_unwind(e)))
             .collect()
     });
     results.sort_by_key(|(index, _)| *index);
@@ -677,6 +726,22 @@ mod tests {
             "25/100 runs, 0:30 elapsed, about 1:30 left"
         );
         assert_eq!(progress_text(100, 100, "runs", at(125)), "100/100 runs, 2:05 elapsed, done");
+    }
+
+    #[test]
+    fn a_piped_progress_writes_on_time_while_a_long_item_runs() {
+        // One item of 1.2 s, a line due every 0.3 s: ≥ 2 while it runs, and the end.
+        let every = std::time::Duration::from_millis(300);
+        let mut progress = Progress::with_line_every(1, "items", every);
+        progress.terminal = false; // as when piped, whatever the test's stderr is
+        let before = progress.written();
+        let done = parallel(1, 1, &progress, &|_| {
+            std::thread::sleep(std::time::Duration::from_millis(1_200));
+            7
+        });
+        assert_eq!(done, [7]);
+        let lines = progress.written() - before;
+        assert!(lines >= 3, "{lines} lines: two or more while the item ran, and the end");
     }
 
     #[test]

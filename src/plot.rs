@@ -839,9 +839,15 @@ fn draw_lines(
     }
     draw_off_scale(svg, series, x, y, area);
     let legend_x = area.x + area.w + 12.0;
-    for (index, s) in series.iter().enumerate() {
+    // Only what was drawn has an entry (a series with no finite point has no line to name);
+    // the colours stay those of the series' places.
+    let drawn = series
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.points.iter().any(|(a, b)| a.is_finite() && b.is_finite()));
+    for (row, (index, s)) in drawn.enumerate() {
         let (colour, _, dash) = style(index, s);
-        let ly = area.y + 12.0 + index as f64 * 16.0;
+        let ly = area.y + 12.0 + row as f64 * 16.0;
         if s.stroke == Stroke::Markers {
             let _ = write!(
                 svg,
@@ -1054,6 +1060,18 @@ mod tests {
         assert!((y.lo - 0.02).abs() < 1e-12 && (y.hi - 50.0).abs() < 1e-9, "{y:?}");
         assert!(svg.contains(">0.02<") && svg.contains(">50<") && svg.contains(">1<"));
         assert!(y.px(0.03) < y.px(y.lo) - 2.0, "the lowest value is above the frame");
+    }
+
+    #[test]
+    fn a_series_with_nothing_to_draw_has_no_legend_entry() {
+        let drawn = Series::new("drawn", vec![(0.0, 1.0), (1.0, 2.0)]);
+        let empty = Series::new("all failed", vec![(0.0, f64::NAN), (1.0, f64::NAN)]);
+        let nothing = Series::new("no points", Vec::new());
+        let figure =
+            Figure::new("t", "s", "x", vec![Panel::new("kgf", vec![empty, drawn, nothing])]);
+        let (svg, _) = figure.render();
+        assert!(svg.contains(">drawn<"));
+        assert!(!svg.contains(">all failed<") && !svg.contains(">no points<"), "{svg}");
     }
 
     #[test]

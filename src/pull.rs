@@ -141,8 +141,31 @@ pub fn phases(trace: &[ControllerRow]) -> Vec<Band> {
     bands
 }
 
+/// The hold zoom's measured tension is a running mean over this many ticks (1 ms each): the
+/// load cell's raw noise (± 0.7 kgf on the family) would bury the true tension and the target
+/// at ± 0.2 kgf; a 50 ms mean keeps the slow error a stringer would see.
+pub const HOLD_MEAN_MS: usize = 50;
+
+/// The running mean of `points`' values over the last `width` points (fewer at the start).
+#[must_use]
+pub fn running_mean(points: &[(f64, f64)], width: usize) -> Vec<(f64, f64)> {
+    let mut sum = 0.0;
+    points
+        .iter()
+        .enumerate()
+        .map(|(k, &(t, v))| {
+            sum += v;
+            if k >= width {
+                sum -= points[k - width].1;
+            }
+            (t, sum / (k + 1).min(width) as f64)
+        })
+        .collect()
+}
+
 /// The pull's plot: tension (true, measured, reference, target), carriage, duty, current,
-/// the controller's phases on the same time axis, and the hold zoomed to ±0.2 kgf.
+/// the controller's phases on the same time axis, and the hold zoomed to ±0.2 kgf (the
+/// measured tension there as a [`HOLD_MEAN_MS`] running mean).
 #[must_use]
 pub fn figure(
     trace: &[ControllerRow],
@@ -204,8 +227,11 @@ pub fn figure(
         Panel::new(
             "hold: tension − target (kgf)",
             vec![
-                Series::new("measured (calibrated)", hold(&|r| r.measured_kgf))
-                    .stroke(Stroke::Thin),
+                Series::new(
+                    &format!("measured, {HOLD_MEAN_MS} ms mean"),
+                    running_mean(&hold(&|r| r.measured_kgf), HOLD_MEAN_MS),
+                )
+                .stroke(Stroke::Thin),
                 Series::new("true", hold(&|r| r.truth.tension_kgf)),
                 Series::new("target", vec![(from, 0.0), (release_s, 0.0)])
                     .stroke(Stroke::Dashed)

@@ -74,7 +74,8 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["--seed", "-1"], USAGE, "--seed"),
     (&["--seed", "abc"], USAGE, "--seed"),
     (&["--hold", "-1"], USAGE, "--hold"),
-    (&["--hold", "500"], USAGE, "--hold"),
+    (&["--hold", "601"], USAGE, "--hold"),
+    (&["--hold", "4.9"], USAGE, "5–600"),
     (&["--hold", "nan"], USAGE, "--hold"),
     (&["--hold", "inf"], USAGE, "--hold"),
     (&["--hold", "abc"], USAGE, "--hold"),
@@ -102,6 +103,8 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     (&["pull", "--speed", "0"], USAGE, "--speed"),
     (&["pull", "--speed", "abc"], USAGE, "--speed"),
     (&["pull", "--hold", "0"], USAGE, "--hold"),
+    (&["pull", "--hold", "4.9"], USAGE, "5–600"),
+    (&["pull", "--hold", "601"], USAGE, "5–600"),
     (&["pull", "--hold", "nan"], USAGE, "--hold"),
     (&["pull", "--hold", "-1"], USAGE, "--hold"),
     (&["pull", "--hold", "abc"], USAGE, "--hold"),
@@ -203,7 +206,8 @@ const TABLE: &[(&[&str], i32, &str)] = &[
     // ── report string ──
     (&["report", "string", "--seeds", "-1"], USAGE, "--seeds"),
     (&["report", "string", "--seeds", "1001"], USAGE, "--seeds"),
-    (&["report", "string", "--hold", "4"], USAGE, "--hold"),
+    (&["report", "string", "--hold", "4.9"], USAGE, "5–600"),
+    (&["report", "string", "--hold", "601"], USAGE, "5–600"),
     (&["report", "string", "--hold", "abc"], USAGE, "--hold"),
     (&["report", "string", "--json", "UNWRITABLE/s.json"], USAGE, "error: --json "),
     // ── unknown subcommands and options ──
@@ -402,13 +406,13 @@ fn a_closed_stderr_is_as_quiet_as_a_closed_stdout() {
     let dir = std::env::temp_dir().join(format!("taut-closed-stderr-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let (status, _) = with_closed_pipe(&["--hold", "1", "--svg", "x.svg"], &dir, Closed::Both);
+    let (status, _) = with_closed_pipe(&["--hold", "5", "--svg", "x.svg"], &dir, Closed::Both);
     assert_eq!(status, Some(141));
     let plot = std::fs::read_to_string(dir.join("x.svg")).unwrap_or_default();
     assert!(plot.starts_with("<svg"), "the plot is written: {} bytes", plot.len());
 
     let (status, stdout) =
-        with_closed_pipe(&["--hold", "1", "--svg", "y.svg"], &dir, Closed::Stderr);
+        with_closed_pipe(&["--hold", "5", "--svg", "y.svg"], &dir, Closed::Stderr);
     assert_eq!(status, Some(0), "the run completes");
     assert!(stdout.contains("plot: y.svg"), "{stdout}");
     assert!(dir.join("y.svg").is_file());
@@ -434,11 +438,11 @@ fn a_pull_that_never_settles_exits_1() {
             .output()
             .expect("runs")
     };
-    let none = run(&["pull", "--string", "none", "--hold", "1"]);
+    let none = run(&["pull", "--string", "none", "--hold", "5"]);
     let stderr = String::from_utf8_lossy(&none.stderr);
     assert_eq!(none.status.code(), Some(1), "{stderr}");
     assert!(String::from_utf8_lossy(&none.stdout).contains("settled never"));
     assert!(stderr.contains("never settled at 25.0 kgf"), "{stderr}");
-    let pulled = run(&["pull", "--string", "tennis-poly", "--hold", "3"]);
+    let pulled = run(&["pull", "--string", "tennis-poly", "--hold", "5"]);
     assert_eq!(pulled.status.code(), Some(0), "{}", String::from_utf8_lossy(&pulled.stderr));
 }

@@ -80,14 +80,14 @@ fn command_line_options_become_the_operators_settings() {
         "--seed",
         "7",
         "--hold",
-        "2.5",
+        "5.5",
         "--uncalibrated",
     ])
     .unwrap();
     assert_eq!(o.set_point.unit(), Unit::Pounds);
     assert_eq!(o.string, taut_sim::StringKind::TennisPolyester);
     assert_eq!((o.speed, o.pre_stretch_percent, o.knot_percent), (9, 10, Some(15)));
-    assert_eq!((o.seed, o.hold_ms, o.calibrate), (Some(7), 2_500, false));
+    assert_eq!((o.seed, o.hold_ms, o.calibrate), (Some(7), 5_500, false));
     assert_eq!(o.pull_kind(), taut_core::settings::PullKind::Knot);
     assert_eq!(o.twin_config(), taut_sim::TwinConfig::family_kind(o.string, 7));
     assert_eq!(args(&["--knot", "20"]).unwrap().knot_percent, Some(20));
@@ -101,7 +101,8 @@ fn command_line_options_become_the_operators_settings() {
         (&["--knot", "25"][..], "knot"),
         (&["--string", "rope"][..], "rope"),
         (&["--hold=-1"][..], "hold"),
-        (&["--hold", "500"][..], "hold"),
+        (&["--hold", "601"][..], "hold"),
+        (&["--hold", "4.9"][..], "hold"),
     ] {
         let error = args(line).unwrap_err();
         assert!(error.contains(message), "{line:?}: {error}");
@@ -147,7 +148,7 @@ fn the_binary_runs_the_main_job_with_no_subcommand() {
     let svg = dir.join("out/cycle.svg");
     let json = dir.join("cycle.json");
     let output = Command::new(env!("CARGO_BIN_EXE_taut"))
-        .args(["--hold", "1", "--json", "cycle.json"])
+        .args(["--hold", "5", "--json", "cycle.json"])
         .current_dir(&dir)
         .output()
         .expect("runs");

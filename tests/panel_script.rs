@@ -57,6 +57,16 @@ fn the_ready_panel_shows_25_0_as_the_right_segments() {
     assert!(frame.contains("state: ready"));
 }
 
+/// Every press counts: a burst of 25 distinct Up presses, each 20 ms down and 20 ms up (a
+/// stringer tapping fast), raises the set point by 25 steps, none merged into its neighbour.
+#[test]
+fn a_burst_of_quick_presses_counts_every_press() {
+    let mut s = session(Flash::Factory);
+    let burst = "down up\nwait 20\nup up\nwait 20\n".repeat(25);
+    run(&mut s, &format!("{TO_READY}expect display 25.0\n{burst}wait 300\nexpect display 27.5\n"))
+        .unwrap();
+}
+
 #[test]
 fn keys_walk_the_settings_pages_and_change_the_set_point() {
     let mut s = session(Flash::Factory);

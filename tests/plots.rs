@@ -143,6 +143,13 @@ fn check(name: &str, figure: &Figure) -> Picture {
     assert!(hues.len() >= 5, "{name}: only {} hues", hues.len());
     assert!(title > 400, "{name}: the title was not rendered ({title} dark px)");
     assert!(y_labels > 100 * figure.panels.len(), "{name}: the y labels were not rendered");
+    // A log axis cannot show zero: its label says where a zero (or a value below the
+    // axis's floor) is drawn.
+    for panel in &figure.panels {
+        if panel.scale == taut::plot::Scale::Log {
+            assert!(panel.y_label.contains("shown at"), "{name}: log axis {:?}", panel.y_label);
+        }
+    }
     for (index, (panel, area)) in
         figure.panels.iter().zip(&picture.geometry.panels).map(|(p, g)| (p, g.area)).enumerate()
     {
@@ -167,7 +174,7 @@ fn parse(args: &[&str]) -> Cli {
 
 #[test]
 fn the_main_jobs_plot() {
-    let cli = parse(&["--hold", "4"]);
+    let cli = parse(&["--hold", "5"]);
     let options = taut::job::options_from_args(&cli.job);
     let run: CycleRun = taut::job::run(&options, None, &mut |_| {}).expect("the job runs");
     let figure = taut::job::figure::figure(&run);
@@ -198,7 +205,7 @@ fn series<'a>(figure: &'a Figure, panel: usize, label: &str) -> Option<&'a Serie
 /// marked off scale.
 #[test]
 fn an_uncalibrated_runs_hold_zoom_shows_the_hold() {
-    let (_, figure, picture) = main_job("cycle-uncalibrated", &["--uncalibrated", "--hold", "3"]);
+    let (_, figure, picture) = main_job("cycle-uncalibrated", &["--uncalibrated", "--hold", "5"]);
     let zoom = figure.panels.last().unwrap();
     let (lo, hi) = zoom.y_range.expect("a fixed zoom");
     let held = series(&figure, figure.panels.len() - 1, "true tension").unwrap();
@@ -226,7 +233,7 @@ fn an_uncalibrated_runs_hold_zoom_shows_the_hold() {
 fn a_job_in_pounds_with_a_pre_stretch_is_plotted_in_pounds_with_its_peak_target() {
     let (run, figure, _) = main_job(
         "cycle-lb-prestretch",
-        &["--tension", "55lb", "--pre-stretch", "10", "--hold", "2"],
+        &["--tension", "55lb", "--pre-stretch", "10", "--hold", "5"],
     );
     assert!(run.completed);
     assert_eq!(figure.panels[0].y_label, "tension (lb)");
@@ -246,7 +253,7 @@ fn a_job_in_pounds_with_a_pre_stretch_is_plotted_in_pounds_with_its_peak_target(
 /// across the tension panel.
 #[test]
 fn a_faulted_runs_plot_marks_the_fault() {
-    let (run, figure, _) = main_job("cycle-fault", &["--string", "none", "--hold", "1"]);
+    let (run, figure, _) = main_job("cycle-fault", &["--string", "none", "--hold", "5"]);
     assert!(!run.completed);
     assert!(figure.title.contains("fault E-16 at"), "{}", figure.title);
     let mark = series(&figure, 0, "fault E-16 at").expect("the fault is marked");
@@ -256,10 +263,19 @@ fn a_faulted_runs_plot_marks_the_fault() {
 
 #[test]
 fn the_pull_plot() {
-    let cli = parse(&["pull", "--tension", "25", "--hold", "3"]);
+    let cli = parse(&["pull", "--tension", "25", "--hold", "5"]);
     let Some(Command::Pull(args)) = &cli.command else { panic!("pull") };
     let pull = taut::pull::run(args).expect("the pull runs");
-    check("pull", &pull.figure(args));
+    let figure = pull.figure(args);
+    check("pull", &figure);
+    // In the hold zoom the measured tension does not bury the true one: within 0.05 kgf rms.
+    let zoom = figure.panels.len() - 1;
+    let measured = series(&figure, zoom, "measured").expect("the measured tension");
+    let truth = series(&figure, zoom, "true").expect("the true tension");
+    let squares: f64 =
+        measured.points.iter().zip(&truth.points).map(|(m, t)| (m.1 - t.1).powi(2)).sum();
+    let rms = (squares / truth.points.len() as f64).sqrt();
+    assert!(rms < 0.05, "the measured tension strays {rms:.3} kgf rms from the true one");
 }
 
 #[test]

@@ -156,7 +156,7 @@ fn a_heavy_rotor_is_braked_with_the_deceleration_its_take_up_identified() {
 /// outside the family — overshoots 0.082: this soft string's stiffness lifts the hold's
 /// observer gain to ≈ 0.07, and after the carriage stops the heavy gripper still rings on the
 /// load cell; the family's grippers (≤ 1.5 kg) are unchanged at 0.005. The bound past the
-/// family is the overshoot maximum, 0.1 kgf.
+/// family is the overshoot's goal maximum, 0.1 kgf.
 #[test]
 fn a_heavy_gripper_does_not_overshoot_a_soft_string() {
     use taut_sim::{Axis, StringKind};

@@ -265,7 +265,7 @@ pub mod ranges {
 
     // Hall sensors and encoder.
 
-    /// The bound on every Hall edge's error, electrical degrees (issue 8: ± 5°): the
+    /// The bound on every Hall edge's error, electrical degrees (± 5°): the
     /// [`Axis::HallError`](super::Axis::HallError) sweep moves all three sensors across it.
     pub const HALL_EDGE_DEG: Span = Span::linear(-5.0, 5.0);
     /// Common Hall mounting error, electrical degrees: the sensor board's rotation against

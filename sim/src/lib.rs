@@ -133,7 +133,7 @@
 //! | tennis-synthetic | 1.30 mm | 2.8 GPa | 0.50 m | 7.58 kgf/cm | 6–9 |
 //! | tennis-poly | 1.25 mm | 4.5 GPa | 0.45 m | 12.5 kgf/cm | 10–15 |
 //!
-//! so the twin spans 1.4–15 kgf/cm, the range the issue asks to check. Slack 30 mm
+//! so the twin spans 1.4–15 kgf/cm, the range the reports check. Slack 30 mm
 //! nominal (10–60 mm sampled), a 1.5 mm straightening toe, two relaxation arms (a few %
 //! at 1.5–2 s, 5–10 % at 40–60 s) so a string held at fixed length loses ≈ 4 % of its
 //! tension in 10 s and a constant-pull head must keep creeping forward.

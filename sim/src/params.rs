@@ -461,7 +461,7 @@ pub struct HumParams {
     pub phase_deg: f64,
 }
 
-/// Where the board measures the motor current (issue 17: both kinds are first-class).
+/// Where the board measures the motor current (both kinds are first-class).
 ///
 /// What each kind reads, for a winding current `i` (positive in the commanded direction,
 /// negative while braking), before the amplifier (see [`CurrentSenseParams`] for the code):
@@ -582,7 +582,7 @@ pub struct EncoderParams {
 }
 
 /// The reference gauge every machine of the family is commissioned with: a good digital
-/// tension calibrator, σ = 0.02 kgf per reading (issue 8; `sim/README.md`). The reports'
+/// tension calibrator, σ = 0.02 kgf per reading (`sim/README.md`). The reports'
 /// `--gauge-sigma` replaces it.
 pub const REFERENCE_GAUGE_SIGMA_KGF: f64 = 0.02;
 

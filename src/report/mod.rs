@@ -1,7 +1,7 @@
 //! The reports: Monte-Carlo runs on the family of machines, each through the one bench.
 //!
 //! - [`accuracy`]: controllers on scenarios of the family (machine, string, target), the
-//!   figures issue 8 defines, against the *true* tension;
+//!   figures its goals are stated in (`docs/RESULTS.md`), against the *true* tension;
 //! - [`ablation`]: taut with each improvement switched off in turn, on the same scenarios;
 //! - [`robustness`]: each uncertainty axis of the family swept alone;
 //! - [`machine`]: whole machine cycles with injected string breaks and faults;
@@ -367,6 +367,61 @@ pub fn number(x: f64) -> serde_json::Value {
 #[must_use]
 pub fn cell(x: f64, decimals: usize) -> String {
     if x.is_finite() { format!("{x:.decimals$}") } else { "—".to_owned() }
+}
+
+/// `x` to `digits` significant figures, without trailing zeros (`6.304347826086957` → `6.3`
+/// for 2, `0.86` → `0.86`, `1200` → `1200`): how a table prints a parameter's value, which
+/// is an input to read, not a figure measured to a stated precision.
+#[must_use]
+pub fn significant(x: f64, digits: i32) -> String {
+    if !x.is_finite() {
+        return "—".to_owned();
+    }
+    if x == 0.0 {
+        return "0".to_owned();
+    }
+    let magnitude = x.abs().log10().floor() as i32;
+    let decimals = usize::try_from((digits - 1 - magnitude).max(0)).unwrap_or(0);
+    let text = format!("{x:.decimals$}");
+    if text.contains('.') {
+        text.trim_end_matches('0').trim_end_matches('.').to_owned()
+    } else {
+        text
+    }
+}
+
+/// The span of a robustness axis as a table prints it: `largest spike at 3 A 0 … 6.3 kgf`.
+#[must_use]
+pub fn span_text(span: &taut_sim::family::AxisSpan) -> String {
+    let text = format!(
+        "{} {} … {} {}",
+        span.quantity,
+        significant(span.at_low_end, 3),
+        significant(span.at_high_end, 3),
+        span.unit
+    );
+    text.trim_end().to_owned()
+}
+
+/// True when `text` shows no number with more than `decimals` decimals (a figure printed
+/// with `{}` instead of to its precision).
+#[must_use]
+pub fn rounded(text: &str, decimals: usize) -> bool {
+    let bytes = text.as_bytes();
+    let mut run = 0;
+    let mut after_point = false;
+    for (k, &b) in bytes.iter().enumerate() {
+        if b.is_ascii_digit() {
+            run += 1;
+            if after_point && run > decimals {
+                return false;
+            }
+        } else {
+            after_point = b == b'.' && k > 0 && bytes[k - 1].is_ascii_digit();
+            run = 0;
+        }
+    }
+    true
 }
 
 /// Failure reasons and how often each occurred, most frequent first.

@@ -327,7 +327,13 @@ pub fn markdown(axes: &[Axis], runs: &[Point]) -> String {
     );
     for &axis in axes {
         let mine: Vec<&Point> = runs.iter().filter(|p| p.axis == axis && p.in_family()).collect();
-        let _ = writeln!(out, "| {} | {} | {} |", axis.name(), axis.span(), figure_cells(&mine));
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} |",
+            axis.name(),
+            super::span_text(&axis.span()),
+            figure_cells(&mine)
+        );
     }
     out
 }
@@ -409,7 +415,7 @@ pub fn to_json(args: &RobustnessArgs, axes: &[Axis], runs: &[Point]) -> Value {
             })
             .collect();
         let mut entry = worst_json(&worst(runs.iter().filter(|p| p.axis == axis && p.in_family())));
-        entry["span"] = json!(axis.span().to_string());
+        entry["span"] = json!(super::span_text(&axis.span()));
         entry["points"] = Value::Array(points);
         let beyond: Vec<Value> = beyond_positions(axis, args.beyond)
             .into_iter()
@@ -490,8 +496,8 @@ pub fn figure(args: &RobustnessArgs, axes: &[Axis], runs: &[Point]) -> Figure {
         ),
         "uncertainty axis",
         vec![
-            Panel::new("worst hold error (kgf, log)", hold).log(),
-            Panel::new("worst overshoot (kgf, log)", over).log(),
+            Panel::new("worst hold error (kgf, log; < 0.001 shown at 0.001)", hold).log(),
+            Panel::new("worst overshoot (kgf, log; 0 shown at 0.001)", over).log(),
             Panel::new("worst settle / t_min", ratio),
             Panel::new("failed runs (%)", failed)
                 .with_y_range(-5.0, 105.0)
@@ -584,4 +590,31 @@ pub fn main(args: &RobustnessArgs) -> Status {
         println!("plot: {}", path.display());
     }
     Ok(true)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_axis_row_is_rounded() {
+        let table = markdown(&Axis::ALL, &[]);
+        for line in table.lines() {
+            assert!(super::super::rounded(line, 4), "a raw float in: {line}");
+            assert!(!line.contains("  |"), "a stray space in: {line}");
+        }
+        assert!(table.contains("largest spike at 3 A 0 … 6.3 kgf"), "{table}");
+    }
+
+    #[test]
+    fn numbers_are_rounded_to_significant_figures() {
+        use super::super::{rounded, significant};
+        assert_eq!(significant(6.304_347_826_086_957, 3), "6.3");
+        assert_eq!(significant(0.86, 3), "0.86");
+        assert_eq!(significant(1_200.0, 3), "1200");
+        assert_eq!(significant(0.000_47, 3), "0.00047");
+        assert_eq!(significant(0.0, 3), "0");
+        assert!(!rounded("| spikes | 0 … 6.304347826086957 kgf |", 4));
+        assert!(rounded("| 0.040 | 1.13 | 0 of 4 |", 4));
+    }
 }

@@ -190,7 +190,7 @@ pub fn run_machine(args: &SessionArgs, index: u64) -> SessionResult {
     }
 }
 
-/// The report's text.
+/// The report as Markdown: a title line, one table row per machine, the worst figures.
 #[must_use]
 pub fn text(results: &[SessionResult], pulls: u64) -> String {
     let mut out = String::new();
@@ -202,13 +202,14 @@ pub fn text(results: &[SessionResult], pulls: u64) -> String {
     );
     let _ = writeln!(
         out,
-        "machine  pulls  hours  hold p99  first {FIRST_PULLS}  last {FIRST_PULLS}  excess   \
-         offset  zero moved  re-zeros  winding      R×     friction×  faults  notices"
+        "| machine | pulls | hours | hold p99 kgf | first {FIRST_PULLS} kgf | last {FIRST_PULLS} kgf | \
+         excess kgf | offset kgf | zero moved kgf | re-zeros | winding °C | R× | friction× | \
+         faults | notices |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
     );
     for r in results {
         let _ = writeln!(
             out,
-            "{:7}  {:5}  {:5}  {:8}  {:8}  {:7}  {:7}  {:7}  {:10}  {:8}  {:6} °C  {:6}  {:9}  {:6}  {}",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             r.index,
             r.pulls,
             cell(r.hours, 2),
@@ -294,4 +295,20 @@ pub fn main(args: &SessionArgs) -> Status {
         println!("summary: {}", path.display());
     }
     Ok(true)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_report_is_a_markdown_table() {
+        let text = text(&[], 200);
+        let lines: Vec<&str> = text.lines().collect();
+        let header = lines.iter().position(|l| l.starts_with("| machine |")).unwrap_or(usize::MAX);
+        assert!(header < lines.len(), "no table header in\n{text}");
+        let columns = lines[header].matches('|').count();
+        assert!(lines[header + 1].starts_with("|---|"), "no separator under the header");
+        assert_eq!(lines[header + 1].matches('|').count(), columns, "separator and header differ");
+    }
 }

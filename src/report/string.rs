@@ -20,7 +20,7 @@
 //!   over the twin's relaxation arms, averaged over the same window the machine measures in
 //!   (from 1 s into the hold to the release), as a share of the true tension per minute.
 //!
-//! Acceptance (issue 15): stiffness within 10 % and creep within 20 % of the truth.
+//! Acceptance: stiffness within 10 % and creep within 20 % of the truth.
 
 use std::fmt::Write as _;
 
@@ -344,7 +344,8 @@ pub fn to_json(rows: &[Estimate], hold_ms: u64) -> Value {
 /// The JSON file cannot be written.
 pub fn main(args: &StringArgs) -> Status {
     let outputs = Outputs::new().file("--json", args.json.as_deref()).check()?;
-    let hold_ms = u64::from(args.hold) * 1_000;
+    // Within HOLD_MIN_MS..=HOLD_MAX_MS (the parser's range): the cast is exact.
+    let hold_ms = u64::from((args.hold * 1_000.0).round() as u32);
     let rows = run(args.seeds, hold_ms);
     let files: Vec<_> =
         args.json.iter().map(|path| (path.clone(), json_bytes(&to_json(&rows, hold_ms)))).collect();
@@ -354,4 +355,32 @@ pub fn main(args: &StringArgs) -> Status {
         println!("summary: {}", path.display());
     }
     Ok(rows.iter().all(Estimate::accepted))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_report_is_markdown_with_rounded_rows() {
+        let row = Estimate {
+            kind: StringKind::TennisSynthetic,
+            machine: "nominal".to_owned(),
+            speed: 3,
+            target_kgf: 25.0,
+            stiffness_true: 0.748_123_456,
+            stiffness_instantaneous: 0.758_333_333,
+            stiffness_estimate: 0.747_654_321,
+            creep_true: 35.281_234,
+            creep_estimate: 35.391_234,
+            failure: None,
+        };
+        let text = text(&[row], 20_000);
+        let lines: Vec<&str> = text.lines().collect();
+        let header = lines.iter().position(|l| l.starts_with("| string |"));
+        let header = header.unwrap_or(usize::MAX);
+        assert!(header < lines.len(), "no table header in\n{text}");
+        assert!(lines.get(header + 1).is_some_and(|l| l.starts_with("|---|")), "{text}");
+        assert!(super::super::rounded(&text, 3), "a raw float in\n{text}");
+    }
 }

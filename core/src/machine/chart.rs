@@ -39,6 +39,7 @@ use crate::machine::fault::{FaultCode, Notice};
 use crate::machine::log::{LoggedKgf, PullRecord, string_mm};
 use crate::machine::panel::{self, Beep, KeyEvent};
 use crate::machine::safety::{self, TensionSample, TensionWatch};
+use crate::machine::snapshot::{FaultSnapshot, Latch};
 use crate::machine::string::StringProbe;
 use crate::machine::{Checkpoint, MachineState};
 use crate::sense::calibration::{
@@ -212,6 +213,8 @@ pub struct Context {
     /// The leaf expects the carriage to move now (taking up slack, releasing): the stall
     /// rule applies.
     pub expect_motion: bool,
+    /// The state and drive command before this tick (a fault's snapshot).
+    pub prior: Option<(MachineState, DriveCommand)>,
 }
 
 impl Context {
@@ -225,6 +228,7 @@ impl Context {
             beep: None,
             completed: None,
             expect_motion: false,
+            prior: None,
         }
     }
 }
@@ -603,7 +607,11 @@ impl Chart {
                 self.scale = scale;
                 self.rezeros = self.rezeros.saturating_add(1);
                 // REQ-UI-12: the drift watch, once a boot, never over another notice.
-                if !self.drift_noticed && self.notice.is_none() && self.rezero.drifted(zero) {
+                let calibrated_at = self.record.calibration_zero;
+                if !self.drift_noticed
+                    && self.notice.is_none()
+                    && self.rezero.drifted_since(zero, calibrated_at)
+                {
                     self.notice = Some(Notice::ZeroDrift);
                     self.drift_noticed = true;
                 }
@@ -1259,6 +1267,10 @@ impl Chart {
         context.out.drive = DriveCommand::Coast;
         let [latest, older, _] = self.fault_history;
         self.fault_history = [Some(*code), latest, older];
+        let (inputs, tension) = (&context.sample.inputs, context.sample.tension);
+        let latch = Latch::of(*code, context.prior, inputs, tension, self.record.counters.boots);
+        self.record.push_fault(FaultSnapshot::capture(&latch));
+        context.out.store = true;
         context.out.display = panel::fault(code.number());
         context.out.leds = Leds { fault: true, ..self.unit_leds() };
         context.next = None;
@@ -1322,6 +1334,7 @@ impl Chart {
             Ok(Some(calibration)) => {
                 self.calibration = calibration;
                 self.record.calibration = Some(self.calibration_points);
+                self.record.calibration_zero = Some(self.scale.zero());
                 self.dirty = true;
                 context.out.store = true;
                 context.beep = Some(Beep::AtTension);
@@ -1534,8 +1547,8 @@ impl Chart {
             }
             _ => {
                 let index = usize::from(item.saturating_sub(7));
-                match self.fault_history.get(index).copied().flatten() {
-                    Some(code) => panel::fault(code.number()),
+                match self.record.faults.get(index).copied().flatten() {
+                    Some(snapshot) => panel::fault(snapshot.code.number()),
                     None => panel::text(b"----"),
                 }
             }

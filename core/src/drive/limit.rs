@@ -788,6 +788,30 @@ mod tests {
         assert_eq!(drive.ir_mv(), config.ir_mv(), "a drive starts cold");
     }
 
+    /// The estimate's invariant: a reachable state is valid; a rise past the bound, a span
+    /// left unadvanced, or a resistance or `I·R` that is not the rise's are not.
+    #[test]
+    fn the_heat_estimates_invariant_names_each_field() {
+        let config = DriveConfig::PAPER;
+        assert!(WindingHeat::cold(&config).is_valid(&config));
+        let hot = WindingHeat::with_rise(&config, RISE_MAX_UK);
+        assert!(hot.is_valid(&config));
+        let mut past = hot;
+        past.rise_uk = RISE_MAX_UK + 1;
+        assert!(!past.is_valid(&config), "a rise past the bound");
+        let mut long = hot;
+        long.span = HEAT_SPAN * 2 - 1;
+        assert!(long.is_valid(&config));
+        long.span = HEAT_SPAN * 2;
+        assert!(!long.is_valid(&config), "a span never advanced");
+        let mut resistance = hot;
+        resistance.resistance_mohm = 700;
+        assert!(!resistance.is_valid(&config), "a resistance not the rise's");
+        let mut ir = hot;
+        ir.ir_mv = config.ir_mv();
+        assert!(!ir.is_valid(&config), "an I·R not the rise's");
+    }
+
     /// REQ-DRV-13: the cold value is never undercut: a winding that cools for hours returns to
     /// the cold resistance and stays there, and idle calls never lower it.
     #[test]

@@ -21,58 +21,98 @@
 //! [`crate::sense::calibration::Calibration::new`] when the machine starts: an implausible
 //! calibration is then dropped with a notice, and the settings beside it are kept.
 //!
-//! # Layout (format version 3, little-endian, [`RECORD_LEN`] = 128 bytes)
+//! # Layout (format version 4, little-endian, [`RECORD_LEN`] = 224 bytes)
 //!
 //! | offset | size | field |
 //! |---|---|---|
 //! | 0 | 2 | magic `b"TT"` |
-//! | 2 | 1 | format version (3) |
-//! | 3 | 1 | reserved, 0 |
+//! | 2 | 1 | format version (4) |
+//! | 3 | 1 | the record's length in bytes (224; versions 1–3: reserved, 0, and 128 bytes) |
 //! | 4 | 6 | current settings (see below) |
 //! | 10 | 54 | presets 1–9, 6 bytes each |
 //! | 64 | 1 | calibration: number of points (0: none; else [`CALIBRATION_POINTS`]) |
-//! | 65 | 32 | calibration: 4 × (raw reading, reference reading), each Q15.16 kgf bits (`i32`) |
-//! | 97 | 4 | counter: pulls (`u32`) |
-//! | 101 | 4 | counter: string used, millimetres (`u32`) |
-//! | 105 | 4 | counter: boots (`u32`) |
-//! | 109 | 1 | preferences: bit 0 beeper off, bit 1 constant pull off; other bits 0 |
-//! | 110 | 14 | reserved, 0 |
-//! | 124 | 4 | CRC-32/ISCSI of bytes 0..124 |
+//! | 65 | 8 × points | calibration: (raw reading, reference reading) per point, each Q15.16 kgf bits (`i32`) |
+//! | *c* = 65 + 8 × points | 4 | counter: pulls (`u32`) |
+//! | *c* + 4 | 4 | counter: string used, millimetres (`u32`) |
+//! | *c* + 8 | 4 | counter: boots (`u32`) |
+//! | *c* + 12 | 1 | preferences: bit 0 beeper off, bit 1 constant pull off; other bits 0 |
+//! | *c* + 13 | 1 | the load cell's zero at calibration: 1 stored, 0 not |
+//! | *c* + 14 | 4 | that zero, volts, Q15.16 bits (`i32`; 0 when not stored) |
+//! | *c* + 18 | 3 × 22 | fault history, the latest first ([`crate::machine::snapshot`]; an empty slot all 0) |
+//! | *c* + 84 | to 220 | reserved, 0 |
+//! | 220 | 4 | CRC-32/ISCSI of bytes 0..220 |
 //!
-//! Offsets from 65 on are those of four points; they are computed from
-//! [`CALIBRATION_POINTS`], and a `const` assertion keeps the layout inside the record. A
-//! settings block is: set point in tenths of its unit (`u16`), unit (0 kg, 1 lb), speed
+//! With four points *c* = 97 and 39 bytes are reserved. Today's layout is computed from
+//! [`CALIBRATION_POINTS`] (another point count is one constant: the fields after the points
+//! move with it), and a `const` assertion keeps it inside the record; up to eight points fit.
+//! A settings block is: set point in tenths of its unit (`u16`), unit (0 kg, 1 lb), speed
 //! (1–9), pre-stretch percent (0–30), knot percent (0–20).
 //!
-//! Reserved bytes must be zero: a later format that uses them bumps the version, so a reader
+//! Reserved bytes must be zero in every version this code writes or migrates, so a reader
 //! never misreads a newer record as an older one.
+//!
+//! # Format versions and the bump rule
+//!
+//! The layouts of the versions already in the field are frozen as literals (`Layout::V1`,
+//! `Layout::V2`, `Layout::V3`: four points, counters at 97, 128 bytes, CRC at 124), so a change
+//! of [`CALIBRATION_POINTS`] cannot move a field of a record already written. A format change
+//! follows one rule:
+//!
+//! 1. A new field is **appended** after the last field of the previous format (in its
+//!    reserved bytes, or by lengthening the record, up to [`MAX_RECORD_LEN`]); the version
+//!    byte goes up by one and byte 3 says the new length. No field of an earlier format ever
+//!    moves or changes its meaning — a change that needs that is a new magic, not a version.
+//! 2. The previous format's layout is frozen as a literal here, with its migration and a test
+//!    that decodes a record written in it.
+//!
+//! Because of (1), a record from a **newer** format (version above [`FORMAT_VERSION`], with
+//! byte 3 a length from [`RECORD_LEN`] to [`MAX_RECORD_LEN`] and its CRC at that length
+//! less 4) is read as far as this code knows it: settings, presets, calibration, counters and
+//! fault history are kept, and the unknown tail is ignored (the machine then writes the record
+//! back in its own format). A newer record's counters are therefore never lost to a firmware
+//! that is older than the record.
 //!
 //! # Migration
 //!
 //! Format version 1 had no boot counter and a calibration flag (0/1) where later versions have
 //! the point count; version 2 had no preferences byte (it was reserved, so zero: the default
-//! preferences); their other fields lie where version 3 has them. [`Record::decode`] reads a
-//! version-1 or version-2 record into today's [`Record`] (boots 0 for version 1, the default
-//! preferences for both) instead of refusing it, and [`Record::decode_version`] says which
-//! format the bytes were in. The machine writes the record back in version 3 soon after
-//! every boot (it counts the boot), so a migrated record is rewritten without the operator
-//! doing anything.
+//! preferences); version 3 had neither the zero at calibration nor the fault history and was
+//! 128 bytes long. Their other fields lie where version 4 has them (with four points).
+//! [`Record::decode`] reads a version 1–3 record into today's [`Record`] (boots 0 for version
+//! 1, the default preferences for 1 and 2, no zero at calibration and an empty fault history
+//! for all three) instead of refusing it, and [`Record::decode_version`] says which format the
+//! bytes were in. The machine writes the record back in version 4 soon after every boot (it
+//! counts the boot), so a migrated record is rewritten without the operator doing anything.
 
 use crc::{CRC_32_ISCSI, Crc};
 
+use crate::machine::snapshot::{FAULT_HISTORY, FaultSnapshot, SNAPSHOT_LEN};
 use crate::sense::calibration::{CALIBRATION_POINTS, CalibrationPoint, CalibrationPoints};
 use crate::settings::{Preferences, SetPoint, Settings, Unit};
-use crate::units::Kgf;
+use crate::units::{Kgf, Volts};
 
-/// Size of an encoded [`Record`] in bytes.
-pub const RECORD_LEN: usize = 128;
+/// Size of an encoded [`Record`] in bytes (format version 4).
+pub const RECORD_LEN: usize = 224;
+
+/// Size of a record of format versions 1–3.
+pub const LEGACY_LEN: usize = 128;
+
+/// The longest record a newer format may write (the firmware's store holds 248 bytes).
+pub const MAX_RECORD_LEN: usize = 248;
+
+/// The bytes a newer format's record shares with today's: everything before today's reserved
+/// bytes (the version and length bytes aside).
+pub const KNOWN_LEN: usize = Layout::CURRENT.reserved;
 
 /// The first two bytes of every record.
 pub const MAGIC: [u8; 2] = *b"TT";
 
-/// The format version this code writes (it also reads [`FORMAT_V1`] and [`FORMAT_V2`],
-/// migrating them).
-pub const FORMAT_VERSION: u8 = 3;
+/// The format version this code writes (it also reads [`FORMAT_V1`], [`FORMAT_V2`] and
+/// [`FORMAT_V3`], migrating them, and the known part of any newer version).
+pub const FORMAT_VERSION: u8 = 4;
+
+/// The third format version: 128 bytes, no zero at calibration, no fault history.
+pub const FORMAT_V3: u8 = 3;
 
 /// The second format version: no preferences byte (its place reserved, zero).
 pub const FORMAT_V2: u8 = 2;
@@ -102,54 +142,107 @@ const OFFSET_SETTINGS: usize = 4;
 const OFFSET_PRESETS: usize = OFFSET_SETTINGS + SETTINGS_LEN;
 const OFFSET_CALIBRATION: usize = OFFSET_PRESETS + SETTINGS_LEN * PRESET_COUNT;
 const OFFSET_CRC: usize = RECORD_LEN - 4;
+const LEGACY_CRC: usize = LEGACY_LEN - 4;
 
 /// Where the fields after the presets lie in one format version.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
 struct Layout {
+    /// The record's length (its CRC is the last four bytes).
+    len: usize,
     /// Calibration points stored.
     points: usize,
+    /// Offset of the counters.
+    counters: usize,
     /// Whether the version has the boot counter.
     boots: bool,
     /// Whether the version has the preferences byte.
     preferences: bool,
+    /// Whether the version has the zero at calibration and the fault history.
+    history: bool,
+    /// Offset of the reserved bytes (after the last field).
+    reserved: usize,
 }
 
 impl Layout {
-    /// Version 1: four points, no boot counter.
-    const V1: Self = Self { points: 4, boots: false, preferences: false };
-    /// Version 2: the boot counter, no preferences.
-    const V2: Self = Self { points: CALIBRATION_POINTS, boots: true, preferences: false };
-    /// Today's version.
-    const CURRENT: Self = Self { points: CALIBRATION_POINTS, boots: true, preferences: true };
+    /// Version 1, frozen: four points, no boot counter, 128 bytes.
+    const V1: Self = Self {
+        len: 128,
+        points: 4,
+        counters: 97,
+        boots: false,
+        preferences: false,
+        history: false,
+        reserved: 105,
+    };
+    /// Version 2, frozen: the boot counter, no preferences.
+    const V2: Self = Self { boots: true, reserved: 109, ..Self::V1 };
+    /// Version 3, frozen: the preferences byte.
+    const V3: Self = Self { preferences: true, reserved: 110, ..Self::V2 };
+    /// Today's version, derived from [`CALIBRATION_POINTS`].
+    const CURRENT: Self = Self::derived(CALIBRATION_POINTS);
 
-    /// Offset of the counters.
-    const fn counters(self) -> usize {
-        OFFSET_CALIBRATION.saturating_add(1).saturating_add(self.points.saturating_mul(8))
+    /// Today's layout for a calibration of `points` points.
+    const fn derived(points: usize) -> Self {
+        let counters =
+            OFFSET_CALIBRATION.saturating_add(1).saturating_add(points.saturating_mul(8));
+        let reserved = counters
+            .saturating_add(12 + 1 + 5)
+            .saturating_add(FAULT_HISTORY.saturating_mul(SNAPSHOT_LEN));
+        Self {
+            len: RECORD_LEN,
+            points,
+            counters,
+            boots: true,
+            preferences: true,
+            history: true,
+            reserved,
+        }
     }
 
-    /// Offset of the reserved bytes (after the counters and the preferences).
-    const fn reserved(self) -> usize {
-        self.counters()
-            .saturating_add(if self.boots { 12 } else { 8 })
-            .saturating_add(if self.preferences { 1 } else { 0 })
+    /// The layout as the derivation gives it for a version's own point count and fields (the
+    /// frozen literals must agree with it: a test checks).
+    #[cfg(test)]
+    const fn derived_legacy(points: usize, boots: bool, preferences: bool) -> Self {
+        let counters =
+            OFFSET_CALIBRATION.saturating_add(1).saturating_add(points.saturating_mul(8));
+        let reserved = counters
+            .saturating_add(if boots { 12 } else { 8 })
+            .saturating_add(if preferences { 1 } else { 0 });
+        Self { len: LEGACY_LEN, points, counters, boots, preferences, history: false, reserved }
     }
 
     /// Whether the fields end before the CRC.
     const fn fits(self) -> bool {
-        self.reserved() <= OFFSET_CRC
+        self.reserved.saturating_add(4) <= self.len && self.len <= MAX_RECORD_LEN
+    }
+
+    /// The layout of a known version.
+    const fn of(version: u8) -> Option<Self> {
+        match version {
+            FORMAT_V1 => Some(Self::V1),
+            FORMAT_V2 => Some(Self::V2),
+            FORMAT_V3 => Some(Self::V3),
+            FORMAT_VERSION => Some(Self::CURRENT),
+            _ => None,
+        }
     }
 }
 
 const _: () = assert!(
-    Layout::CURRENT.fits() && Layout::V2.fits() && Layout::V1.fits() && RECORD_LEN <= 256,
+    Layout::CURRENT.fits()
+        && Layout::V3.fits()
+        && Layout::V2.fits()
+        && Layout::V1.fits()
+        && RECORD_LEN <= 255
+        && MAX_RECORD_LEN <= 255,
     "layout overflows"
 );
 
 /// Whether today's layout would hold a calibration of `points` points (the record's side of
-/// "another point count is one constant": five fit, six would not).
+/// "another point count is one constant": up to eight fit, nine would not).
 #[must_use]
 pub const fn layout_fits(points: usize) -> bool {
-    Layout { points, boots: true, preferences: true }.fits()
+    Layout::derived(points).fits()
 }
 
 /// A unit's code in the record (0 kg, 1 lb).
@@ -203,11 +296,13 @@ pub struct Counters {
 /// Why a stored record was not used.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
 pub enum StoreError {
-    /// Fewer than [`RECORD_LEN`] bytes.
+    /// Fewer bytes than the shortest record ([`LEGACY_LEN`]), or than the record's format
+    /// holds.
     TooShort,
     /// The magic bytes are wrong: the flash holds no record (erased or never written).
     NoRecord,
-    /// A format version this code does not know.
+    /// A format version this code does not know (0), or a newer one whose stated length is
+    /// shorter than today's or longer than [`MAX_RECORD_LEN`].
     UnknownVersion,
     /// The checksum does not match: the record is corrupt (torn write, bit rot).
     CrcMismatch,
@@ -216,8 +311,13 @@ pub enum StoreError {
     /// The calibration block is malformed (a point count other than 0 and the build's, a
     /// version-1 flag other than 0/1, or points stored without a calibration).
     InvalidCalibration,
-    /// A reserved byte is not zero (or a preferences bit this version does not define).
+    /// A reserved byte is not zero (or a preferences bit this version does not define, or a
+    /// version-4 length byte other than [`RECORD_LEN`]).
     ReservedNotZero,
+    /// The zero at calibration's flag is not 0/1, or a zero is stored under flag 0.
+    InvalidZero,
+    /// A fault snapshot's field is out of its range.
+    InvalidSnapshot,
 }
 
 /// Everything the machine persists.
@@ -233,6 +333,12 @@ pub struct Record {
     pub counters: Counters,
     /// Beeper and constant-pull preferences.
     pub preferences: Preferences,
+    /// The load cell's zero in use when the calibration was accepted (the drift watch's
+    /// reference for the zero's movement since calibration); `None` for a calibration
+    /// migrated from a format that did not keep it.
+    pub calibration_zero: Option<Volts>,
+    /// The last faults with what latched them, the latest first.
+    pub faults: [Option<FaultSnapshot>; FAULT_HISTORY],
 }
 
 impl Record {
@@ -241,30 +347,7 @@ impl Record {
     pub fn encode(&self) -> [u8; RECORD_LEN] {
         let mut out = [0u8; RECORD_LEN];
         let mut w = Writer { bytes: &mut out, at: 0 };
-        w.bytes_from(&MAGIC);
-        w.u8(FORMAT_VERSION);
-        w.u8(0);
-        encode_settings(self.settings, &mut w);
-        for preset in &self.presets {
-            encode_settings(*preset, &mut w);
-        }
-        match &self.calibration {
-            Some(points) => {
-                w.u8(u8::try_from(CALIBRATION_POINTS).unwrap_or(u8::MAX));
-                for point in points {
-                    w.i32(point.raw.to_bits());
-                    w.i32(point.reference.to_bits());
-                }
-            }
-            None => {
-                w.u8(0);
-                w.skip(CALIBRATION_POINTS.saturating_mul(8));
-            }
-        }
-        w.u32(self.counters.pulls);
-        w.u32(self.counters.string_used_mm);
-        w.u32(self.counters.boots);
-        w.u8(self.preferences.flags());
+        self.write(&mut w, Layout::CURRENT, FORMAT_VERSION);
         // The reserved bytes stay zero; the CRC covers everything before it.
         let body = out.first_chunk::<OFFSET_CRC>().copied().unwrap_or([0; OFFSET_CRC]);
         let mut w = Writer { bytes: &mut out, at: OFFSET_CRC };
@@ -272,8 +355,87 @@ impl Record {
         out
     }
 
-    /// The record in `bytes` (the first [`RECORD_LEN`] of them), fully validated; a
-    /// version-1 record is migrated (see the module docs).
+    /// The record as format `version` 1–3 wrote it (the fields it did not have dropped; a
+    /// calibration of another point count than those versions' four dropped too), or `None`
+    /// for any other version: what the migration tests and proofs compare with.
+    #[must_use]
+    pub fn encode_legacy(&self, version: u8) -> Option<[u8; LEGACY_LEN]> {
+        let layout = match version {
+            FORMAT_V1 => Layout::V1,
+            FORMAT_V2 => Layout::V2,
+            FORMAT_V3 => Layout::V3,
+            _ => return None,
+        };
+        let mut today = [0u8; RECORD_LEN];
+        let mut w = Writer { bytes: &mut today, at: 0 };
+        let record = Self {
+            calibration: self.calibration.filter(|_| CALIBRATION_POINTS == layout.points),
+            ..*self
+        };
+        record.write(&mut w, layout, version);
+        let mut out = today.first_chunk::<LEGACY_LEN>().copied().unwrap_or([0; LEGACY_LEN]);
+        if version == FORMAT_V1 && record.calibration.is_some() {
+            if let Some(flag) = out.get_mut(OFFSET_CALIBRATION) {
+                *flag = 1;
+            }
+        }
+        let body = out.first_chunk::<LEGACY_CRC>().copied().unwrap_or([0; LEGACY_CRC]);
+        let crc = checksum(&body).to_le_bytes();
+        if let Some(slot) = out.get_mut(LEGACY_CRC..) {
+            slot.copy_from_slice(&crc);
+        }
+        Some(out)
+    }
+
+    /// Writes the fields `layout` has, from the version byte on.
+    fn write(&self, w: &mut Writer<'_>, layout: Layout, version: u8) {
+        w.bytes_from(&MAGIC);
+        w.u8(version);
+        w.u8(if layout.history { u8::try_from(layout.len).unwrap_or(0) } else { 0 });
+        encode_settings(self.settings, w);
+        for preset in &self.presets {
+            encode_settings(*preset, w);
+        }
+        match &self.calibration {
+            Some(points) if points.len() == layout.points => {
+                w.u8(u8::try_from(layout.points).unwrap_or(u8::MAX));
+                for point in points {
+                    w.i32(point.raw.to_bits());
+                    w.i32(point.reference.to_bits());
+                }
+            }
+            _ => {
+                w.u8(0);
+                w.skip(layout.points.saturating_mul(8));
+            }
+        }
+        w.u32(self.counters.pulls);
+        w.u32(self.counters.string_used_mm);
+        if layout.boots {
+            w.u32(self.counters.boots);
+        }
+        if layout.preferences {
+            w.u8(self.preferences.flags());
+        }
+        if layout.history {
+            match self.calibration_zero {
+                Some(zero) => {
+                    w.u8(1);
+                    w.i32(zero.to_bits());
+                }
+                None => {
+                    w.u8(0);
+                    w.i32(0);
+                }
+            }
+            for slot in &self.faults {
+                w.bytes_from(&FaultSnapshot::encode_slot(slot.as_ref()));
+            }
+        }
+    }
+
+    /// The record in `bytes`, fully validated; a version 1–3 record is migrated, a newer one
+    /// read as far as this code knows it (see the module docs).
     ///
     /// # Errors
     /// A [`StoreError`] naming the first problem found, checked in the order: length, magic,
@@ -287,47 +449,85 @@ impl Record {
     /// # Errors
     /// As [`Record::decode`].
     pub fn decode_version(bytes: &[u8]) -> Result<(Self, u8), StoreError> {
-        let bytes: &[u8; RECORD_LEN] = bytes.first_chunk().ok_or(StoreError::TooShort)?;
-        let mut r = Reader { bytes, at: 0 };
-        if r.u8() != MAGIC[0] || r.u8() != MAGIC[1] {
+        if bytes.len() < LEGACY_LEN {
+            return Err(StoreError::TooShort);
+        }
+        let header: &[u8; 4] = bytes.first_chunk().ok_or(StoreError::TooShort)?;
+        let [m0, m1, version, length] = *header;
+        if [m0, m1] != MAGIC {
             return Err(StoreError::NoRecord);
         }
-        let version = r.u8();
-        if version != FORMAT_V1 && version != FORMAT_V2 && version != FORMAT_VERSION {
-            return Err(StoreError::UnknownVersion);
-        }
-        let body = bytes.first_chunk::<OFFSET_CRC>().ok_or(StoreError::TooShort)?;
-        let stored = Reader { bytes, at: OFFSET_CRC }.u32();
-        if checksum(body) != stored {
+        // The layout to read, and the record's own length (its CRC is its last four bytes).
+        let (layout, len) = match Layout::of(version) {
+            Some(layout) => (layout, layout.len),
+            None if version > FORMAT_VERSION => {
+                let len = usize::from(length);
+                if !(RECORD_LEN..=MAX_RECORD_LEN).contains(&len) {
+                    return Err(StoreError::UnknownVersion);
+                }
+                (Layout::CURRENT, len)
+            }
+            None => return Err(StoreError::UnknownVersion),
+        };
+        let stored = bytes.get(..len).ok_or(StoreError::TooShort)?;
+        let (body, crc) = stored.split_at(len.saturating_sub(4));
+        let crc: [u8; 4] = crc.try_into().map_err(|_| StoreError::TooShort)?;
+        if checksum(body) != u32::from_le_bytes(crc) {
             return Err(StoreError::CrcMismatch);
         }
-        // Each version's reserved bytes from a constant offset (a model checker then reads
-        // them at known places rather than at an offset that depends on the version byte).
+        // A known version's reserved bytes are zero, and version 4 states its own length; a
+        // newer version's tail is its own.
         let tail_is_zero = match version {
-            FORMAT_V1 => zero_from::<{ Layout::V1.reserved() }>(bytes),
-            FORMAT_V2 => zero_from::<{ Layout::V2.reserved() }>(bytes),
-            _ => zero_from::<{ Layout::CURRENT.reserved() }>(bytes),
+            FORMAT_V1 | FORMAT_V2 | FORMAT_V3 => {
+                length == 0 && zero_between(body, layout.reserved, LEGACY_CRC)
+            }
+            FORMAT_VERSION => {
+                usize::from(length) == RECORD_LEN && zero_between(body, layout.reserved, OFFSET_CRC)
+            }
+            _ => true,
         };
-        if r.u8() != 0 || !tail_is_zero {
+        if !tail_is_zero {
             return Err(StoreError::ReservedNotZero);
         }
+        let mut r = Reader { bytes: body, at: OFFSET_SETTINGS };
         let settings = decode_settings(&mut r)?;
         let mut presets = [Settings::DEFAULT; PRESET_COUNT];
         for preset in &mut presets {
             *preset = decode_settings(&mut r)?;
         }
-        let calibration = if version == FORMAT_V1 {
-            read_v1_calibration(&mut r)?
-        } else {
-            read_calibration(&mut r)?
+        let calibration = match version {
+            FORMAT_V1 => read_legacy_calibration(&mut r, true)?,
+            FORMAT_V2 | FORMAT_V3 => read_legacy_calibration(&mut r, false)?,
+            _ => read_calibration(&mut r)?,
         };
         let pulls = r.u32();
         let string_used_mm = r.u32();
-        let boots = if version == FORMAT_V1 { 0 } else { r.u32() };
+        let boots = if layout.boots { r.u32() } else { 0 };
         let counters = Counters { pulls, string_used_mm, boots };
-        // Version 2 held zero here (reserved, checked above): the default preferences.
-        let preferences = Preferences::from_flags(r.u8()).ok_or(StoreError::ReservedNotZero)?;
-        Ok((Self { settings, presets, calibration, counters, preferences }, version))
+        let preferences = if layout.preferences {
+            Preferences::from_flags(r.u8()).ok_or(StoreError::ReservedNotZero)?
+        } else {
+            Preferences::DEFAULT
+        };
+        let mut record =
+            Self { settings, presets, calibration, counters, preferences, ..Self::default() };
+        if layout.history {
+            let flag = r.u8();
+            let bits = r.i32();
+            record.calibration_zero = match flag {
+                0 if bits == 0 => None,
+                1 => Some(Volts::from_bits(bits)),
+                _ => return Err(StoreError::InvalidZero),
+            };
+            for slot in &mut record.faults {
+                let mut bytes = [0u8; SNAPSHOT_LEN];
+                for byte in &mut bytes {
+                    *byte = r.u8();
+                }
+                *slot = FaultSnapshot::decode(&bytes).map_err(|_| StoreError::InvalidSnapshot)?;
+            }
+        }
+        Ok((record, version))
     }
 
     /// Whether every settings field satisfies its invariant (true of every decoded record
@@ -336,11 +536,17 @@ impl Record {
     pub fn is_valid(&self) -> bool {
         self.settings.is_valid() && self.presets.iter().all(|preset| preset.is_valid())
     }
+
+    /// Puts `snapshot` at the head of the fault history, the oldest dropped.
+    pub fn push_fault(&mut self, snapshot: FaultSnapshot) {
+        let [latest, older, _] = self.faults;
+        self.faults = [Some(snapshot), latest, older];
+    }
 }
 
-/// Whether the record's bytes from `START` up to the CRC are all zero.
-fn zero_from<const START: usize>(bytes: &[u8; RECORD_LEN]) -> bool {
-    bytes.get(START..OFFSET_CRC).is_some_and(|tail| tail.iter().all(|byte| *byte == 0))
+/// Whether `body[start..end]` is all zero (an empty or out-of-range span is).
+fn zero_between(body: &[u8], start: usize, end: usize) -> bool {
+    body.get(start..end).is_none_or(|tail| tail.iter().all(|byte| *byte == 0))
 }
 
 /// `N` stored points, and whether every one of them is all zero bytes.
@@ -367,15 +573,19 @@ fn read_calibration(r: &mut Reader<'_>) -> Result<Option<CalibrationPoints>, Sto
     }
 }
 
-/// Version 1's calibration block: a 0/1 flag and four points. The points are kept when this
-/// build also calibrates on four; with another count they cannot be used and are dropped
-/// (the machine then asks for a calibration, and the settings are kept).
-fn read_v1_calibration(r: &mut Reader<'_>) -> Result<Option<CalibrationPoints>, StoreError> {
-    let flag = r.u8();
+/// Versions 1–3's calibration block: four points under a 0/1 flag (version 1, `flag`) or a
+/// count of 0 or 4. The points are kept when this build also calibrates on four; with another
+/// count they cannot be used and are dropped (the machine then asks for a calibration, and
+/// the settings are kept).
+fn read_legacy_calibration(
+    r: &mut Reader<'_>,
+    flag: bool,
+) -> Result<Option<CalibrationPoints>, StoreError> {
+    let count = r.u8();
     let (points, all_zero) = read_points::<4>(r);
-    match flag {
-        0 if all_zero => Ok(None),
-        1 => Ok(CalibrationPoints::try_from(points.as_slice()).ok()),
+    match (count, flag) {
+        (0, _) if all_zero => Ok(None),
+        (1, true) | (4, false) => Ok(CalibrationPoints::try_from(points.as_slice()).ok()),
         _ => Err(StoreError::InvalidCalibration),
     }
 }
@@ -422,7 +632,7 @@ impl Writer<'_> {
 /// Reads little-endian fields from a record at a running offset (reads past the end give
 /// zero, which the layout's `const` assertion rules out).
 struct Reader<'a> {
-    bytes: &'a [u8; RECORD_LEN],
+    bytes: &'a [u8],
     at: usize,
 }
 
@@ -449,7 +659,12 @@ impl Reader<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::drive::{Direction, DriveCommand, Duty};
+    use crate::machine::MachineState;
+    use crate::machine::fault::FaultCode;
+    use crate::machine::snapshot::Latch;
     use crate::sense::calibration::CALIBRATION_TARGETS;
+    use crate::units::Amps;
 
     fn settings(unit: Unit, tenths: u16, speed: u8, pre: u8, knot: u8) -> Settings {
         let made =
@@ -469,7 +684,32 @@ mod tests {
             CalibrationPoint { raw, reference: target }
         }));
         record.counters = Counters { pulls: 1234, string_used_mm: 987_654, boots: 42 };
+        record.calibration_zero = Some(Volts::from_milli(47));
+        record.push_fault(snapshot(FaultCode::Stall, 1_000));
+        record.push_fault(snapshot(FaultCode::StringBreak, 2_000));
         record
+    }
+
+    fn snapshot(code: FaultCode, now_ms: u32) -> FaultSnapshot {
+        FaultSnapshot::capture(&Latch {
+            code,
+            state: MachineState::Pulling,
+            boots: 42,
+            now_ms,
+            tension: Kgf::from_tenths(201),
+            current: Amps::from_milli(4_321),
+            bus: Volts::from_milli(23_950),
+            hall_steps: 12_345,
+            command: DriveCommand::Drive {
+                direction: Direction::Pull,
+                duty: Duty::from_raw_clamped(30_000),
+            },
+        })
+    }
+
+    /// `record` without what versions 1–3 could not hold.
+    fn as_legacy(record: &Record) -> Record {
+        Record { calibration_zero: None, faults: [None; FAULT_HISTORY], ..*record }
     }
 
     #[test]
@@ -514,10 +754,14 @@ mod tests {
 
     #[test]
     fn unknown_version_is_refused_before_the_crc() {
-        for version in [0, 4, 0xFF] {
+        let mut bytes = sample().encode();
+        bytes[2] = 0;
+        assert_eq!(Record::decode(&bytes), Err(StoreError::UnknownVersion));
+        // A newer version must state a length from today's to the store's longest.
+        for (version, length) in [(5, 0), (5, 223), (0xFF, 249), (9, 0xFF)] {
             let mut bytes = sample().encode();
-            bytes[2] = version;
-            assert_eq!(Record::decode(&bytes), Err(StoreError::UnknownVersion));
+            (bytes[2], bytes[3]) = (version, length);
+            assert_eq!(Record::decode(&bytes), Err(StoreError::UnknownVersion), "{version}");
         }
     }
 
@@ -538,24 +782,21 @@ mod tests {
     }
 
     /// `record` as format version 1 wrote it: version 1, the calibration flag 1, no boot
-    /// counter (its bytes were reserved, zero).
-    fn version_1(record: &Record) -> [u8; RECORD_LEN] {
-        let mut bytes = record.encode();
-        bytes[2] = FORMAT_V1;
-        if record.calibration.is_some() {
-            bytes[OFFSET_CALIBRATION] = 1;
-        }
-        // The boot counter and the preferences were reserved bytes, zero.
-        bytes[Layout::V1.reserved()..OFFSET_CRC].fill(0);
-        resealed(bytes)
+    /// counter (its bytes were reserved, zero), 128 bytes.
+    fn version_1(record: &Record) -> [u8; LEGACY_LEN] {
+        record.encode_legacy(FORMAT_V1).unwrap_or([0; LEGACY_LEN])
     }
 
     /// `record` as format version 2 wrote it: version 2, no preferences byte (reserved, zero).
-    fn version_2(record: &Record) -> [u8; RECORD_LEN] {
-        let mut bytes = record.encode();
-        bytes[2] = FORMAT_V2;
-        bytes[Layout::V2.reserved()..OFFSET_CRC].fill(0);
-        resealed(bytes)
+    fn version_2(record: &Record) -> [u8; LEGACY_LEN] {
+        record.encode_legacy(FORMAT_V2).unwrap_or([0; LEGACY_LEN])
+    }
+
+    /// `bytes` with the CRC at `len − 4` recomputed.
+    fn resealed_at<const N: usize>(mut bytes: [u8; N]) -> [u8; N] {
+        let crc = checksum(&bytes[..N - 4]).to_le_bytes();
+        bytes[N - 4..].copy_from_slice(&crc);
+        bytes
     }
 
     #[test]
@@ -563,12 +804,12 @@ mod tests {
         let record =
             Record { preferences: Preferences { beeper: false, constant_pull: false }, ..sample() };
         let old = version_2(&record);
-        let migrated = Record { preferences: Preferences::DEFAULT, ..record };
+        let migrated = Record { preferences: Preferences::DEFAULT, ..as_legacy(&record) };
         assert_eq!(Record::decode_version(&old), Ok((migrated, FORMAT_V2)));
         // Version 2's byte 109 was reserved: set, the record is refused, not misread.
         let mut reserved = old;
-        reserved[Layout::V2.reserved()] = 2;
-        assert_eq!(Record::decode(&resealed(reserved)), Err(StoreError::ReservedNotZero));
+        reserved[Layout::V2.reserved] = 2;
+        assert_eq!(Record::decode(&resealed_at(reserved)), Err(StoreError::ReservedNotZero));
     }
 
     #[test]
@@ -582,7 +823,7 @@ mod tests {
             }
         }
         assert_eq!(Preferences::DEFAULT.flags(), 0, "zero is the default: version 2's byte");
-        let at = Layout::V2.reserved();
+        let at = Layout::CURRENT.counters + 12;
         for flags in 4..=u8::MAX {
             assert_eq!(Preferences::from_flags(flags), None, "{flags}");
             let mut bytes = sample().encode();
@@ -595,7 +836,8 @@ mod tests {
     fn a_version_1_record_is_migrated_not_wiped() {
         let record = sample();
         let old = version_1(&record);
-        let migrated = Record { counters: Counters { boots: 0, ..record.counters }, ..record };
+        let migrated =
+            Record { counters: Counters { boots: 0, ..record.counters }, ..as_legacy(&record) };
         assert_eq!(Record::decode_version(&old), Ok((migrated, FORMAT_V1)));
         assert_eq!(Record::decode_version(&record.encode()), Ok((record, FORMAT_VERSION)));
         let empty = Record::default();
@@ -603,10 +845,10 @@ mod tests {
         // Version 1's own rules still hold: a flag other than 0/1, a reserved byte set.
         let mut bad_flag = old;
         bad_flag[OFFSET_CALIBRATION] = 2;
-        assert_eq!(Record::decode(&resealed(bad_flag)), Err(StoreError::InvalidCalibration));
+        assert_eq!(Record::decode(&resealed_at(bad_flag)), Err(StoreError::InvalidCalibration));
         let mut reserved = old;
-        reserved[Layout::V1.reserved()] = 1;
-        assert_eq!(Record::decode(&resealed(reserved)), Err(StoreError::ReservedNotZero));
+        reserved[Layout::V1.reserved] = 1;
+        assert_eq!(Record::decode(&resealed_at(reserved)), Err(StoreError::ReservedNotZero));
     }
 
     #[test]
@@ -630,14 +872,14 @@ mod tests {
     #[test]
     fn stray_calibration_bytes_are_refused_in_both_formats() {
         let empty = Record::default();
-        let points = OFFSET_CALIBRATION + 1..Layout::CURRENT.counters();
+        let points = OFFSET_CALIBRATION + 1..Layout::CURRENT.counters;
         for index in points {
             let mut today = empty.encode();
             today[index] = 1;
             assert_eq!(Record::decode(&resealed(today)), Err(StoreError::InvalidCalibration));
             let mut old = version_1(&empty);
             old[index] = 1;
-            assert_eq!(Record::decode(&resealed(old)), Err(StoreError::InvalidCalibration));
+            assert_eq!(Record::decode(&resealed_at(old)), Err(StoreError::InvalidCalibration));
         }
     }
 
@@ -645,6 +887,98 @@ mod tests {
     fn five_calibration_points_fit_the_record() {
         assert!(layout_fits(CALIBRATION_POINTS));
         assert!(layout_fits(5), "a five-point calibration is one constant away");
-        assert!(!layout_fits(6), "six would need a longer record or fewer counters");
+        assert!(layout_fits(8) && !layout_fits(9), "eight fit; nine need a longer record");
+    }
+
+    /// The frozen layouts of versions 1–3 are what the derivation gave for their four points,
+    /// and today's is derived from the point count.
+    #[test]
+    fn the_frozen_layouts_are_the_derivation_at_four_points() {
+        assert_eq!(Layout::V1, Layout::derived_legacy(4, false, false));
+        assert_eq!(Layout::V2, Layout::derived_legacy(4, true, false));
+        assert_eq!(Layout::V3, Layout::derived_legacy(4, true, true));
+        assert_eq!((Layout::V3.counters, Layout::V3.reserved, Layout::V3.len), (97, 110, 128));
+        let five = Layout::derived(5);
+        assert_eq!(five.counters, Layout::derived(4).counters + 8, "the fields move with it");
+        assert_eq!(Layout::derived(4).reserved, 97 + 84);
+    }
+
+    /// REQ-STORE-06: a version-3 record (128 bytes) is migrated: everything it held is kept,
+    /// the zero at calibration unknown and the fault history empty.
+    #[test]
+    fn a_version_3_record_is_migrated_with_an_empty_history() {
+        let record = sample();
+        let Some(old) = record.encode_legacy(FORMAT_V3) else { panic!("version 3 encodes") };
+        assert_eq!(Record::decode_version(&old), Ok((as_legacy(&record), FORMAT_V3)));
+        // Read from a longer buffer (the flash page) too.
+        let mut page = [0xFF; 256];
+        page[..LEGACY_LEN].copy_from_slice(&old);
+        assert_eq!(Record::decode(&page), Ok(as_legacy(&record)));
+        // Its byte 3 and its tail were reserved.
+        for index in [3, Layout::V3.reserved, LEGACY_CRC - 1] {
+            let mut reserved = old;
+            reserved[index] = 1;
+            assert_eq!(Record::decode(&resealed_at(reserved)), Err(StoreError::ReservedNotZero));
+        }
+        assert_eq!(Record::decode(&old[..LEGACY_LEN - 1]), Err(StoreError::TooShort));
+        assert_eq!(Record::decode(&record.encode()[..RECORD_LEN - 1]), Err(StoreError::TooShort));
+        assert_eq!(record.encode_legacy(FORMAT_VERSION), None);
+    }
+
+    /// REQ-STORE-06: a record from a newer format — longer, its new fields in a tail this code
+    /// does not know — keeps its settings, calibration, counters and fault history.
+    #[test]
+    fn a_newer_records_unknown_tail_never_loses_the_counters() {
+        let record = sample();
+        let mut newer = [0u8; MAX_RECORD_LEN];
+        newer[..OFFSET_CRC].copy_from_slice(&record.encode()[..OFFSET_CRC]);
+        newer[2] = FORMAT_VERSION + 1;
+        newer[3] = u8::try_from(MAX_RECORD_LEN).unwrap_or(0);
+        // Its own fields, in today's reserved bytes and beyond.
+        for (index, byte) in newer.iter_mut().enumerate().skip(Layout::CURRENT.reserved) {
+            *byte = u8::try_from(index % 251).unwrap_or(0) | 1;
+        }
+        let newer = resealed_at(newer);
+        assert_eq!(Record::decode_version(&newer), Ok((record, FORMAT_VERSION + 1)));
+        // Still CRC-checked over its own length.
+        let mut corrupt = newer;
+        corrupt[MAX_RECORD_LEN - 10] ^= 1;
+        assert_eq!(Record::decode(&corrupt), Err(StoreError::CrcMismatch));
+        // Its known fields are still validated.
+        let mut bad = newer;
+        bad[OFFSET_SETTINGS + 3] = 10;
+        assert_eq!(Record::decode(&resealed_at(bad)), Err(StoreError::InvalidSettings));
+        // A length of exactly today's is accepted too (a version that only changed meaning
+        // of reserved bits would be a new magic, not a version).
+        let mut same = record.encode();
+        same[2] = FORMAT_VERSION + 3;
+        assert_eq!(Record::decode_version(&resealed(same)), Ok((record, FORMAT_VERSION + 3)));
+    }
+
+    /// REQ-STORE-06: the zero at calibration and the fault history round-trip; bad bytes in
+    /// them are typed errors.
+    #[test]
+    fn the_zero_at_calibration_and_the_fault_history_round_trip_and_are_validated() {
+        let mut record = sample();
+        record.push_fault(snapshot(FaultCode::Overcurrent, 3_000));
+        record.push_fault(snapshot(FaultCode::Overload, 4_000));
+        assert_eq!(record.faults[0].map(|f| f.code), Some(FaultCode::Overload));
+        assert_eq!(record.faults[2].map(|f| f.code), Some(FaultCode::StringBreak));
+        assert_eq!(Record::decode(&record.encode()), Ok(record));
+        let zero_flag = Layout::CURRENT.counters + 13;
+        let mut bad = record.encode();
+        bad[zero_flag] = 2;
+        assert_eq!(Record::decode(&resealed(bad)), Err(StoreError::InvalidZero));
+        let none = Record { calibration_zero: None, ..record }.encode();
+        let mut stray = none;
+        stray[zero_flag + 2] = 1;
+        assert_eq!(Record::decode(&resealed(stray)), Err(StoreError::InvalidZero));
+        let first_snapshot = zero_flag + 5;
+        let mut unknown_fault = record.encode();
+        unknown_fault[first_snapshot] = 21;
+        assert_eq!(Record::decode(&resealed(unknown_fault)), Err(StoreError::InvalidSnapshot));
+        let mut length = record.encode();
+        length[3] = 0;
+        assert_eq!(Record::decode(&resealed(length)), Err(StoreError::ReservedNotZero));
     }
 }

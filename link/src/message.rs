@@ -28,8 +28,19 @@ pub const LOG_PAGE_ENTRIES: usize = 4;
 /// Bytes of the stored record in one [`Response::RecordPart`] or [`Request::StageRecord`].
 pub const RECORD_PART_LEN: usize = 32;
 
-/// Parts of the stored record (128 bytes).
-pub const RECORD_PARTS: u8 = 4;
+/// Parts of the stored record: its length over [`RECORD_PART_LEN`] (the record's length
+/// is core's, so a longer record format needs no change here).
+#[allow(
+    clippy::cast_possible_truncation,
+    clippy::as_conversions,
+    reason = "the assertion below bounds the quotient to a byte"
+)]
+pub const RECORD_PARTS: u8 = (taut_core::store::RECORD_LEN / RECORD_PART_LEN) as u8;
+const _: () = assert!(
+    taut_core::store::RECORD_LEN.is_multiple_of(RECORD_PART_LEN)
+        && taut_core::store::RECORD_LEN / RECORD_PART_LEN <= 255,
+    "the record splits into whole parts, at most 255"
+);
 
 /// The shortest period of the live samples, ms (50 samples a second).
 pub const SAMPLE_PERIOD_MIN_MS: u16 = 20;

@@ -503,7 +503,7 @@ pub fn safe_reversal(observer: &Observer, record: &StepRecord) {
         return;
     }
     let emf = emf_toward(observer, record, direction);
-    let ir = i64::from(record.before.config().ir_mv());
+    let ir = i64::from(record.after.ir_mv());
     assert!(
         emf > -ir,
         "REQ-DRV-08: energised {direction:?} against a back-EMF of {emf} mV (limit {ir} mV)"
@@ -557,7 +557,7 @@ pub fn duty_within_window(observer: &Observer, record: &StepRecord) {
     let v = i64::from(bus_mv(bus).max(config.bus().floor_mv));
     let applied = i64::from(out.duty.raw()) * v / 65_536;
     let e = emf_toward(observer, record, direction);
-    let ir = i64::from(config.ir_mv());
+    let ir = i64::from(record.after.ir_mv());
     assert!(applied - e <= ir + 10, "REQ-DRV-10: motoring {applied} mV against {e} mV");
     if out.duty < DUTY_MAX {
         let floor = if bus_mv(bus) >= config.bus().regen_mv { 0 } else { -ir };

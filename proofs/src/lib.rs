@@ -35,6 +35,7 @@ pub mod record_fuzz;
 pub mod rezero;
 pub mod tension;
 pub mod tension_reference;
+pub mod thermal;
 
 /// The vacuity guard every Kani harness ends with: a cover property that is satisfiable only
 /// if some input passes all of the harness's assumptions (`kani::assume`, and the `is_valid`

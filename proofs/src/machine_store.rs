@@ -1,7 +1,7 @@
 //! The stored record's properties (`REQ-STORE-*`): decoding is total and canonical, encoding
 //! round-trips.
 //!
-//! - [`decode_is_total`]: for **any** 128 bytes, [`Record::decode`] returns (never panics);
+//! - [`decode_is_total`]: for **any** bytes, [`Record::decode`] returns (never panics);
 //!   when it accepts, the record satisfies its invariant and re-encodes to exactly the same
 //!   bytes (there is one encoding per record, so a record that passes cannot hide junk).
 //! - [`round_trips`]: every record built through the real constructors decodes back from
@@ -11,70 +11,83 @@
 //! and mutated bytes, exhaustive over single-bit flips and every settings field value), and
 //! the `machine` fuzz target (its record bytes go through `Record::decode`).
 
+use taut_core::machine::snapshot::FAULT_HISTORY;
 use taut_core::sense::calibration::{CALIBRATION_POINTS, CalibrationPoint};
 use taut_core::settings::{Preferences, SetPoint, Settings, Unit};
 use taut_core::store::{
-    Counters, FORMAT_V1, FORMAT_V2, FORMAT_VERSION, PRESET_COUNT, RECORD_LEN, Record, checksum,
+    Counters, FORMAT_V1, FORMAT_V2, FORMAT_V3, FORMAT_VERSION, KNOWN_LEN, LEGACY_LEN, PRESET_COUNT,
+    RECORD_LEN, Record,
 };
 use taut_core::units::Kgf;
 
 /// REQ-STORE-01: decoding any bytes terminates without panic; an accepted record is valid
 /// and its encoding is exactly the bytes it came from.
-pub fn decode_is_total(bytes: &[u8; RECORD_LEN]) {
+pub fn decode_is_total(bytes: &[u8]) {
     if let Ok((record, version)) = Record::decode_version(bytes) {
         assert!(record.is_valid(), "REQ-STORE-01: decoded an invalid record");
         decoded_is_canonical(bytes, &record, version);
     }
 }
 
-/// REQ-STORE-01 and REQ-STORE-05, the canonical-form half of decoding: a record decoded from
-/// today's format re-encodes to exactly its bytes; one migrated from version 1 re-encodes in
-/// today's format and differs from the version-1 bytes only where the formats differ
-/// ([`as_version_1`] undoes the migration exactly) — so the migration loses and changes no
-/// setting, calibration point or counter. (That today's encoding decodes back to the same
-/// record is [`round_trips`], for every record.)
+/// REQ-STORE-01, REQ-STORE-05 and REQ-STORE-06, the canonical-form half of decoding: a record
+/// decoded from today's format re-encodes to exactly its bytes; one migrated from versions
+/// 1–3 re-encodes, as that version wrote it ([`Record::encode_legacy`]), to exactly the old
+/// bytes, with what that version could not hold empty — so the migration loses and changes no
+/// setting, calibration point or counter; one from a newer format shares today's known bytes
+/// with its re-encoding. (That today's encoding decodes back to the same record is
+/// [`round_trips`], for every record.)
 pub fn decoded_is_canonical(stored: &[u8], record: &Record, version: u8) {
     let encoded = record.encode();
     if version == FORMAT_VERSION {
-        assert_eq!(&encoded[..], stored, "REQ-STORE-01: decoding is not canonical");
-    } else if version == FORMAT_V2 {
-        assert_eq!(record.preferences, Preferences::DEFAULT, "REQ-STORE-05: version 2 prefs");
-        assert_eq!(&as_version_2(encoded)[..], stored, "REQ-STORE-05: migration changed a field");
-    } else {
-        assert_eq!(version, FORMAT_V1, "REQ-STORE-05: decoded a version it does not know");
+        assert_eq!(Some(&encoded[..]), stored.get(..RECORD_LEN), "REQ-STORE-01: not canonical");
+        return;
+    }
+    if version > FORMAT_VERSION {
+        assert_eq!(
+            encoded.get(4..KNOWN_LEN),
+            stored.get(4..KNOWN_LEN),
+            "REQ-STORE-06: a newer record's known fields changed"
+        );
+        return;
+    }
+    assert_eq!(record.calibration_zero, None, "REQ-STORE-05: an old format has no zero");
+    assert_eq!(record.faults, [None; FAULT_HISTORY], "REQ-STORE-05: an old format has no history");
+    if version != FORMAT_V3 {
+        assert_eq!(record.preferences, Preferences::DEFAULT, "REQ-STORE-05: old prefs");
+    }
+    if version == FORMAT_V1 {
         assert_eq!(record.counters.boots, 0, "REQ-STORE-05: version 1 has no boot counter");
-        assert_eq!(record.preferences, Preferences::DEFAULT, "REQ-STORE-05: version 1 prefs");
-        assert_eq!(&as_version_1(encoded)[..], stored, "REQ-STORE-05: migration changed a field");
     }
+    assert!(
+        version == FORMAT_V1 || version == FORMAT_V2 || version == FORMAT_V3,
+        "REQ-STORE-05: decoded a version it does not know"
+    );
+    let old = record.encode_legacy(version);
+    assert_eq!(
+        old.as_ref().map(|bytes| &bytes[..]),
+        stored.get(..LEGACY_LEN),
+        "REQ-STORE-05: migration changed a field"
+    );
 }
 
-/// Today's encoding of a record with the default preferences as format version 2 wrote it:
-/// the version byte 2 (the preferences byte, zero, was reserved), the CRC resealed.
+/// A record with the default preferences and no new fields as format version 2 wrote it.
 #[must_use]
-pub fn as_version_2(mut bytes: [u8; RECORD_LEN]) -> [u8; RECORD_LEN] {
-    if let Some(version) = bytes.get_mut(2) {
-        *version = FORMAT_V2;
-    }
-    let (body, crc) = bytes.split_at_mut(RECORD_LEN - 4);
-    crc.copy_from_slice(&checksum(body).to_le_bytes());
-    bytes
+pub fn as_version_2(record: &Record) -> [u8; LEGACY_LEN] {
+    record.encode_legacy(FORMAT_V2).unwrap_or([0; LEGACY_LEN])
 }
 
-/// Today's encoding of a record with no boots and the default preferences as format
-/// version 1 wrote it: the version byte 1, the calibration block's first byte (offset 64) a
-/// 0/1 flag instead of the point count, the boot counter's and the preferences' bytes (zero)
-/// reserved, the CRC resealed.
+/// A record with no boots, the default preferences and no new fields as format version 1
+/// wrote it: the calibration block's first byte (offset 64) a 0/1 flag instead of the point
+/// count, the boot counter's and the preferences' bytes (zero) reserved.
 #[must_use]
-pub fn as_version_1(mut bytes: [u8; RECORD_LEN]) -> [u8; RECORD_LEN] {
-    if let Some(version) = bytes.get_mut(2) {
-        *version = FORMAT_V1;
-    }
-    if let Some(flag) = bytes.get_mut(64) {
-        *flag = u8::from(*flag != 0);
-    }
-    let (body, crc) = bytes.split_at_mut(RECORD_LEN - 4);
-    crc.copy_from_slice(&checksum(body).to_le_bytes());
-    bytes
+pub fn as_version_1(record: &Record) -> [u8; LEGACY_LEN] {
+    record.encode_legacy(FORMAT_V1).unwrap_or([0; LEGACY_LEN])
+}
+
+/// A record with no new fields as format version 3 wrote it.
+#[must_use]
+pub fn as_version_3(record: &Record) -> [u8; LEGACY_LEN] {
+    record.encode_legacy(FORMAT_V3).unwrap_or([0; LEGACY_LEN])
 }
 
 /// REQ-STORE-02: every record round-trips through its encoding.
@@ -159,6 +172,8 @@ impl RecordInput {
                 boots: self.boots,
             },
             preferences,
+            calibration_zero: None,
+            faults: [None; FAULT_HISTORY],
         })
     }
 }
@@ -191,7 +206,7 @@ mod verification {
     }
 
     #[kani::proof]
-    #[kani::unwind(130)]
+    #[kani::unwind(230)]
     #[kani::stub(taut_core::store::checksum, zero_checksum)]
     fn verify_store_decode_is_total() {
         let bytes: [u8; RECORD_LEN] = kani::any();
@@ -203,7 +218,7 @@ mod verification {
     }
 
     #[kani::proof]
-    #[kani::unwind(130)]
+    #[kani::unwind(230)]
     #[kani::stub(taut_core::store::checksum, zero_checksum)]
     fn verify_store_decode_migrates_version_1() {
         let bytes: [u8; RECORD_LEN] = kani::any();
@@ -213,7 +228,7 @@ mod verification {
     }
 
     #[kani::proof]
-    #[kani::unwind(130)]
+    #[kani::unwind(230)]
     #[kani::stub(taut_core::store::checksum, zero_checksum)]
     fn verify_store_decode_migrates_version_2() {
         let bytes: [u8; RECORD_LEN] = kani::any();
@@ -223,7 +238,7 @@ mod verification {
     }
 
     #[kani::proof]
-    #[kani::unwind(130)]
+    #[kani::unwind(230)]
     #[kani::stub(taut_core::store::checksum, zero_checksum)]
     fn verify_store_round_trips() {
         let input: RecordInput = kani::any();

@@ -39,7 +39,9 @@ use taut_core::sense::calibration::{
     REFERENCE_MAX,
 };
 use taut_core::settings::{SetPoint, Settings, Unit};
-use taut_core::store::{Counters, MAGIC, PRESET_COUNT, RECORD_LEN, Record, StoreError};
+use taut_core::store::{
+    Counters, FORMAT_VERSION, LEGACY_LEN, MAGIC, PRESET_COUNT, RECORD_LEN, Record, StoreError,
+};
 use taut_core::units::Kgf;
 
 /// Where the CRC starts: the last four bytes of the record.
@@ -122,7 +124,7 @@ pub fn check_input(input: &[u8]) {
 pub fn decoder_is_sound(bytes: &[u8]) {
     match Record::decode_version(bytes) {
         Err(error) => {
-            if bytes.len() < RECORD_LEN {
+            if bytes.len() < LEGACY_LEN {
                 assert_eq!(error, StoreError::TooShort, "REQ-STORE-01: short input");
             } else if bytes.get(..2) != Some(&MAGIC[..]) {
                 assert_eq!(error, StoreError::NoRecord, "REQ-STORE-01: no magic");
@@ -134,10 +136,15 @@ pub fn decoder_is_sound(bytes: &[u8]) {
             );
         }
         Ok((record, version)) => {
-            let Some(stored) = bytes.get(..RECORD_LEN) else {
+            let len = match version {
+                1..=3 => LEGACY_LEN,
+                FORMAT_VERSION => RECORD_LEN,
+                _ => usize::from(bytes.get(3).copied().unwrap_or(0)),
+            };
+            let Some(stored) = bytes.get(..len).filter(|stored| stored.len() >= 4) else {
                 panic!("REQ-STORE-01: accepted {} bytes as a record", bytes.len());
             };
-            let (body, crc) = stored.split_at(CRC_OFFSET);
+            let (body, crc) = stored.split_at(len.saturating_sub(4));
             assert_eq!(
                 crc32c(body).to_le_bytes(),
                 crc,
@@ -257,6 +264,7 @@ pub fn seed_records() -> Vec<(&'static str, Record)> {
         calibration: Some(points(|_, target| (target.saturating_sub(5), target))),
         counters: Counters { pulls: u32::MAX, string_used_mm: u32::MAX, boots: u32::MAX },
         preferences: taut_core::settings::Preferences { beeper: false, constant_pull: false },
+        ..Record::default()
     };
     vec![
         ("default", Record::default()),
@@ -286,10 +294,10 @@ pub fn seed_inputs() -> Vec<(String, Vec<u8>)> {
             ..record
         };
         let mut input = vec![Mode::Raw.selector()];
-        input.extend_from_slice(&as_version_1(old.encode()));
+        input.extend_from_slice(&as_version_1(&old));
         out.push((format!("{name}_v1_raw"), input));
         let mut input = vec![Mode::Raw.selector()];
-        input.extend_from_slice(&as_version_2(Record { preferences: defaults, ..record }.encode()));
+        input.extend_from_slice(&as_version_2(&Record { preferences: defaults, ..record }));
         out.push((format!("{name}_v2_raw"), input));
     }
     out

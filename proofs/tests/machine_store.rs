@@ -10,10 +10,11 @@
 
 use proptest::prelude::*;
 use taut_core::settings::Preferences;
-use taut_core::store::{FORMAT_V1, FORMAT_V2};
-use taut_core::store::{RECORD_LEN, Record, StoreError};
+use taut_core::store::{FORMAT_V1, FORMAT_V2, FORMAT_V3};
+use taut_core::store::{LEGACY_LEN, RECORD_LEN, Record, StoreError};
 use taut_proofs::machine_store::{
-    RecordInput, SettingsInput, as_version_1, as_version_2, decode_is_total, round_trips,
+    RecordInput, SettingsInput, as_version_1, as_version_2, as_version_3, decode_is_total,
+    round_trips,
 };
 
 fn sample_records() -> Vec<Record> {
@@ -71,13 +72,13 @@ fn machine_store_bit_flips_exhaustive() {
 /// Every sample record as an old format writes it (`old`) is read back in that `version`
 /// with every field kept, and every single-bit flip of the old bytes is refused; returns
 /// how many flips were tried.
-fn old_records_migrate(version: u8, old: fn([u8; RECORD_LEN]) -> [u8; RECORD_LEN]) -> u32 {
+fn old_records_migrate(version: u8, old: fn(&Record) -> [u8; LEGACY_LEN]) -> u32 {
     let mut cases = 0u32;
     for record in sample_records() {
-        let bytes = old(record.encode());
+        let bytes = old(&record);
         assert_eq!(Record::decode_version(&bytes), Ok((record, version)));
         decode_is_total(&bytes);
-        for index in 0..RECORD_LEN {
+        for index in 0..LEGACY_LEN {
             for bit in 0..8 {
                 let mut corrupt = bytes;
                 corrupt[index] ^= 1 << bit;
@@ -105,6 +106,15 @@ fn machine_store_version_1_records_migrate() {
 fn machine_store_version_2_records_migrate() {
     let cases = old_records_migrate(FORMAT_V2, as_version_2);
     println!("machine_store_version_2_records_migrate: {cases} corrupted version-2 records");
+}
+
+/// REQ-STORE-05: every sample record written by format version 3 (128 bytes, no zero at
+/// calibration, no fault history) is read with every field kept; a single-bit flip of the old
+/// bytes is still refused.
+#[test]
+fn machine_store_version_3_records_migrate() {
+    let cases = old_records_migrate(FORMAT_V3, as_version_3);
+    println!("machine_store_version_3_records_migrate: {cases} corrupted version-3 records");
 }
 
 #[test]
@@ -146,7 +156,7 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 20_000, ..ProptestConfig::default() })]
 
     #[test]
-    fn machine_store_random_bytes(bytes in prop::array::uniform32(any::<u8>()), tail in prop::collection::vec(any::<u8>(), 96)) {
+    fn machine_store_random_bytes(bytes in prop::array::uniform32(any::<u8>()), tail in prop::collection::vec(any::<u8>(), RECORD_LEN - 32)) {
         let mut all = [0u8; RECORD_LEN];
         all[..32].copy_from_slice(&bytes);
         all[32..].copy_from_slice(&tail);

@@ -20,7 +20,7 @@ use std::path::PathBuf;
 
 use proptest::prelude::*;
 use taut_core::sense::calibration::Calibration;
-use taut_core::store::{RECORD_LEN, Record, StoreError};
+use taut_core::store::{FORMAT_VERSION, KNOWN_LEN, RECORD_LEN, Record, StoreError};
 use taut_proofs::record_fuzz::{
     CRC_OFFSET, Mode, check_input, crc32c, decoder_is_sound, prepare, reseal, seed_inputs,
     seed_records,
@@ -77,7 +77,8 @@ fn record_fuzz_modes_lay_out_the_input() {
     assert_eq!(crc32c(&resealed[..CRC_OFFSET]).to_le_bytes(), resealed[CRC_OFFSET..]);
     // An all-zero body with a good CRC gets past the CRC and fails on a field.
     let mut header_only = [0u8; RECORD_LEN];
-    header_only[..3].copy_from_slice(&[b'T', b'T', 1]);
+    let length = u8::try_from(RECORD_LEN).expect("a record is at most 255 bytes");
+    header_only[..4].copy_from_slice(&[b'T', b'T', FORMAT_VERSION, length]);
     reseal(&mut header_only);
     assert_eq!(Record::decode(&header_only), Err(StoreError::InvalidSettings));
     decoder_is_sound(&header_only);
@@ -161,9 +162,10 @@ fn decode_edited(
     Record::decode(&bytes)
 }
 
-/// REQ-STORE-03: the reserved bytes (3 and 110–123; 105–108 are the boot counter, 109 the
-/// preferences, whose undefined bits count as reserved) must be zero even when the CRC is
-/// good, so a later format that uses them cannot be misread as this one.
+/// REQ-STORE-03: the reserved bytes (181–219; 105–108 are the boot counter, 109 the
+/// preferences, whose undefined bits count as reserved) must be zero and byte 3 must be the
+/// record's length even when the CRC is good, so a later format that uses them cannot be
+/// misread as this one.
 #[test]
 fn record_rules_reserved_bytes_are_refused_behind_a_good_crc() {
     for (name, record) in seed_records() {
@@ -171,7 +173,7 @@ fn record_rules_reserved_bytes_are_refused_behind_a_good_crc() {
             let decoded = decode_edited(&record, |bytes| bytes[109] = value);
             assert_eq!(decoded, Err(StoreError::ReservedNotZero), "{name}: preferences {value}");
         }
-        for index in std::iter::once(3).chain(110..CRC_OFFSET) {
+        for index in std::iter::once(3).chain(KNOWN_LEN..CRC_OFFSET) {
             for value in [1u8, 0x80, 0xFF] {
                 let decoded = decode_edited(&record, |bytes| bytes[index] = value);
                 assert_eq!(

@@ -17,6 +17,7 @@ pub mod twin;
 use std::collections::VecDeque;
 use std::io::{Read as _, Write as _};
 use std::time::{Duration, Instant};
+use taut_core::store::RECORD_LEN;
 
 use taut_link::message::{
     Identity, LOG_PAGE_ENTRIES, LogEntry, PROTOCOL_VERSION, RECORD_PART_LEN, RECORD_PARTS, Refusal,
@@ -263,8 +264,8 @@ impl<L: Line> Client<L> {
     ///
     /// # Errors
     /// An unexpected reply or the line's error.
-    pub fn record_bytes(&mut self) -> Result<[u8; 128], Failure> {
-        let mut record = [0u8; 128];
+    pub fn record_bytes(&mut self) -> Result<[u8; RECORD_LEN], Failure> {
+        let mut record = [0u8; RECORD_LEN];
         for part in 0..RECORD_PARTS {
             match self.request(&Request::ReadRecord { part })? {
                 Response::RecordPart { part: got, bytes } if got == part => {
@@ -281,7 +282,7 @@ impl<L: Line> Client<L> {
     ///
     /// # Errors
     /// An unexpected reply or the line's error.
-    pub fn propose_record(&mut self, record: &[u8; 128]) -> Result<Response, Failure> {
+    pub fn propose_record(&mut self, record: &[u8; RECORD_LEN]) -> Result<Response, Failure> {
         for part in 0..RECORD_PARTS {
             let start = usize::from(part) * RECORD_PART_LEN;
             let mut bytes = [0u8; RECORD_PART_LEN];

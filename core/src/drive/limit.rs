@@ -219,6 +219,184 @@ impl CurrentLimit {
     };
 }
 
+/// The heat capacity the winding's estimate assumes, J/K: the largest a motor of the family
+/// can have (a 20 min thermal time constant over 2 K/W), so the estimate heats no faster than
+/// any real winding does.
+pub const HEAT_CAPACITY_J_PER_K: u64 = 600;
+
+/// The cooling time constant the winding's estimate assumes, s: the shortest of the family
+/// (10 min), so the estimate cools no slower than any real winding does.
+pub const COOLING_TAU_S: u64 = 600;
+
+/// The largest rise over the cold value the estimate credits, µK (100 K: a class-F winding's
+/// 155 °C from a 40 °C shop is 115 K). It bounds the hot resistance:
+/// `R_cold · (1 + α · 100 K)` = 1.393 × `R_cold` (975 mΩ for taut's 700 mΩ).
+pub const RISE_MAX_UK: u32 = 100_000_000;
+
+/// Copper's temperature coefficient, per 10¹¹ µK: 0.393 %/K.
+const COPPER_ALPHA_PER_1E11_UK: u64 = 393;
+
+/// The largest winding current the estimate credits, mA (above any board's sense range).
+const HEAT_CURRENT_MAX_MA: u64 = 65_535;
+
+/// Time units per second (100 ns each).
+const UNITS_PER_SECOND: u64 = 10_000_000;
+
+/// The span the estimate is advanced over at once: 1 ms of calls.
+const HEAT_SPAN: u32 = 10_000;
+
+/// The winding's temperature estimate and the resistance of the conducting pair it gives.
+///
+/// A winding that heats up conducts less current for the same duty (`R` rises 0.393 %/K): a
+/// window computed with the cold resistance then caps a hot motor well below the limit, and a
+/// hold that needs most of the limit loses its torque. The drive therefore follows the
+/// winding's rise over its cold temperature with a first-order model of its copper loss,
+///
+/// ```text
+/// C · dΔT/dt = I² · R_cold − C · ΔT / τ
+/// ```
+///
+/// fed with the sampled winding current of every conducting period, and computes the window
+/// with `R = R_cold · (1 + α · ΔT)`, never below [`CurrentLimit::resistance_mohm`] (cold) and
+/// never above 1.393 times it ([`RISE_MAX_UK`]).
+///
+/// The estimate must never exceed the real rise: a window computed with more resistance than
+/// the pair has would let more than the limit flow. Every choice errs toward the cold side:
+/// the loss uses the lowest resistance and only the periods that conduct (a link-average
+/// reading, `≈ D·I`, reads less than the winding current), the capacity is the family's
+/// largest ([`HEAT_CAPACITY_J_PER_K`]) and the cooling constant its shortest
+/// ([`COOLING_TAU_S`]) — with both, a first-order system fed less power with more capacity and
+/// a shorter constant stays below the real one from any common start (comparison of the two
+/// equations at the point where they would meet). Heating rounds down, cooling rounds up. At
+/// power-up the estimate starts cold: a motor still warm from before the boot is credited
+/// nothing.
+///
+/// Each call adds its sample's square (one 32-bit product); once a millisecond of calls has
+/// passed the model advances over it at once, so the fast loop carries no more than that.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct WindingHeat {
+    /// Σ codes² of the conducting samples in the span (saturating: the span then ends).
+    squares: u32,
+    /// Calls in the span.
+    calls: u16,
+    /// Time in the span, 100 ns.
+    span: u32,
+    /// The estimated rise over the cold value, µK (≤ [`RISE_MAX_UK`]).
+    rise_uk: u32,
+    /// The estimated resistance of the conducting pair, mΩ.
+    resistance_mohm: u32,
+    /// `I_lim · R` with that resistance, mV.
+    ir_mv: u32,
+}
+
+impl WindingHeat {
+    /// A cold winding on the board `config` describes.
+    #[must_use]
+    pub const fn cold(config: &DriveConfig) -> Self {
+        Self {
+            squares: 0,
+            calls: 0,
+            span: 0,
+            rise_uk: 0,
+            resistance_mohm: config.limit.resistance_mohm,
+            ir_mv: config.ir_mv,
+        }
+    }
+
+    /// A winding `rise_uk` above its cold value (at most [`RISE_MAX_UK`]) on `config`'s board.
+    #[must_use]
+    pub fn with_rise(config: &DriveConfig, rise_uk: u32) -> Self {
+        let mut heat = Self::cold(config);
+        heat.rise_uk = rise_uk.min(RISE_MAX_UK);
+        heat.follow(config);
+        heat
+    }
+
+    /// The estimated rise over the cold value, µK.
+    #[must_use]
+    pub const fn rise_uk(&self) -> u32 {
+        self.rise_uk
+    }
+
+    /// The estimated resistance of the conducting pair, mΩ.
+    #[must_use]
+    pub const fn resistance_mohm(&self) -> u32 {
+        self.resistance_mohm
+    }
+
+    /// `I_lim · R` with the estimated resistance, mV: what the window keeps to.
+    #[must_use]
+    pub const fn ir_mv(&self) -> u32 {
+        self.ir_mv
+    }
+
+    /// Whether the state is one the model can reach on `config`'s board: the rise within its
+    /// bound and the resistance and `I·R` those of the rise.
+    #[must_use]
+    pub fn is_valid(&self, config: &DriveConfig) -> bool {
+        let mut followed = *self;
+        followed.follow(config);
+        self.rise_uk <= RISE_MAX_UK
+            && self.span < HEAT_SPAN.saturating_mul(2)
+            && followed.resistance_mohm == self.resistance_mohm
+            && followed.ir_mv == self.ir_mv
+    }
+
+    /// One call of the fast loop: the sample `codes` from the current sense's zero, taken
+    /// while the bridge conducted (`conducting`), `elapsed` after the previous call.
+    pub fn step(&mut self, config: &DriveConfig, codes: u16, conducting: bool, elapsed: DriveTime) {
+        if conducting {
+            let codes = u32::from(codes);
+            self.squares = self.squares.saturating_add(codes.saturating_mul(codes));
+        }
+        self.calls = self.calls.saturating_add(1);
+        self.span = self.span.saturating_add(elapsed.0.min(HEAT_SPAN));
+        if self.span >= HEAT_SPAN || self.calls == u16::MAX || self.squares == u32::MAX {
+            self.advance(config);
+        }
+    }
+
+    /// Advances the model over the span gathered and starts the next.
+    fn advance(&mut self, config: &DriveConfig) {
+        let span = u64::from(self.span);
+        // The mean square over every call of the span (a call that did not conduct adds
+        // nothing), in codes², then in mA² (per code: µA).
+        let mean_square = u64::from(self.squares).checked_div(u64::from(self.calls)).unwrap_or(0);
+        let ua_per_code = u64::from(config.sense.na_per_code) / 1_000;
+        let ma_squared =
+            (mean_square.saturating_mul(ua_per_code) / 1_000).saturating_mul(ua_per_code) / 1_000;
+        let ma_squared = ma_squared.min(HEAT_CURRENT_MAX_MA * HEAT_CURRENT_MAX_MA);
+        // Copper loss with the cold resistance, mW (mA² · mΩ = 10⁻⁹ W); over the span it
+        // heats the capacity by loss · span / C (mW · ms / (J/K) = µK).
+        let loss_mw =
+            (ma_squared / 1_000).saturating_mul(u64::from(config.limit.resistance_mohm)) / 1_000;
+        let heat_uk =
+            loss_mw.saturating_mul(span) / (HEAT_CAPACITY_J_PER_K * (UNITS_PER_SECOND / 1_000));
+        let rise = u64::from(self.rise_uk);
+        let cool_uk = rise.saturating_mul(span).div_ceil(COOLING_TAU_S * UNITS_PER_SECOND);
+        let rise = rise.saturating_add(heat_uk).saturating_sub(cool_uk);
+        self.rise_uk = u32::try_from(rise.min(u64::from(RISE_MAX_UK))).unwrap_or(RISE_MAX_UK);
+        self.squares = 0;
+        self.calls = 0;
+        self.span = 0;
+        self.follow(config);
+    }
+
+    /// The resistance and `I·R` of the rise.
+    fn follow(&mut self, config: &DriveConfig) {
+        let cold = u64::from(config.limit.resistance_mohm);
+        let warmer = cold
+            .saturating_mul(COPPER_ALPHA_PER_1E11_UK)
+            .saturating_mul(u64::from(self.rise_uk.min(RISE_MAX_UK)))
+            / 100_000_000_000;
+        let resistance = cold.saturating_add(warmer);
+        self.resistance_mohm = u32::try_from(resistance).unwrap_or(u32::MAX);
+        let ir = u64::from(config.limit.limit_ma).saturating_mul(resistance) / 1_000;
+        self.ir_mv =
+            u32::try_from(ir.min(u64::from(EMF_MAX_MV))).unwrap_or(EMF_MAX_MV).max(config.ir_mv);
+    }
+}
+
 /// Why a drive configuration was refused.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
 pub enum DriveConfigError {
@@ -425,9 +603,15 @@ impl DriveConfig {
     /// limit (the rotor turns against the torque with `|e| ≥ I_lim·R`).
     #[must_use]
     pub fn window(&self, bus: AdcCode, emf_mv: i32) -> Option<DutyWindow> {
+        self.window_with(bus, emf_mv, self.ir_mv)
+    }
+
+    /// [`Self::window`] with `I_lim·R` = `ir_mv` (a hot winding's, [`WindingHeat::ir_mv`]).
+    #[must_use]
+    pub fn window_with(&self, bus: AdcCode, emf_mv: i32, ir_mv: u32) -> Option<DutyWindow> {
         let bus_mv = self.bus.millivolts(bus).max(self.bus.floor_mv);
         let regen_allowed = bus.get() < self.regen_code;
-        let ir = self.ir_mv;
+        let ir = ir_mv.min(EMF_MAX_MV);
         let (low_mv, high_mv) = if emf_mv >= 0 {
             let e = emf_mv.unsigned_abs().min(EMF_MAX_MV);
             let low = if regen_allowed { e.saturating_sub(ir) } else { e };
@@ -563,6 +747,91 @@ mod tests {
 
     /// taut's board's dead time.
     const DEAD_TIME: DriveTime = DriveTime::from_micros(1);
+
+    /// `I·R` over `R`: the current a pair of `r_mohm` carries at the window's upper edge from
+    /// rest (`e` = 0), mA.
+    fn edge_current_ma(ir_mv: u32, r_mohm: u32) -> u32 {
+        ir_mv * 1_000 / r_mohm
+    }
+
+    /// REQ-DRV-13: a winding 40 K hot has 15.7 % more resistance. With the cold value the
+    /// window caps it at 6.9 A from rest; with the estimate it keeps the full 8 A — and a pair
+    /// at the estimate's resistance never carries more.
+    #[test]
+    fn a_hot_winding_keeps_the_windows_torque() {
+        let config = DriveConfig::PAPER;
+        let hot = WindingHeat::with_rise(&config, 40_000_000);
+        assert_eq!(hot.resistance_mohm(), 810);
+        let real = hot.resistance_mohm();
+        let cold_edge = edge_current_ma(config.ir_mv(), real);
+        let hot_edge = edge_current_ma(hot.ir_mv(), real);
+        assert_eq!(cold_edge, 6_913, "the cold window loses a seventh of the torque");
+        assert_eq!(hot_edge, 8_000, "the hot window keeps it");
+        // The window's upper edge from rest on 24 V follows.
+        let bus = AdcCode::new(1_638);
+        let (Some(cold), Some(warm)) =
+            (config.window(bus, 0), config.window_with(bus, 0, hot.ir_mv()))
+        else {
+            panic!("a window from rest");
+        };
+        assert!(warm.high.raw() > cold.high.raw() + cold.high.raw() / 8, "{warm:?} {cold:?}");
+        // Heated by the limit's current, the drive's own estimate rises and the edge with it.
+        let drive = crate::drive::Drive::new();
+        let mut heat = WindingHeat::cold(&config);
+        for _ in 0..20 * 60_000 {
+            heat.step(&config, config.limit_codes(), true, DriveTime::from_micros(50));
+        }
+        // 8 A in 0.7 Ω for a minute: 44.8 W × 1 K/W × (1 − e^(−60 s / 600 s)) = 4.26 K; the
+        // rounding (heat down, cooling up) leaves it a little below.
+        assert!((4_150_000..4_270_000).contains(&heat.rise_uk()), "{}", heat.rise_uk());
+        assert!(heat.ir_mv() > config.ir_mv());
+        assert_eq!(drive.ir_mv(), config.ir_mv(), "a drive starts cold");
+    }
+
+    /// The estimate's invariant: a reachable state is valid; a rise past the bound, a span
+    /// left unadvanced, or a resistance or `I·R` that is not the rise's are not.
+    #[test]
+    fn the_heat_estimates_invariant_names_each_field() {
+        let config = DriveConfig::PAPER;
+        assert!(WindingHeat::cold(&config).is_valid(&config));
+        let hot = WindingHeat::with_rise(&config, RISE_MAX_UK);
+        assert!(hot.is_valid(&config));
+        let mut past = hot;
+        past.rise_uk = RISE_MAX_UK + 1;
+        assert!(!past.is_valid(&config), "a rise past the bound");
+        let mut long = hot;
+        long.span = HEAT_SPAN * 2 - 1;
+        assert!(long.is_valid(&config));
+        long.span = HEAT_SPAN * 2;
+        assert!(!long.is_valid(&config), "a span never advanced");
+        let mut resistance = hot;
+        resistance.resistance_mohm = 700;
+        assert!(!resistance.is_valid(&config), "a resistance not the rise's");
+        let mut ir = hot;
+        ir.ir_mv = config.ir_mv();
+        assert!(!ir.is_valid(&config), "an I·R not the rise's");
+    }
+
+    /// REQ-DRV-13: the cold value is never undercut: a winding that cools for hours returns to
+    /// the cold resistance and stays there, and idle calls never lower it.
+    #[test]
+    fn the_cold_value_is_never_undercut() {
+        let config = DriveConfig::PAPER;
+        let mut heat = WindingHeat::with_rise(&config, RISE_MAX_UK);
+        assert_eq!(heat.resistance_mohm(), 975, "the hot limit: 1.393 × 700 mΩ");
+        let mut last = heat.rise_uk();
+        for _ in 0..3 * 3_600_000 {
+            heat.step(&config, 0, false, DriveTime::from_micros(1_000));
+            assert!(heat.rise_uk() <= last, "an idle winding only cools");
+            last = heat.rise_uk();
+            assert!(heat.resistance_mohm() >= 700 && heat.ir_mv() >= config.ir_mv());
+        }
+        assert_eq!(heat.rise_uk(), 0, "cooled to the cold value");
+        assert_eq!((heat.resistance_mohm(), heat.ir_mv()), (700, config.ir_mv()));
+        // A current that flows only while the bridge is off is not heat.
+        heat.step(&config, 4_095, false, DriveTime::from_micros(1_000));
+        assert_eq!(heat.rise_uk(), 0);
+    }
 
     #[test]
     fn the_paper_constants_are_what_new_computes() {

@@ -70,7 +70,7 @@ pub use commutation::{Gates, LegState, Phase, SwitchPattern, six_step};
 pub use dead_time::{DEAD_TIME_MAX, DEAD_TIME_MIN, DeadTimeSequencer};
 pub use duty::{DUTY_MAX, Duty};
 pub use hall::{HALL_CONFIRM_READS, HallCode, HallFilter, HallState, Sector, SectorStep};
-pub use limit::{BusSense, DriveConfig, DutyWindow, TARE_SETTLE};
+pub use limit::{BusSense, DriveConfig, DutyWindow, TARE_SETTLE, WindingHeat};
 
 use crate::io::LimitSwitches;
 use crate::units::{AdcCode, Amps, Volts};
@@ -374,6 +374,8 @@ pub struct Drive {
     /// The last sample's current and bus codes, for [`Drive::status`].
     last_current: AdcCode,
     last_bus: AdcCode,
+    /// The winding's temperature estimate: the resistance the window is computed with.
+    heat: WindingHeat,
 }
 
 /// The longest gap between calls the per-millisecond rates are scaled over: 1 ms (the slew's
@@ -438,6 +440,7 @@ impl Drive {
             interval_average: DriveTime(0),
             last_current: config.sense().design_zero,
             last_bus: AdcCode::new(0),
+            heat: WindingHeat::cold(&config),
         }
     }
 
@@ -486,7 +489,19 @@ impl Drive {
     /// last saw it (`None`: no duty keeps the current within the limit).
     #[must_use]
     pub fn window(&self, direction: Direction, bus: AdcCode) -> Option<DutyWindow> {
-        self.config.window(bus, self.emf_toward(direction))
+        self.config.window_with(bus, self.emf_toward(direction), self.heat.ir_mv())
+    }
+
+    /// The winding's temperature estimate ([`WindingHeat`]).
+    #[must_use]
+    pub const fn heat(&self) -> WindingHeat {
+        self.heat
+    }
+
+    /// `I_lim·R` the window keeps to now, mV (the winding's estimated resistance).
+    #[must_use]
+    pub const fn ir_mv(&self) -> u32 {
+        self.heat.ir_mv()
     }
 
     /// Holds `command` until the next one. Latching a fault drops the held command to coast;
@@ -605,6 +620,12 @@ impl Drive {
         // The winding balance, revolution by revolution (an inter-turn short).
         let reading =
             i32::from(sample.current.get()).saturating_sub(i32::from(self.current_zero().get()));
+        self.heat.step(
+            &self.config,
+            sample.current.get().abs_diff(self.current_zero().get()),
+            sampled_driving,
+            sample.elapsed,
+        );
         if self.balance.update(
             sampled_sector,
             self.last_sector,

@@ -91,7 +91,7 @@ impl<'a, const LOG: usize> LinkAccess<'a, LOG> {
     /// The faults latched since power-up, the latest first.
     #[must_use]
     pub fn fault_history(&self) -> [Option<FaultCode>; 3] {
-        self.machine.chart.inner().fault_history
+        self.machine.record().faults.map(|snapshot| snapshot.map(|snapshot| snapshot.code))
     }
 
     /// The figures of the tick that read `inputs` and returned `outputs`.

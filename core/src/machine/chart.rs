@@ -35,10 +35,12 @@ use statig::prelude::*;
 
 use crate::drive::{Direction, DriveCommand, Duty};
 use crate::io::{Inputs, Key, Leds, LimitSwitches, Outputs};
+use crate::machine::MachineState;
 use crate::machine::fault::FaultCode;
 use crate::machine::log::{PullRecord, string_mm};
 use crate::machine::panel::{self, Beep, KeyEvent};
 use crate::machine::safety::{self, TensionSample};
+use crate::machine::snapshot::{FaultSnapshot, Latch};
 use crate::sense::calibration::CALIBRATION_POINTS;
 use crate::sense::rezero::Rezero;
 use crate::settings::{PullKind, Speed, TENSION_MAX, TENSION_MIN, Unit};
@@ -217,6 +219,8 @@ pub struct Context {
     /// The leaf expects the carriage to move now (taking up slack, releasing): the stall
     /// rule applies.
     pub expect_motion: bool,
+    /// The state and drive command before this tick (a fault's snapshot).
+    pub prior: Option<(MachineState, DriveCommand)>,
 }
 
 impl Context {
@@ -230,6 +234,7 @@ impl Context {
             beep: None,
             completed: None,
             expect_motion: false,
+            prior: None,
         }
     }
 }
@@ -846,8 +851,10 @@ impl Chart {
     #[action]
     fn enter_fault(&mut self, context: &mut Context, code: &mut FaultCode) {
         context.out.drive = DriveCommand::Coast;
-        let [latest, older, _] = self.fault_history;
-        self.fault_history = [Some(*code), latest, older];
+        let (inputs, tension) = (&context.sample.inputs, context.sample.tension);
+        let latch = Latch::of(*code, context.prior, inputs, tension, self.record.counters.boots);
+        self.record.push_fault(FaultSnapshot::capture(&latch));
+        context.out.store = true;
         context.out.display = panel::fault(code.number());
         context.out.leds = Leds { fault: true, ..self.unit_leds() };
         context.next = None;

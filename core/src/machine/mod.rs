@@ -40,11 +40,12 @@ pub mod fault;
 pub mod log;
 pub mod panel;
 pub mod safety;
+pub mod snapshot;
 pub mod string;
 
 use statig::prelude::{InitializedStateMachine, IntoStateMachineExt};
 
-use crate::drive::Direction;
+use crate::drive::{Direction, DriveCommand};
 use crate::io::{Inputs, LimitSwitches, Outputs};
 use crate::store::{Record, StoreError};
 use crate::units::{AdcCode, Kgf};
@@ -273,6 +274,8 @@ pub struct Machine<const LOG: usize = PULL_LOG_CAPACITY> {
     /// The two Hall counts before this tick's.
     steps_recent: [i32; 2],
     string_counter: Option<u16>,
+    /// The drive command of the last tick (a fault's snapshot).
+    command: DriveCommand,
 }
 
 impl Machine {
@@ -360,6 +363,7 @@ impl<const LOG: usize> Machine<LOG> {
             steps_average: i64::from(sample.inputs.drive.steps) << 16,
             steps_recent: [sample.inputs.drive.steps; 2],
             string_counter: None,
+            command: DriveCommand::Coast,
         }
     }
 
@@ -408,6 +412,7 @@ impl<const LOG: usize> Machine<LOG> {
             string_counts,
         };
         let mut context = Context::new(sample);
+        context.prior = Some((chart::public_state(self.chart.state()), self.command));
         self.chart.handle_with_context(&Tick(sample), &mut context);
 
         if let Some(record) = context.completed {
@@ -434,6 +439,7 @@ impl<const LOG: usize> Machine<LOG> {
             self.beeper.play(beep, inputs.now_ms);
         }
         outputs.beeper = self.beeper.sounding(inputs.now_ms);
+        self.command = outputs.drive;
         outputs
     }
 

@@ -168,6 +168,16 @@ impl Rezero {
         distance(zero, self.reference) > DRIFT_WATCH.0
     }
 
+    /// Whether the zero in use, `zero`, has drifted past [`DRIFT_WATCH`] from the self-test's
+    /// or from the zero the calibration was taken at (`calibrated_at`, kept in the record;
+    /// `None` when not known): a zero that crept across power cycles since the calibration is
+    /// watched as well as one that moved since the boot.
+    #[must_use]
+    pub fn drifted_since(&self, zero: Volts, calibrated_at: Option<Volts>) -> bool {
+        self.drifted(zero)
+            || calibrated_at.is_some_and(|calibrated| distance(zero, calibrated) > DRIFT_WATCH.0)
+    }
+
     /// Whether a real run can be in this state: the counts within their lengths, the sums
     /// within what their readings can add to.
     #[must_use]
@@ -358,6 +368,24 @@ mod tests {
         assert!(!rule.drifted(ZERO));
         assert!(!rule.drifted(at(25)) && !rule.drifted(at(-25)));
         assert!(rule.drifted(at(26)) && rule.drifted(at(-26)));
+    }
+
+    /// REQ-UI-12: the drift since calibration — a self-test that tared 20 mV from the zero the
+    /// calibration was taken at (a drift across power cycles) sees the watch after 6 mV more,
+    /// either way; without a known calibration zero only the self-test's counts.
+    #[test]
+    fn the_drift_watch_also_counts_from_the_calibrations_zero() {
+        let rule = Rezero::new(ZERO);
+        let at = |mv: i32| Volts(ZERO.0.saturating_add(Volts::from_milli(mv).0));
+        let calibrated = Some(at(-20));
+        assert!(!rule.drifted_since(ZERO, calibrated) && !rule.drifted_since(at(4), calibrated));
+        assert!(rule.drifted_since(at(6), calibrated), "26 mV since the calibration");
+        assert!(!rule.drifted_since(at(-4), calibrated), "within 25 mV of both");
+        assert!(rule.drifted_since(at(-26), calibrated), "26 mV since the self-test");
+        assert!(!rule.drifted_since(at(6), None) && rule.drifted_since(at(26), None));
+        assert!(
+            !rule.drifted_since(at(6), Some(at(6))) && rule.drifted_since(at(-26), Some(at(0)))
+        );
     }
 
     #[test]

@@ -94,6 +94,7 @@ impl Chart {
             Ok(Some(calibration)) => {
                 self.calibration = calibration;
                 self.record.calibration = Some(self.calibration_points);
+                self.record.calibration_zero = Some(self.scale.zero());
                 self.dirty = true;
                 context.out.store = true;
                 context.beep = Some(Beep::AtTension);

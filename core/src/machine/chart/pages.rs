@@ -388,8 +388,8 @@ impl Chart {
             }
             _ => {
                 let index = usize::from(item.saturating_sub(7));
-                match self.fault_history.get(index).copied().flatten() {
-                    Some(code) => panel::fault(code.number()),
+                match self.record.faults.get(index).copied().flatten() {
+                    Some(snapshot) => panel::fault(snapshot.code.number()),
                     None => panel::text(b"----"),
                 }
             }

@@ -86,8 +86,6 @@ pub struct Chart {
     pub shown: (crate::io::Display, u16),
     /// The stringing timer.
     pub stringing: StringingTimer,
-    /// The last faults since power-up, the latest first (the service page).
-    pub fault_history: [Option<FaultCode>; 3],
     /// Set while [`crate::machine::Machine::resume`] enters its checkpoint's state: the entry
     /// actions then keep the checkpoint's watch and rail count instead of starting afresh.
     /// Cleared by the first tick.
@@ -131,7 +129,6 @@ impl Chart {
             driven_ms: 0,
             shown: (crate::io::Display::default(), u16::MAX),
             stringing: StringingTimer::default(),
-            fault_history: [None; 3],
             resuming: false,
         }
     }
@@ -227,7 +224,11 @@ impl Chart {
                 self.scale = scale;
                 self.rezeros = self.rezeros.saturating_add(1);
                 // REQ-UI-12: the drift watch, once a boot, never over another notice.
-                if !self.drift_noticed && self.notice.is_none() && self.rezero.drifted(zero) {
+                let calibrated_at = self.record.calibration_zero;
+                if !self.drift_noticed
+                    && self.notice.is_none()
+                    && self.rezero.drifted_since(zero, calibrated_at)
+                {
                     self.notice = Some(Notice::ZeroDrift);
                     self.drift_noticed = true;
                 }

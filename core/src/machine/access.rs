@@ -116,8 +116,9 @@ impl<'a, const LOG: usize> LinkAccess<'a, LOG> {
         }
     }
 
-    /// Proposes `proposed`'s settings, presets, preferences and calibration (its counters
-    /// are ignored: the machine keeps its own).
+    /// Proposes `proposed`'s settings, presets, preferences and calibration (with the load
+    /// cell's zero at that calibration); its counters and fault history are ignored: the
+    /// machine keeps its own.
     ///
     /// # Errors
     /// [`WriteRefused::NotIdle`] unless the machine idles in Ready; the first invalid part
@@ -136,8 +137,9 @@ impl<'a, const LOG: usize> LinkAccess<'a, LOG> {
             }
         };
         let mut chart: Chart = self.machine.chart.inner().clone();
-        let counters = chart.record.counters;
-        chart.record = Record { counters, ..*proposed };
+        // The counters and the fault history are the machine's own, never a backup's.
+        let (counters, faults) = (chart.record.counters, chart.record.faults);
+        chart.record = Record { counters, faults, ..*proposed };
         chart.calibration = calibration;
         chart.dirty = true;
         chart.idle = 0;

@@ -122,10 +122,6 @@ pub const CLEAR_ATTEMPT: u16 = 100;
 pub const STORE_DELAY: u32 = 2_000;
 /// Ticks without a key before the panel returns from a settings page to the tension.
 pub const VIEW_TIMEOUT: u32 = 5_000;
-/// Ticks after the panel returned to the tension by itself in which a key only wakes the
-/// panel: an operator who was still looking at the page (and did not see it go) must not
-/// change the set tension with a key meant for the page.
-pub const VIEW_WAKE: u32 = 1_500;
 
 /// How long the digits show the new target after a hold adjustment (or `LOCK` / `PULL`
 /// after Function), ms.
@@ -591,10 +587,6 @@ impl Chart {
     fn ready(&mut self, context: &mut Context, event: &Tick, view: &mut View) -> Outcome<State> {
         let Tick(sample) = event;
         context.out.leds = self.unit_leds();
-        // A key within `VIEW_WAKE` of the page's timeout only wakes the panel.
-        let waking = sample.key.is_some()
-            && core::mem::take(&mut self.view_returned)
-            && self.idle < VIEW_TIMEOUT.saturating_add(VIEW_WAKE);
         self.idle = if sample.key.is_some() { 0 } else { self.idle.saturating_add(1) };
         if self.dirty && self.idle >= STORE_DELAY {
             self.dirty = false;
@@ -602,7 +594,6 @@ impl Chart {
         }
         if *view != View::Tension && self.idle >= VIEW_TIMEOUT {
             *view = View::Tension;
-            self.view_returned = true;
         }
         self.rezero_at_rest(sample);
         if let Some(notice) = self.notice {
@@ -613,7 +604,7 @@ impl Chart {
             }
             return Super;
         }
-        if let Some(key) = sample.key.filter(|_| !waking) {
+        if let Some(key) = sample.key {
             context.next = self.ready_key(context, sample, view, key);
         }
         context.out.display = self.render(*view, sample);
@@ -644,7 +635,6 @@ impl Chart {
         context.out.leds = Leds { pulling: true, ..self.unit_leds() };
         self.show_working_tension(context, sample);
         let averaged = self.calibration.correct(sample.raw_average);
-        self.shown_peak = self.shown_peak.max(averaged);
         self.probe.pulling(sample.steps_average, averaged, self.base_target());
         *elapsed = elapsed.saturating_add(1);
         context.next = if pressed(sample.key) {
@@ -691,7 +681,6 @@ impl Chart {
         context.out.leds = Leds { holding: true, ..self.unit_leds() };
         hold.held_ms = hold.held_ms.saturating_add(1);
         self.probe.holding(sample.inputs.drive.steps, hold.held_ms);
-        self.shown_peak = self.shown_peak.max(self.calibration.correct(sample.raw_average));
         let unit = self.record.settings.set_point().unit();
         match sample.key {
             Some(KeyEvent::Press(Key::Start)) => {

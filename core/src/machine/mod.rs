@@ -55,9 +55,8 @@ pub use chart::{
     CLEAR_ATTEMPT, COUNTER_ITEMS, ENTRY_MAX, ENTRY_MIN, Hold, HoldMessage, LABEL_MS, LOG_FIELDS,
     MOTOR_TEST_DUTY, MOTOR_TEST_STEPS, MOTOR_TEST_TIMEOUT, PULL_TIMEOUT, PULL_TIMEOUT_APPROACH_MS,
     PULL_TIMEOUT_TRAVEL_MM, RELEASE_TIMEOUT, Recovery, SELF_TEST_SETTLE, SELF_TEST_TICKS,
-    SERVICE_ITEMS, STORE_DELAY, StringingTimer, VIEW_TIMEOUT, VIEW_WAKE, View,
-    calibration_settings, fault_persists, hold_adjustment, hold_target, point_of_reading,
-    pull_timeout, tension_display,
+    SERVICE_ITEMS, STORE_DELAY, StringingTimer, VIEW_TIMEOUT, View, calibration_settings,
+    fault_persists, hold_adjustment, hold_target, point_of_reading, pull_timeout, tension_display,
 };
 pub use fault::{FaultCode, Notice};
 pub use log::{LoggedKgf, PULL_LOG_CAPACITY, PullLog, PullRecord};

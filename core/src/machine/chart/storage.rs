@@ -57,18 +57,12 @@ pub struct Chart {
     pub dirty: bool,
     /// Ticks since the last key event (saturating).
     pub idle: u32,
-    /// The panel returned to the tension page by itself since the last key ([`VIEW_WAKE`]).
-    pub view_returned: bool,
     /// Knot mode: the next pulls are knot pulls.
     pub knot_mode: bool,
     /// The tension rules' state for the present pull.
     pub watch: TensionWatch,
     /// The present pull's peak target (for the overload rule).
     pub peak_target: Kgf,
-    /// The highest tension the panel showed in the present pull: the calibrated running
-    /// average, the display's own filter (the pull log's peak; the safety rules' tracked peak
-    /// follows the load cell's noise and is theirs alone).
-    pub shown_peak: Kgf,
     /// Ticks from Start to "at tension" of the present pull.
     pub time_to_tension: u32,
     /// String-encoder counts of the present pull.
@@ -116,11 +110,9 @@ impl Chart {
             booting: true,
             dirty: false,
             idle: 0,
-            view_returned: false,
             knot_mode: false,
             watch: TensionWatch::new(0),
             peak_target: Kgf::ZERO,
-            shown_peak: Kgf::ZERO,
             time_to_tension: 0,
             string_counts: 0,
             probe: StringProbe::NEW,
@@ -199,7 +191,6 @@ impl Chart {
             self.watch = TensionWatch::new(context.sample.inputs.drive.steps);
         }
         self.peak_target = peak;
-        self.shown_peak = Kgf::ZERO;
         self.time_to_tension = 0;
         self.string_counts = 0;
         self.probe = StringProbe::NEW;
@@ -248,7 +239,7 @@ impl Chart {
         PullRecord {
             target: LoggedKgf::from_kgf(hold_target(self.base_target(), unit, hold.adjust)),
             reached: LoggedKgf::from_kgf(self.calibration.correct(sample.raw_average)),
-            peak: LoggedKgf::from_kgf(self.shown_peak),
+            peak: LoggedKgf::from_kgf(self.watch.peak),
             adjust: LoggedKgf::from_kgf(unit.tenths_to_kgf(i32::from(hold.adjust))),
             time_to_tension_ms: u16::try_from(self.time_to_tension).unwrap_or(u16::MAX),
             held_s: u16::try_from(hold.held_ms.checked_div(1_000).unwrap_or(0)).unwrap_or(u16::MAX),

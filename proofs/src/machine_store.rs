@@ -6,19 +6,32 @@
 //!   bytes (there is one encoding per record, so a record that passes cannot hide junk).
 //! - [`round_trips`]: every record built through the real constructors decodes back from
 //!   its encoding.
+//! - [`snapshot_slot_is_canonical`]: for any bytes of one fault-history slot,
+//!   [`FaultSnapshot::decode`] returns, and an accepted slot re-encodes to exactly its bytes.
+//!
+//! Under Kani the record-level harnesses see the history slots through a model codec
+//! (`slot_decode_model`, `slot_encode_model` below): the record hands each slot's 22 bytes
+//! to the slot codec whole and takes them back whole, so what the record-level proofs need
+//! of it is only that it be canonical on what it accepts — which the model is by
+//! construction, and the real codec by its own harness (`verify_snapshot_slot_is_canonical`).
+//! The real codec's fixed-point conversions, three slots over, were what made the whole-record
+//! problem too large for the solver. Under `cargo test` every property runs on the real
+//! codec.
 //!
 //! Drivers: Kani (`verify_store_*`), `proofs/tests/machine_store.rs` (proptest over random
 //! and mutated bytes, exhaustive over single-bit flips and every settings field value), and
 //! the `machine` fuzz target (its record bytes go through `Record::decode`).
 
-use taut_core::machine::snapshot::FAULT_HISTORY;
+use taut_core::drive::DriveCommand;
+use taut_core::machine::snapshot::{FAULT_HISTORY, FaultSnapshot, SNAPSHOT_LEN};
+use taut_core::machine::{FaultCode, MachineState};
 use taut_core::sense::calibration::{CALIBRATION_POINTS, CalibrationPoint};
 use taut_core::settings::{Preferences, SetPoint, Settings, Unit};
 use taut_core::store::{
     Counters, FORMAT_V1, FORMAT_V2, FORMAT_V3, FORMAT_VERSION, KNOWN_LEN, LEGACY_LEN, PRESET_COUNT,
     RECORD_LEN, Record,
 };
-use taut_core::units::Kgf;
+use taut_core::units::{Amps, Kgf, Volts};
 
 /// REQ-STORE-01: decoding any bytes terminates without panic; an accepted record is valid
 /// and its encoding is exactly the bytes it came from.
@@ -37,12 +50,13 @@ pub fn decode_is_total(bytes: &[u8]) {
 /// with its re-encoding. (That today's encoding decodes back to the same record is
 /// [`round_trips`], for every record.)
 pub fn decoded_is_canonical(stored: &[u8], record: &Record, version: u8) {
-    let encoded = record.encode();
     if version == FORMAT_VERSION {
+        let encoded = record.encode();
         assert_eq!(Some(&encoded[..]), stored.get(..RECORD_LEN), "REQ-STORE-01: not canonical");
         return;
     }
     if version > FORMAT_VERSION {
+        let encoded = record.encode();
         assert_eq!(
             encoded.get(4..KNOWN_LEN),
             stored.get(4..KNOWN_LEN),
@@ -88,6 +102,18 @@ pub fn as_version_1(record: &Record) -> [u8; LEGACY_LEN] {
 #[must_use]
 pub fn as_version_3(record: &Record) -> [u8; LEGACY_LEN] {
     record.encode_legacy(FORMAT_V3).unwrap_or([0; LEGACY_LEN])
+}
+
+/// REQ-UI-13: any bytes of a fault-history slot decode without panic, and an accepted slot
+/// (empty, or a snapshot) re-encodes to exactly those bytes: one encoding per snapshot.
+pub fn snapshot_slot_is_canonical(bytes: &[u8; SNAPSHOT_LEN]) {
+    if let Ok(slot) = FaultSnapshot::decode(bytes) {
+        assert_eq!(
+            FaultSnapshot::encode_slot(slot.as_ref()),
+            *bytes,
+            "REQ-UI-13: a slot is not canonical"
+        );
+    }
 }
 
 /// REQ-STORE-02: every record round-trips through its encoding.
@@ -143,6 +169,45 @@ pub struct RecordInput {
     pub boots: u32,
     /// Preferences flags (bits 0–1 used; others make the record invalid input).
     pub preferences: u8,
+    /// The load cell's zero at calibration, bits (none: a calibration migrated without it).
+    pub zero: Option<i32>,
+    /// A fault snapshot for the history's first and last slots (the middle one empty).
+    pub fault: Option<SnapshotInput>,
+}
+
+/// Primitive values for a fault snapshot of a fault latched in Ready with the drive coasting
+/// and no tension, current or bus (the fields the record carries as plain bytes; the
+/// quantities' own encoding is the slot codec's, [`snapshot_slot_is_canonical`]).
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
+#[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
+#[cfg_attr(kani, derive(kani::Arbitrary))]
+pub struct SnapshotInput {
+    /// The fault's number (an unknown one makes the input invalid).
+    pub number: u8,
+    /// The boot number.
+    pub boot: u16,
+    /// Milliseconds since power-up.
+    pub time_ms: u32,
+    /// The Hall step count.
+    pub hall_steps: i32,
+}
+
+impl SnapshotInput {
+    /// The snapshot, if the fault number is known.
+    #[must_use]
+    pub fn snapshot(&self) -> Option<FaultSnapshot> {
+        Some(FaultSnapshot {
+            code: FaultCode::from_number(self.number)?,
+            state: MachineState::Ready,
+            boot: self.boot,
+            time_ms: self.time_ms,
+            tension: Kgf::ZERO,
+            current: Amps::ZERO,
+            bus: Volts::ZERO,
+            hall_steps: self.hall_steps,
+            command: DriveCommand::Coast,
+        })
+    }
 }
 
 impl RecordInput {
@@ -162,6 +227,10 @@ impl RecordInput {
             }
             points
         });
+        let fault = match self.fault {
+            Some(input) => Some(input.snapshot()?),
+            None => None,
+        };
         Some(Record {
             settings,
             presets: [preset; PRESET_COUNT],
@@ -172,8 +241,8 @@ impl RecordInput {
                 boots: self.boots,
             },
             preferences,
-            calibration_zero: None,
-            faults: [None; FAULT_HISTORY],
+            calibration_zero: self.zero.map(Volts::from_bits),
+            faults: [fault, None, fault],
         })
     }
 }
@@ -186,6 +255,7 @@ impl RecordInput {
 )]
 mod verification {
     use super::*;
+    use taut_core::machine::snapshot::SnapshotError;
 
     // Kani 0.65 cannot compile the `crc` crate (its code generator panics at `place.rs:771:
     // assertion failed: length >= min_length` on the slice pattern in
@@ -205,9 +275,88 @@ mod verification {
         0
     }
 
+    /// Bytes 1–2 (state kind, detail) of a slot the model accepts: a fault latched in Ready.
+    const MODEL_STATE: [u8; 2] = [6, 0];
+
+    /// The model slot decoder: an all-zero slot is empty; a slot is a snapshot when its fault
+    /// number is known, its state is Ready and its tension, current, bus and command bytes
+    /// are zero (the boot, time and Hall bytes are anything) — exactly the bytes
+    /// `slot_encode_model` writes; any other bytes are an error.
+    fn slot_decode_model(
+        bytes: &[u8; SNAPSHOT_LEN],
+    ) -> Result<Option<FaultSnapshot>, SnapshotError> {
+        let [number, kind, detail, b0, b1, t0, t1, t2, t3, rest @ ..] = *bytes;
+        let [k0, k1, c0, c1, v0, v1, h0, h1, h2, h3, direction, d0, d1] = rest;
+        if number == 0 {
+            return if bytes.iter().all(|byte| *byte == 0) {
+                Ok(None)
+            } else {
+                Err(SnapshotError::Invalid)
+            };
+        }
+        let fixed =
+            [kind, detail] == MODEL_STATE && [k0, k1, c0, c1, v0, v1, direction, d0, d1] == [0; 9];
+        if !fixed {
+            return Err(SnapshotError::Invalid);
+        }
+        let input = SnapshotInput {
+            number,
+            boot: u16::from_le_bytes([b0, b1]),
+            time_ms: u32::from_le_bytes([t0, t1, t2, t3]),
+            hall_steps: i32::from_le_bytes([h0, h1, h2, h3]),
+        };
+        input.snapshot().map(Some).ok_or(SnapshotError::Invalid)
+    }
+
+    /// The model slot encoder: the inverse of `slot_decode_model` on the snapshots it yields.
+    fn slot_encode_model(slot: Option<&FaultSnapshot>) -> [u8; SNAPSHOT_LEN] {
+        let mut out = [0; SNAPSHOT_LEN];
+        if let Some(snapshot) = slot {
+            let [b0, b1] = snapshot.boot.to_le_bytes();
+            let [t0, t1, t2, t3] = snapshot.time_ms.to_le_bytes();
+            let [h0, h1, h2, h3] = snapshot.hall_steps.to_le_bytes();
+            let [kind, detail] = MODEL_STATE;
+            out = [
+                snapshot.code.number(),
+                kind,
+                detail,
+                b0,
+                b1,
+                t0,
+                t1,
+                t2,
+                t3,
+                0,
+                0,
+                0,
+                0,
+                0,
+                0,
+                h0,
+                h1,
+                h2,
+                h3,
+                0,
+                0,
+                0,
+            ];
+        }
+        out
+    }
+
+    /// REQ-UI-13: the real slot codec, on any 22 bytes.
+    #[kani::proof]
+    fn verify_snapshot_slot_is_canonical() {
+        let bytes: [u8; SNAPSHOT_LEN] = kani::any();
+        snapshot_slot_is_canonical(&bytes);
+        crate::harness_end_reached();
+    }
+
     #[kani::proof]
     #[kani::unwind(230)]
     #[kani::stub(taut_core::store::checksum, zero_checksum)]
+    #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::decode, slot_decode_model)]
+    #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::encode_slot, slot_encode_model)]
     fn verify_store_decode_is_total() {
         let bytes: [u8; RECORD_LEN] = kani::any();
         // Every version byte but 1 and 2 (today's format, and every unknown one); versions 1
@@ -220,8 +369,11 @@ mod verification {
     #[kani::proof]
     #[kani::unwind(230)]
     #[kani::stub(taut_core::store::checksum, zero_checksum)]
+    #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::decode, slot_decode_model)]
+    #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::encode_slot, slot_encode_model)]
     fn verify_store_decode_migrates_version_1() {
-        let bytes: [u8; RECORD_LEN] = kani::any();
+        // A version-1 record is `LEGACY_LEN` bytes: what follows it is not read.
+        let bytes: [u8; LEGACY_LEN] = kani::any();
         kani::assume(bytes.get(2) == Some(&FORMAT_V1));
         decode_is_total(&bytes);
         crate::harness_end_reached();
@@ -230,8 +382,11 @@ mod verification {
     #[kani::proof]
     #[kani::unwind(230)]
     #[kani::stub(taut_core::store::checksum, zero_checksum)]
+    #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::decode, slot_decode_model)]
+    #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::encode_slot, slot_encode_model)]
     fn verify_store_decode_migrates_version_2() {
-        let bytes: [u8; RECORD_LEN] = kani::any();
+        // A version-2 record is `LEGACY_LEN` bytes: what follows it is not read.
+        let bytes: [u8; LEGACY_LEN] = kani::any();
         kani::assume(bytes.get(2) == Some(&FORMAT_V2));
         decode_is_total(&bytes);
         crate::harness_end_reached();
@@ -240,6 +395,8 @@ mod verification {
     #[kani::proof]
     #[kani::unwind(230)]
     #[kani::stub(taut_core::store::checksum, zero_checksum)]
+    #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::decode, slot_decode_model)]
+    #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::encode_slot, slot_encode_model)]
     fn verify_store_round_trips() {
         let input: RecordInput = kani::any();
         if let Some(record) = input.record() {

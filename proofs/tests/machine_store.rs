@@ -9,12 +9,13 @@
 )]
 
 use proptest::prelude::*;
+use taut_core::machine::snapshot::{FaultSnapshot, SNAPSHOT_LEN};
 use taut_core::settings::Preferences;
 use taut_core::store::{FORMAT_V1, FORMAT_V2, FORMAT_V3};
 use taut_core::store::{LEGACY_LEN, RECORD_LEN, Record, StoreError};
 use taut_proofs::machine_store::{
-    RecordInput, SettingsInput, as_version_1, as_version_2, as_version_3, decode_is_total,
-    round_trips,
+    RecordInput, SettingsInput, SnapshotInput, as_version_1, as_version_2, as_version_3,
+    decode_is_total, round_trips, snapshot_slot_is_canonical,
 };
 
 fn sample_records() -> Vec<Record> {
@@ -32,8 +33,39 @@ fn sample_records() -> Vec<Record> {
             string_mm: 6_789_012,
             boots: 0,
             preferences: 0,
+            zero: None,
+            fault: None,
         };
         out.push(input.record().expect("valid sample"));
+    }
+    out
+}
+
+/// Today's format only: records with a zero at calibration and a fault history (the real
+/// snapshots of the record's own unit tests come with every field set).
+fn sample_records_with_history() -> Vec<Record> {
+    let mut out = Vec::new();
+    for (index, record) in sample_records().into_iter().enumerate() {
+        let fault = SnapshotInput {
+            number: 15,
+            boot: 70,
+            time_ms: 3_600_123 + u32::try_from(index).expect("few"),
+            hall_steps: -4_321,
+        };
+        let settings = SettingsInput { pounds: false, tenths: 250, speed: 5, pre: 0, knot: 0 };
+        let input = RecordInput {
+            settings,
+            preset: settings,
+            zero: Some(-12_345),
+            fault: Some(fault),
+            ..RecordInput::default()
+        };
+        let extra = input.record().expect("valid history");
+        out.push(Record {
+            calibration_zero: extra.calibration_zero,
+            faults: extra.faults,
+            ..record
+        });
     }
     out
 }
@@ -53,7 +85,8 @@ fn sample_records_with_preferences() -> Vec<Record> {
 #[test]
 fn machine_store_bit_flips_exhaustive() {
     let mut cases = 0u32;
-    for record in sample_records_with_preferences() {
+    for record in sample_records_with_preferences().into_iter().chain(sample_records_with_history())
+    {
         round_trips(&record);
         let bytes = record.encode();
         for index in 0..RECORD_LEN {
@@ -164,9 +197,21 @@ proptest! {
     }
 
     #[test]
-    fn machine_store_mutated_records(which in 0usize..4, index in 0usize..RECORD_LEN, value in any::<u8>()) {
-        let mut bytes = sample_records()[which].encode();
+    fn machine_store_mutated_records(which in 0usize..8, index in 0usize..RECORD_LEN, value in any::<u8>()) {
+        let records: Vec<Record> = sample_records().into_iter().chain(sample_records_with_history()).collect();
+        let mut bytes = records[which].encode();
         bytes[index] = value;
         decode_is_total(&bytes);
+    }
+
+    /// REQ-UI-13: random slot bytes, and a real snapshot's bytes with one byte replaced.
+    #[test]
+    fn machine_store_snapshot_slots(bytes in prop::array::uniform22(any::<u8>()), index in 0usize..SNAPSHOT_LEN, value in any::<u8>(), record in 4usize..8) {
+        snapshot_slot_is_canonical(&bytes);
+        let snapshot = sample_records_with_history()[record - 4].faults[0].expect("a fault");
+        let mut real = FaultSnapshot::encode_slot(Some(&snapshot));
+        snapshot_slot_is_canonical(&real);
+        real[index] = value;
+        snapshot_slot_is_canonical(&real);
     }
 }

@@ -6,15 +6,22 @@
 //!
 //! [`Machine::tick`] runs once per millisecond (the paper's control period). It
 //!
-//! 1. debounces the keys into at most one [`KeyEvent`] ([`panel::KeyPad`]),
+//! 1. debounces the keys into at most one [`KeyEvent`] ([`panel::KeyPad`]); a key pressed
+//!    within [`VIEW_WAKE`] of a page returning to the tension by itself only wakes the panel
+//!    (the operator, still reading the page, did not see it go: the key was meant for it),
 //! 2. converts the load-cell code into the tared raw tension and the calibrated tension,
 //!    keeps a short running average of the raw reading (for calibration points) and takes
 //!    the string encoder's count since the previous tick,
 //! 3. hands all of it to the statechart as **exactly one** statig event (`Tick`),
 //!    whose states write the drive command, display, lamps and store request into a
 //!    context,
-//! 4. logs a completed pull, starts any beeper pattern a state asked for, and returns the
+//! 4. logs a completed pull with the highest tension the panel showed in it (the display's
+//!    own filter: the break detector's tracked peak follows the load cell's noise and is the
+//!    safety rules' alone), starts any beeper pattern a state asked for, and returns the
 //!    [`Outputs`].
+//!
+//! The wake and the shown peak are the panel's business, kept here beside the debounce
+//! rather than in the statechart's storage: the statechart sees a woken key as no key.
 //!
 //! The statechart is in `chart.rs` (one function per state; its header draws the state
 //! tree); read it next to `docs/SPEC.md`'s "The machine" section, whose tables it
@@ -140,6 +147,25 @@ impl MachineState {
             Self::Holding => "holding",
             Self::Releasing => "releasing",
             Self::Fault(_) => "fault",
+        }
+    }
+
+    /// The state's kind: its index in [`MachineState::KINDS`] (the fault snapshot's state
+    /// byte).
+    #[must_use]
+    pub const fn kind(self) -> u8 {
+        match self {
+            Self::SelfTest => 0,
+            Self::MotorTest => 1,
+            Self::Homing => 2,
+            Self::CalibrationWindow => 3,
+            Self::CalibrationPull { .. } => 4,
+            Self::CalibrationEntry { .. } => 5,
+            Self::Ready => 6,
+            Self::Pulling => 7,
+            Self::Holding => 8,
+            Self::Releasing => 9,
+            Self::Fault(_) => 10,
         }
     }
 
@@ -275,7 +301,17 @@ pub struct Machine<const LOG: usize = PULL_LOG_CAPACITY> {
     string_counter: Option<u16>,
     /// The drive command of the last tick (a fault's snapshot).
     command: DriveCommand,
+    /// A settings page returned to the tension by itself and no key came since.
+    page_timed_out: bool,
+    /// The key whose press only woke the panel: its repeats and long press are dropped too.
+    waking_key: Option<crate::io::Key>,
+    /// The highest calibrated average tension of the present pull (Pulling and Holding).
+    shown_peak: Kgf,
 }
+
+/// Ticks after a settings page returned to the tension by itself in which a key only wakes
+/// the panel.
+pub const VIEW_WAKE: u32 = 1_500;
 
 impl Machine {
     /// A machine at power-up with the persisted `record`.
@@ -363,12 +399,16 @@ impl<const LOG: usize> Machine<LOG> {
             steps_recent: [sample.inputs.drive.steps; 2],
             string_counter: None,
             command: DriveCommand::Coast,
+            page_timed_out: false,
+            waking_key: None,
+            shown_peak: Kgf::ZERO,
         }
     }
 
     /// One 1 ms tick: exactly one statig event.
     pub fn tick(&mut self, inputs: &Inputs) -> Outputs {
-        let key = self.keypad.tick(inputs.keys);
+        let pressed = self.keypad.tick(inputs.keys);
+        let key = self.wake(pressed);
         let chart = self.chart.inner();
         let raw = chart.scale.to_kgf(inputs.load_cell);
         let tension = chart.calibration.correct(raw);
@@ -411,10 +451,25 @@ impl<const LOG: usize> Machine<LOG> {
             string_counts,
         };
         let mut context = Context::new(sample);
-        context.prior = Some((chart::public_state(self.chart.state()), self.command));
+        let before = *self.chart.state();
+        context.prior = Some((chart::public_state(&before), self.command));
         self.chart.handle_with_context(&Tick(sample), &mut context);
-
-        if let Some(record) = context.completed {
+        self.page_timed_out = match (&before, self.chart.state()) {
+            (State::Ready { view: page }, State::Ready { view: View::Tension }) => {
+                self.page_timed_out || (key.is_none() && *page != View::Tension)
+            }
+            (_, State::Ready { .. }) => self.page_timed_out,
+            _ => false,
+        };
+        // The shown peak: the calibrated average, from the tick the pull starts to its release.
+        let moving = |state| matches!(state, MachineState::Pulling | MachineState::Holding);
+        let was_moving = moving(chart::public_state(&before));
+        if was_moving || moving(self.state()) {
+            let averaged = self.chart.inner().calibration.correct(self.raw_average);
+            self.shown_peak = if was_moving { self.shown_peak.max(averaged) } else { averaged };
+        }
+        if let Some(mut record) = context.completed {
+            record.peak = LoggedKgf::from_kgf(self.shown_peak);
             self.log.push(record);
         }
         let mut outputs = context.out;
@@ -430,7 +485,7 @@ impl<const LOG: usize> Machine<LOG> {
         }
         let beep = match context.beep {
             Some(beep) => Some(beep),
-            None => matches!(key, Some(KeyEvent::Press(_))).then_some(Beep::Click),
+            None => matches!(pressed, Some(KeyEvent::Press(_))).then_some(Beep::Click),
         };
         // The beeper preference mutes clicks and tones, never the fault pattern.
         let audible = self.chart.inner().record.preferences.beeper;
@@ -440,6 +495,24 @@ impl<const LOG: usize> Machine<LOG> {
         outputs.beeper = self.beeper.sounding(inputs.now_ms);
         self.command = outputs.drive;
         outputs
+    }
+
+    /// The key event the statechart gets for `pressed`: none for a press within
+    /// [`VIEW_WAKE`] of a settings page returning to the tension by itself (it only wakes the
+    /// panel), nor for that key's repeats and long press.
+    fn wake(&mut self, pressed: Option<KeyEvent>) -> Option<KeyEvent> {
+        let in_ready = matches!(self.chart.state(), State::Ready { .. });
+        match pressed {
+            Some(KeyEvent::Press(key)) => {
+                let woken = core::mem::take(&mut self.page_timed_out)
+                    && in_ready
+                    && self.chart.inner().idle < VIEW_TIMEOUT.saturating_add(VIEW_WAKE);
+                self.waking_key = woken.then_some(key);
+                (!woken).then_some(KeyEvent::Press(key))
+            }
+            Some(event) if self.waking_key == Some(event.key()) => None,
+            other => other,
+        }
     }
 
     /// The log page's value: `field` of [`LOG_FIELDS`] of the entry `entry` back from the
@@ -570,6 +643,16 @@ mod tests {
         assert_eq!(MachineState::CalibrationPull { point: 3 }.name(), "calibration-pull");
         assert_eq!(MachineState::CalibrationEntry { point: 2 }.name(), "calibration-entry");
         assert_eq!(MachineState::Fault(FaultCode::Overload).name(), "fault");
+    }
+
+    /// A state's kind is its index in the list of kinds, whatever its payload.
+    #[test]
+    fn each_state_kind_is_its_index_in_the_list() {
+        for (index, kind) in MachineState::KINDS.iter().enumerate() {
+            assert_eq!(usize::from(kind.kind()), index, "{}", kind.name());
+        }
+        assert_eq!(MachineState::CalibrationEntry { point: 5 }.kind(), 5);
+        assert_eq!(MachineState::Fault(FaultCode::Overload).kind(), 10);
     }
 
     /// Feeds `ticks` ticks reading `code`; returns the last outputs.

@@ -249,23 +249,18 @@ impl FaultSnapshot {
 }
 
 /// The fault shown as `E-number`, if any.
-fn fault_from_number(number: u8) -> Option<FaultCode> {
-    FaultCode::ALL.iter().copied().find(|code| code.number() == number)
+const fn fault_from_number(number: u8) -> Option<FaultCode> {
+    FaultCode::from_number(number)
 }
 
-/// A state's kind (its index in [`MachineState::KINDS`]) and detail byte.
-fn state_code(state: MachineState) -> (u8, u8) {
+/// A state's kind ([`MachineState::kind`]) and detail byte.
+const fn state_code(state: MachineState) -> (u8, u8) {
     let detail = match state {
         MachineState::CalibrationPull { point } | MachineState::CalibrationEntry { point } => point,
         MachineState::Fault(code) => code.number(),
         _ => 0,
     };
-    let kind = MachineState::KINDS
-        .iter()
-        .position(|kind| kind.name() == state.name())
-        .and_then(|index| u8::try_from(index).ok())
-        .unwrap_or(0);
-    (kind, detail)
+    (state.kind(), detail)
 }
 
 /// The state of a kind and detail byte, if they name one.

@@ -712,3 +712,74 @@ fn a_motor_with_another_pole_count_still_runs_whole_cycles() {
         }
     }
 }
+
+/// REQ-UI-14: a drivetrain whose drag grows boot after boot gets the wear notice (n-05) while
+/// it still passes its self-test and completes a pull, and well before the motor test would
+/// fail (E-07); a new one never does.
+#[test]
+fn a_wearing_drivetrain_raises_the_wear_notice_before_the_self_test_fails() {
+    use taut_core::machine::Notice;
+    let base = TwinConfig::nominal(StringKind::TennisSynthetic);
+    let mut flash = Record::default().encode();
+    let mut noticed_at = None;
+    let mut stalled_at = None;
+    let mut failed_at = None;
+    // The drag multiplies the drivetrain's Coulomb friction (bearings, nut and slide), one
+    // step a boot: a new machine for five boots, then wearing.
+    let drags = [1.0, 1.0, 1.0, 1.0, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0];
+    let mut drags = drags.to_vec();
+    drags.extend((9..40).map(|step| f64::from(step) * 2.0));
+    for (boot, drag) in drags.into_iter().enumerate() {
+        let mut config = base;
+        config.motor.coulomb_torque_nm *= drag;
+        config.mechanics.slide_friction_n *= drag;
+        let mut rig = Rig::power_up(&config, &flash);
+        let ready = rig.run_until(30_000, |r| {
+            matches!(r.machine().state(), MachineState::Ready | MachineState::Fault(_))
+        });
+        assert!(ready, "boot {boot} stuck: {:?}", rig.states());
+        if let Some(code) = rig.machine().fault() {
+            assert_eq!(code, FaultCode::MotorNoRotation, "boot {boot} at drag {drag}");
+            failed_at = Some((boot, drag));
+            break;
+        }
+        let percent = rig.machine().record().drivetrain.percent().unwrap_or(0);
+        let noticed = rig.machine().notice() == Some(Notice::DrivetrainWear);
+        if noticed {
+            assert!(drag >= 4.0, "a notice on a nearly new drivetrain (drag {drag}, {percent} %)");
+            noticed_at.get_or_insert((boot, drag, percent));
+            rig.press(Key::Start); // acknowledges the notice
+        } else {
+            assert_eq!(rig.machine().notice(), None, "boot {boot}");
+        }
+        // One pull, held and released: does the machine still string?
+        if stalled_at.is_none() {
+            rig.press(Key::Start);
+            let held = rig.run_until(30_000, |r| {
+                matches!(r.machine().state(), MachineState::Holding | MachineState::Fault(_))
+            });
+            rig.run(500);
+            rig.press(Key::Start);
+            let home = rig.run_until(30_000, |r| {
+                matches!(r.machine().state(), MachineState::Ready | MachineState::Fault(_))
+            });
+            if !(held && home) || rig.machine().fault().is_some() {
+                stalled_at = Some((boot, drag, rig.machine().fault()));
+                assert!(noticed_at.is_some(), "a pull failed before the notice: {stalled_at:?}");
+                rig.press(Key::Start);
+                rig.run(5_000);
+            }
+        }
+        // Idle long enough for the record (the trend) to be stored.
+        rig.run(3_000);
+        flash = *rig.flash();
+        println!("boot {boot}: drag {drag}, trend {percent} %");
+    }
+    let (boot, drag, percent) = noticed_at.expect("the wear notice never came");
+    println!(
+        "wear notice at boot {boot} (drag {drag}, trend {percent} %); first failed pull \
+         {stalled_at:?}; motor test failed at {failed_at:?}"
+    );
+    let (failed, _) = failed_at.expect("the motor test never failed");
+    assert!(failed > boot + 3, "the notice came only {} boots before the failure", failed - boot);
+}

@@ -38,13 +38,16 @@
 //! | *c* + 12 | 1 | preferences: bit 0 beeper off, bit 1 constant pull off; other bits 0 |
 //! | *c* + 13 | 1 | the load cell's zero at calibration: 1 stored, 0 not |
 //! | *c* + 14 | 4 | that zero, volts, Q15.16 bits (`i32`; 0 when not stored) |
-//! | *c* + 18 | 3 × 22 | fault history, the latest first ([`crate::machine::snapshot`]; an empty slot all 0) |
-//! | *c* + 84 | to 220 | reserved, 0 |
+//! | *c* + 18 | 4 | the pull counter when the calibration was accepted (`u32`; 0 when not stored): the calibration's age in pulls |
+//! | *c* + 22 | 3 × 22 | fault history, the latest first ([`crate::machine::snapshot`]; an empty slot all 0) |
+//! | *c* + 88 | 2 | the drivetrain's motor test at commissioning, ms (`u16`; 0: none yet; [`crate::machine::wear`]) |
+//! | *c* + 90 | 2 | the motor test's trend since, ms (`u16`) |
+//! | *c* + 92 | to 220 | reserved, 0 |
 //! | 220 | 4 | CRC-32/ISCSI of bytes 0..220 |
 //!
-//! With four points *c* = 97 and 39 bytes are reserved. Today's layout is computed from
+//! With four points *c* = 97 and 31 bytes are reserved. Today's layout is computed from
 //! [`CALIBRATION_POINTS`] (another point count is one constant: the fields after the points
-//! move with it), and a `const` assertion keeps it inside the record; up to eight points fit.
+//! move with it), and a `const` assertion keeps it inside the record; up to seven points fit.
 //! A settings block is: set point in tenths of its unit (`u16`), unit (0 kg, 1 lb), speed
 //! (1–9), pre-stretch percent (0–30), knot percent (0–20).
 //!
@@ -87,6 +90,7 @@
 use crc::{CRC_32_ISCSI, Crc};
 
 use crate::machine::snapshot::{FAULT_HISTORY, FaultSnapshot, SNAPSHOT_LEN};
+use crate::machine::wear::DrivetrainTrend;
 use crate::sense::calibration::{CALIBRATION_POINTS, CalibrationPoint, CalibrationPoints};
 use crate::settings::{Preferences, SetPoint, Settings, Unit};
 use crate::units::{Kgf, Volts};
@@ -186,8 +190,9 @@ impl Layout {
         let counters =
             OFFSET_CALIBRATION.saturating_add(1).saturating_add(points.saturating_mul(8));
         let reserved = counters
-            .saturating_add(12 + 1 + 5)
-            .saturating_add(FAULT_HISTORY.saturating_mul(SNAPSHOT_LEN));
+            .saturating_add(12 + 1 + 5 + 4)
+            .saturating_add(FAULT_HISTORY.saturating_mul(SNAPSHOT_LEN))
+            .saturating_add(4);
         Self {
             len: RECORD_LEN,
             points,
@@ -215,17 +220,6 @@ impl Layout {
     const fn fits(self) -> bool {
         self.reserved.saturating_add(4) <= self.len && self.len <= MAX_RECORD_LEN
     }
-
-    /// The layout of a known version.
-    const fn of(version: u8) -> Option<Self> {
-        match version {
-            FORMAT_V1 => Some(Self::V1),
-            FORMAT_V2 => Some(Self::V2),
-            FORMAT_V3 => Some(Self::V3),
-            FORMAT_VERSION => Some(Self::CURRENT),
-            _ => None,
-        }
-    }
 }
 
 const _: () = assert!(
@@ -239,7 +233,7 @@ const _: () = assert!(
 );
 
 /// Whether today's layout would hold a calibration of `points` points (the record's side of
-/// "another point count is one constant": up to eight fit, nine would not).
+/// "another point count is one constant": up to seven fit, eight would not).
 #[must_use]
 pub const fn layout_fits(points: usize) -> bool {
     Layout::derived(points).fits()
@@ -314,7 +308,8 @@ pub enum StoreError {
     /// A reserved byte is not zero (or a preferences bit this version does not define, or a
     /// version-4 length byte other than [`RECORD_LEN`]).
     ReservedNotZero,
-    /// The zero at calibration's flag is not 0/1, or a zero is stored under flag 0.
+    /// The zero at calibration's flag is not 0/1, or a zero or a pull count is stored under
+    /// flag 0.
     InvalidZero,
     /// A fault snapshot's field is out of its range.
     InvalidSnapshot,
@@ -337,8 +332,13 @@ pub struct Record {
     /// reference for the zero's movement since calibration); `None` for a calibration
     /// migrated from a format that did not keep it.
     pub calibration_zero: Option<Volts>,
+    /// The pull counter when the calibration was accepted (0 with no `calibration_zero`): see
+    /// [`Record::calibration_age`].
+    pub calibration_pulls: u32,
     /// The last faults with what latched them, the latest first.
     pub faults: [Option<FaultSnapshot>; FAULT_HISTORY],
+    /// The drivetrain's drag trend: the motor test's time at commissioning and since.
+    pub drivetrain: DrivetrainTrend,
 }
 
 impl Record {
@@ -349,9 +349,8 @@ impl Record {
         let mut w = Writer { bytes: &mut out, at: 0 };
         self.write(&mut w, Layout::CURRENT, FORMAT_VERSION);
         // The reserved bytes stay zero; the CRC covers everything before it.
-        let body = out.first_chunk::<OFFSET_CRC>().copied().unwrap_or([0; OFFSET_CRC]);
-        let mut w = Writer { bytes: &mut out, at: OFFSET_CRC };
-        w.u32(checksum(&body));
+        let crc = checksum(out.get(..OFFSET_CRC).unwrap_or(&[]));
+        Writer { bytes: &mut out, at: OFFSET_CRC }.u32(crc);
         out
     }
 
@@ -360,31 +359,34 @@ impl Record {
     /// for any other version: what the migration tests and proofs compare with.
     #[must_use]
     pub fn encode_legacy(&self, version: u8) -> Option<[u8; LEGACY_LEN]> {
+        let mut out = [0u8; LEGACY_LEN];
+        self.write_legacy(version, &mut out).then_some(out)
+    }
+
+    /// [`Record::encode_legacy`] into `out`; false (and `out` untouched) for a version other
+    /// than 1–3. (A model checker reads the bytes in place: CBMC 6.6 mishandles an array of
+    /// more than 64 elements inside an enum such as `Option`.)
+    pub fn write_legacy(&self, version: u8, out: &mut [u8; LEGACY_LEN]) -> bool {
         let layout = match version {
             FORMAT_V1 => Layout::V1,
             FORMAT_V2 => Layout::V2,
             FORMAT_V3 => Layout::V3,
-            _ => return None,
+            _ => return false,
         };
-        let mut today = [0u8; RECORD_LEN];
-        let mut w = Writer { bytes: &mut today, at: 0 };
+        *out = [0u8; LEGACY_LEN];
         let record = Self {
             calibration: self.calibration.filter(|_| CALIBRATION_POINTS == layout.points),
             ..*self
         };
-        record.write(&mut w, layout, version);
-        let mut out = today.first_chunk::<LEGACY_LEN>().copied().unwrap_or([0; LEGACY_LEN]);
+        record.write(&mut Writer { bytes: out, at: 0 }, layout, version);
         if version == FORMAT_V1 && record.calibration.is_some() {
             if let Some(flag) = out.get_mut(OFFSET_CALIBRATION) {
                 *flag = 1;
             }
         }
-        let body = out.first_chunk::<LEGACY_CRC>().copied().unwrap_or([0; LEGACY_CRC]);
-        let crc = checksum(&body).to_le_bytes();
-        if let Some(slot) = out.get_mut(LEGACY_CRC..) {
-            slot.copy_from_slice(&crc);
-        }
-        Some(out)
+        let crc = checksum(out.get(..LEGACY_CRC).unwrap_or(&[])).to_le_bytes();
+        Writer { bytes: out, at: LEGACY_CRC }.bytes_from(&crc);
+        true
     }
 
     /// Writes the fields `layout` has, from the version byte on.
@@ -422,15 +424,19 @@ impl Record {
                 Some(zero) => {
                     w.u8(1);
                     w.i32(zero.to_bits());
+                    w.u32(self.calibration_pulls);
                 }
                 None => {
                     w.u8(0);
                     w.i32(0);
+                    w.u32(0);
                 }
             }
             for slot in &self.faults {
                 w.bytes_from(&FaultSnapshot::encode_slot(slot.as_ref()));
             }
+            w.u16(self.drivetrain.commissioned_ms);
+            w.u16(self.drivetrain.trend_ms);
         }
     }
 
@@ -457,36 +463,51 @@ impl Record {
         if [m0, m1] != MAGIC {
             return Err(StoreError::NoRecord);
         }
-        // The layout to read, and the record's own length (its CRC is its last four bytes).
-        let (layout, len) = match Layout::of(version) {
-            Some(layout) => (layout, layout.len),
-            None if version > FORMAT_VERSION => {
+        // One call per layout, each with its layout a constant: every offset and every loop
+        // bound below is then a constant of its path (a model checker reads fixed places
+        // rather than offsets that depend on the version byte).
+        let record = match version {
+            FORMAT_V1 => Self::decode_layout(bytes, Layout::V1, FORMAT_V1, length == 0, true)?,
+            FORMAT_V2 => Self::decode_layout(bytes, Layout::V2, FORMAT_V2, length == 0, true)?,
+            FORMAT_V3 => Self::decode_layout(bytes, Layout::V3, FORMAT_V3, length == 0, true)?,
+            FORMAT_VERSION => {
+                let stated = usize::from(length) == RECORD_LEN;
+                Self::decode_layout(bytes, Layout::CURRENT, FORMAT_VERSION, stated, true)?
+            }
+            _ if version > FORMAT_VERSION => {
+                // A newer format: today's fields at today's places, its own length and tail.
                 let len = usize::from(length);
                 if !(RECORD_LEN..=MAX_RECORD_LEN).contains(&len) {
                     return Err(StoreError::UnknownVersion);
                 }
-                (Layout::CURRENT, len)
+                let layout = Layout { len, ..Layout::CURRENT };
+                Self::decode_layout(bytes, layout, FORMAT_VERSION, true, false)?
             }
-            None => return Err(StoreError::UnknownVersion),
+            _ => return Err(StoreError::UnknownVersion),
         };
-        let stored = bytes.get(..len).ok_or(StoreError::TooShort)?;
-        let (body, crc) = stored.split_at(len.saturating_sub(4));
+        Ok((record, version))
+    }
+
+    /// The record in `bytes` as `layout` places its fields (read as format `version`: a
+    /// newer one as today's), once its length, CRC and reserved bytes pass; `length_ok` is
+    /// whether byte 3 is what the version states there, `reserved` whether the bytes after
+    /// the fields must be zero (a newer version's tail is its own).
+    fn decode_layout(
+        bytes: &[u8],
+        layout: Layout,
+        version: u8,
+        length_ok: bool,
+        reserved: bool,
+    ) -> Result<Self, StoreError> {
+        let stored = bytes.get(..layout.len).ok_or(StoreError::TooShort)?;
+        let (body, crc) = stored.split_at(layout.len.saturating_sub(4));
         let crc: [u8; 4] = crc.try_into().map_err(|_| StoreError::TooShort)?;
         if checksum(body) != u32::from_le_bytes(crc) {
             return Err(StoreError::CrcMismatch);
         }
-        // A known version's reserved bytes are zero, and version 4 states its own length; a
-        // newer version's tail is its own.
-        let tail_is_zero = match version {
-            FORMAT_V1 | FORMAT_V2 | FORMAT_V3 => {
-                length == 0 && zero_between(body, layout.reserved, LEGACY_CRC)
-            }
-            FORMAT_VERSION => {
-                usize::from(length) == RECORD_LEN && zero_between(body, layout.reserved, OFFSET_CRC)
-            }
-            _ => true,
-        };
-        if !tail_is_zero {
+        let tail_is_zero =
+            !reserved || zero_between(body, layout.reserved, layout.len.saturating_sub(4));
+        if !length_ok || !tail_is_zero {
             return Err(StoreError::ReservedNotZero);
         }
         let mut r = Reader { bytes: body, at: OFFSET_SETTINGS };
@@ -514,11 +535,13 @@ impl Record {
         if layout.history {
             let flag = r.u8();
             let bits = r.i32();
+            let pulls = r.u32();
             record.calibration_zero = match flag {
-                0 if bits == 0 => None,
+                0 if bits == 0 && pulls == 0 => None,
                 1 => Some(Volts::from_bits(bits)),
                 _ => return Err(StoreError::InvalidZero),
             };
+            record.calibration_pulls = pulls;
             for slot in &mut record.faults {
                 let mut bytes = [0u8; SNAPSHOT_LEN];
                 for byte in &mut bytes {
@@ -526,8 +549,9 @@ impl Record {
                 }
                 *slot = FaultSnapshot::decode(&bytes).map_err(|_| StoreError::InvalidSnapshot)?;
             }
+            record.drivetrain = DrivetrainTrend { commissioned_ms: r.u16(), trend_ms: r.u16() };
         }
-        Ok((record, version))
+        Ok(record)
     }
 
     /// Whether every settings field satisfies its invariant (true of every decoded record
@@ -535,6 +559,20 @@ impl Record {
     #[must_use]
     pub fn is_valid(&self) -> bool {
         self.settings.is_valid() && self.presets.iter().all(|preset| preset.is_valid())
+    }
+
+    /// Pulls since the calibration was accepted, when the record knows it (a calibration
+    /// migrated from a format that did not stamp it: `None`; none at all: `None`).
+    #[must_use]
+    pub fn calibration_age(&self) -> Option<u32> {
+        self.calibration_zero.map(|_| self.counters.pulls.saturating_sub(self.calibration_pulls))
+    }
+
+    /// Stamps the calibration just accepted with the load cell's `zero` in use and the pull
+    /// counter (its age starts at zero).
+    pub fn stamp_calibration(&mut self, zero: Volts) {
+        self.calibration_zero = Some(zero);
+        self.calibration_pulls = self.counters.pulls;
     }
 
     /// Puts `snapshot` at the head of the fault history, the oldest dropped.
@@ -594,7 +632,7 @@ fn read_legacy_calibration(
 /// the layout, so every write lands on a fixed byte (out-of-range writes are dropped, which
 /// the layout's `const` assertion rules out).
 struct Writer<'a> {
-    bytes: &'a mut [u8; RECORD_LEN],
+    bytes: &'a mut [u8],
     at: usize,
 }
 
@@ -684,7 +722,8 @@ mod tests {
             CalibrationPoint { raw, reference: target }
         }));
         record.counters = Counters { pulls: 1234, string_used_mm: 987_654, boots: 42 };
-        record.calibration_zero = Some(Volts::from_milli(47));
+        record.stamp_calibration(Volts::from_milli(47));
+        record.counters.pulls = 1300;
         record.push_fault(snapshot(FaultCode::Stall, 1_000));
         record.push_fault(snapshot(FaultCode::StringBreak, 2_000));
         record
@@ -709,7 +748,12 @@ mod tests {
 
     /// `record` without what versions 1–3 could not hold.
     fn as_legacy(record: &Record) -> Record {
-        Record { calibration_zero: None, faults: [None; FAULT_HISTORY], ..*record }
+        Record {
+            calibration_zero: None,
+            calibration_pulls: 0,
+            faults: [None; FAULT_HISTORY],
+            ..*record
+        }
     }
 
     #[test]
@@ -887,7 +931,7 @@ mod tests {
     fn five_calibration_points_fit_the_record() {
         assert!(layout_fits(CALIBRATION_POINTS));
         assert!(layout_fits(5), "a five-point calibration is one constant away");
-        assert!(layout_fits(8) && !layout_fits(9), "eight fit; nine need a longer record");
+        assert!(layout_fits(7) && !layout_fits(8), "seven fit; eight need a longer record");
     }
 
     /// The frozen layouts of versions 1–3 are what the derivation gave for their four points,
@@ -900,7 +944,7 @@ mod tests {
         assert_eq!((Layout::V3.counters, Layout::V3.reserved, Layout::V3.len), (97, 110, 128));
         let five = Layout::derived(5);
         assert_eq!(five.counters, Layout::derived(4).counters + 8, "the fields move with it");
-        assert_eq!(Layout::derived(4).reserved, 97 + 84);
+        assert_eq!(Layout::derived(4).reserved, 97 + 92);
     }
 
     /// REQ-STORE-06: a version-3 record (128 bytes) is migrated: everything it held is kept,
@@ -969,16 +1013,28 @@ mod tests {
         let mut bad = record.encode();
         bad[zero_flag] = 2;
         assert_eq!(Record::decode(&resealed(bad)), Err(StoreError::InvalidZero));
-        let none = Record { calibration_zero: None, ..record }.encode();
+        assert_eq!(record.calibration_age(), Some(66), "stamped at 1234 pulls, now 1300");
+        let none = Record { calibration_zero: None, calibration_pulls: 0, ..record };
+        assert_eq!(none.calibration_age(), None);
+        let none = none.encode();
+        let mut stray_pulls = none;
+        stray_pulls[zero_flag + 5] = 1;
+        assert_eq!(Record::decode(&resealed(stray_pulls)), Err(StoreError::InvalidZero));
         let mut stray = none;
         stray[zero_flag + 2] = 1;
         assert_eq!(Record::decode(&resealed(stray)), Err(StoreError::InvalidZero));
-        let first_snapshot = zero_flag + 5;
+        let first_snapshot = zero_flag + 9;
         let mut unknown_fault = record.encode();
         unknown_fault[first_snapshot] = 21;
         assert_eq!(Record::decode(&resealed(unknown_fault)), Err(StoreError::InvalidSnapshot));
         let mut length = record.encode();
         length[3] = 0;
         assert_eq!(Record::decode(&resealed(length)), Err(StoreError::ReservedNotZero));
+        // The drivetrain's trend sits after the history, commissioning first.
+        record.drivetrain = DrivetrainTrend { commissioned_ms: 271, trend_ms: 0x1234 };
+        let bytes = record.encode();
+        let trend = first_snapshot + FAULT_HISTORY * SNAPSHOT_LEN;
+        assert_eq!(bytes[trend..trend + 4], [15, 1, 0x34, 0x12]);
+        assert_eq!(Record::decode(&bytes), Ok(record));
     }
 }

@@ -253,9 +253,9 @@ pub struct Identity {
     pub pulls: u32,
     /// Whether the machine holds a calibration.
     pub calibrated: bool,
-    /// Power-ups since the calibration was stored, when the machine counts them (the record
-    /// has no calibration date: `None` on today's record format).
-    pub calibration_age_boots: Option<u32>,
+    /// Pulls since the calibration was accepted, when the record knows it (`None` with no
+    /// calibration, or one migrated from a format that did not stamp it).
+    pub calibration_age_pulls: Option<u32>,
 }
 
 /// One pull of the log, in the log's own resolution.

@@ -109,7 +109,7 @@ impl Server {
                 boots: record.counters.boots,
                 pulls: record.counters.pulls,
                 calibrated: record.calibration.is_some(),
-                calibration_age_boots: None,
+                calibration_age_pulls: record.calibration_age(),
             }),
             Request::ReadLog { page } => Self::log_page(page, machine),
             Request::ReadStatus => Response::Status(Status {

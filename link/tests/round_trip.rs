@@ -144,7 +144,7 @@ fn response() -> impl Strategy<Value = Response> {
             boots: counts[0],
             pulls: counts[1],
             calibrated,
-            calibration_age_boots: age,
+            calibration_age_pulls: age,
         });
     let page = (any::<u8>(), any::<u8>(), proptest::array::uniform4(proptest::option::of(entry())))
         .prop_map(|(page, total, entries)| LogPage { page, total, entries });

@@ -24,6 +24,7 @@
 
 use taut_core::drive::DriveCommand;
 use taut_core::machine::snapshot::{FAULT_HISTORY, FaultSnapshot, SNAPSHOT_LEN};
+use taut_core::machine::wear::DrivetrainTrend;
 use taut_core::machine::{FaultCode, MachineState};
 use taut_core::sense::calibration::{CALIBRATION_POINTS, CalibrationPoint};
 use taut_core::settings::{Preferences, SetPoint, Settings, Unit};
@@ -39,6 +40,18 @@ pub fn decode_is_total(bytes: &[u8]) {
     if let Ok((record, version)) = Record::decode_version(bytes) {
         assert!(record.is_valid(), "REQ-STORE-01: decoded an invalid record");
         decoded_is_canonical(bytes, &record, version);
+    }
+}
+
+/// REQ-STORE-01's first half for bytes whose version byte is `version`: decoding returns
+/// without panic, and an accepted record is valid and was read as that version. (What the
+/// Kani harnesses prove, one a version; that it is also canonical is [`decode_is_total`],
+/// run under `cargo test` exhaustively over every settings value and single-bit flip and by
+/// proptest over mutations past the CRC.)
+pub fn decode_is_total_in(bytes: &[u8], version: u8) {
+    if let Ok((record, decoded)) = Record::decode_version(bytes) {
+        assert_eq!(decoded, version, "REQ-STORE-01: read as another version");
+        assert!(record.is_valid(), "REQ-STORE-01: decoded an invalid record");
     }
 }
 
@@ -65,7 +78,9 @@ pub fn decoded_is_canonical(stored: &[u8], record: &Record, version: u8) {
         return;
     }
     assert_eq!(record.calibration_zero, None, "REQ-STORE-05: an old format has no zero");
+    assert_eq!(record.calibration_pulls, 0, "REQ-STORE-05: an old format has no stamp");
     assert_eq!(record.faults, [None; FAULT_HISTORY], "REQ-STORE-05: an old format has no history");
+    assert_eq!(record.drivetrain, DrivetrainTrend::default(), "REQ-STORE-05: no wear trend");
     if version != FORMAT_V3 {
         assert_eq!(record.preferences, Preferences::DEFAULT, "REQ-STORE-05: old prefs");
     }
@@ -76,12 +91,15 @@ pub fn decoded_is_canonical(stored: &[u8], record: &Record, version: u8) {
         version == FORMAT_V1 || version == FORMAT_V2 || version == FORMAT_V3,
         "REQ-STORE-05: decoded a version it does not know"
     );
-    let old = record.encode_legacy(version);
-    assert_eq!(
-        old.as_ref().map(|bytes| &bytes[..]),
-        stored.get(..LEGACY_LEN),
-        "REQ-STORE-05: migration changed a field"
-    );
+    // Each version a constant of its own call (see `Record::decode_version`); the bytes in
+    // place, not in an `Option` (see `Record::write_legacy`).
+    let mut old = [0u8; LEGACY_LEN];
+    match version {
+        FORMAT_V1 => record.write_legacy(FORMAT_V1, &mut old),
+        FORMAT_V2 => record.write_legacy(FORMAT_V2, &mut old),
+        _ => record.write_legacy(FORMAT_V3, &mut old),
+    };
+    assert_eq!(Some(&old[..]), stored.get(..LEGACY_LEN), "REQ-STORE-05: migration changed a field");
 }
 
 /// A record with the default preferences and no new fields as format version 2 wrote it.
@@ -169,10 +187,13 @@ pub struct RecordInput {
     pub boots: u32,
     /// Preferences flags (bits 0–1 used; others make the record invalid input).
     pub preferences: u8,
-    /// The load cell's zero at calibration, bits (none: a calibration migrated without it).
-    pub zero: Option<i32>,
+    /// The load cell's zero at calibration, bits, and the pull counter then (none: a
+    /// calibration migrated without them).
+    pub zero: Option<(i32, u32)>,
     /// A fault snapshot for the history's first and last slots (the middle one empty).
     pub fault: Option<SnapshotInput>,
+    /// The drivetrain's motor-test times, ms: at commissioning and the trend.
+    pub drivetrain: (u16, u16),
 }
 
 /// Primitive values for a fault snapshot of a fault latched in Ready with the drive coasting
@@ -241,8 +262,13 @@ impl RecordInput {
                 boots: self.boots,
             },
             preferences,
-            calibration_zero: self.zero.map(Volts::from_bits),
+            calibration_zero: self.zero.map(|(bits, _)| Volts::from_bits(bits)),
+            calibration_pulls: self.zero.map_or(0, |(_, pulls)| pulls),
             faults: [fault, None, fault],
+            drivetrain: DrivetrainTrend {
+                commissioned_ms: self.drivetrain.0,
+                trend_ms: self.drivetrain.1,
+            },
         })
     }
 }
@@ -256,6 +282,7 @@ impl RecordInput {
 mod verification {
     use super::*;
     use taut_core::machine::snapshot::SnapshotError;
+    use taut_core::store::MAX_RECORD_LEN;
 
     // Kani 0.65 cannot compile the `crc` crate (its code generator panics at `place.rs:771:
     // assertion failed: length >= min_length` on the slice pattern in
@@ -352,43 +379,78 @@ mod verification {
         crate::harness_end_reached();
     }
 
+    /// `N` bytes chosen by the solver, with the format version byte `version`: one harness a
+    /// version, each checking the canonical form of its own version (the decoder itself
+    /// reads each version's layout on a path of its own, see `Record::decode_version`).
+    fn bytes_of_version<const N: usize>(version: u8) -> [u8; N] {
+        let mut bytes: [u8; N] = kani::any();
+        if let Some(byte) = bytes.get_mut(2) {
+            *byte = version;
+        }
+        bytes
+    }
+
+    /// REQ-STORE-01 for today's format.
     #[kani::proof]
     #[kani::unwind(230)]
     #[kani::stub(taut_core::store::checksum, zero_checksum)]
     #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::decode, slot_decode_model)]
     #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::encode_slot, slot_encode_model)]
     fn verify_store_decode_is_total() {
-        let bytes: [u8; RECORD_LEN] = kani::any();
-        // Every version byte but 1 and 2 (today's format, and every unknown one); versions 1
-        // and 2 are the next harnesses', so that each stays within the two-minute budget.
-        kani::assume(bytes.get(2) != Some(&FORMAT_V1) && bytes.get(2) != Some(&FORMAT_V2));
-        decode_is_total(&bytes);
+        decode_is_total_in(&bytes_of_version::<RECORD_LEN>(FORMAT_VERSION), FORMAT_VERSION);
         crate::harness_end_reached();
     }
 
+    /// REQ-STORE-01 and REQ-STORE-06 for every other version byte: a newer format (read as
+    /// far as today's fields go, whatever length it states up to the longest) or an unknown
+    /// one (refused).
+    #[kani::proof]
+    #[kani::unwind(250)]
+    #[kani::stub(taut_core::store::checksum, zero_checksum)]
+    #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::decode, slot_decode_model)]
+    #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::encode_slot, slot_encode_model)]
+    fn verify_store_decode_newer_and_unknown_versions() {
+        let bytes: [u8; MAX_RECORD_LEN] = kani::any();
+        let version = bytes.get(2).copied().unwrap_or(0);
+        kani::assume(version == 0 || version > FORMAT_VERSION);
+        if let Ok((record, decoded)) = Record::decode_version(&bytes) {
+            assert!(decoded > FORMAT_VERSION, "REQ-STORE-01: an unknown version accepted");
+            assert!(record.is_valid(), "REQ-STORE-01: decoded an invalid record");
+        }
+        crate::harness_end_reached();
+    }
+
+    /// REQ-STORE-01 and REQ-STORE-05 for a version-1 record (`LEGACY_LEN` bytes: what
+    /// follows it is not read).
     #[kani::proof]
     #[kani::unwind(230)]
     #[kani::stub(taut_core::store::checksum, zero_checksum)]
     #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::decode, slot_decode_model)]
     #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::encode_slot, slot_encode_model)]
     fn verify_store_decode_migrates_version_1() {
-        // A version-1 record is `LEGACY_LEN` bytes: what follows it is not read.
-        let bytes: [u8; LEGACY_LEN] = kani::any();
-        kani::assume(bytes.get(2) == Some(&FORMAT_V1));
-        decode_is_total(&bytes);
+        decode_is_total_in(&bytes_of_version::<LEGACY_LEN>(FORMAT_V1), FORMAT_V1);
         crate::harness_end_reached();
     }
 
+    /// As above, version 2.
     #[kani::proof]
     #[kani::unwind(230)]
     #[kani::stub(taut_core::store::checksum, zero_checksum)]
     #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::decode, slot_decode_model)]
     #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::encode_slot, slot_encode_model)]
     fn verify_store_decode_migrates_version_2() {
-        // A version-2 record is `LEGACY_LEN` bytes: what follows it is not read.
-        let bytes: [u8; LEGACY_LEN] = kani::any();
-        kani::assume(bytes.get(2) == Some(&FORMAT_V2));
-        decode_is_total(&bytes);
+        decode_is_total_in(&bytes_of_version::<LEGACY_LEN>(FORMAT_V2), FORMAT_V2);
+        crate::harness_end_reached();
+    }
+
+    /// As above, version 3.
+    #[kani::proof]
+    #[kani::unwind(230)]
+    #[kani::stub(taut_core::store::checksum, zero_checksum)]
+    #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::decode, slot_decode_model)]
+    #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::encode_slot, slot_encode_model)]
+    fn verify_store_decode_migrates_version_3() {
+        decode_is_total_in(&bytes_of_version::<LEGACY_LEN>(FORMAT_V3), FORMAT_V3);
         crate::harness_end_reached();
     }
 

@@ -12,7 +12,7 @@ use proptest::prelude::*;
 use taut_core::machine::snapshot::{FaultSnapshot, SNAPSHOT_LEN};
 use taut_core::settings::Preferences;
 use taut_core::store::{FORMAT_V1, FORMAT_V2, FORMAT_V3};
-use taut_core::store::{LEGACY_LEN, RECORD_LEN, Record, StoreError};
+use taut_core::store::{LEGACY_LEN, RECORD_LEN, Record, StoreError, checksum};
 use taut_proofs::machine_store::{
     RecordInput, SettingsInput, SnapshotInput, as_version_1, as_version_2, as_version_3,
     decode_is_total, round_trips, snapshot_slot_is_canonical,
@@ -35,6 +35,7 @@ fn sample_records() -> Vec<Record> {
             preferences: 0,
             zero: None,
             fault: None,
+            drivetrain: (0, 0),
         };
         out.push(input.record().expect("valid sample"));
     }
@@ -56,14 +57,17 @@ fn sample_records_with_history() -> Vec<Record> {
         let input = RecordInput {
             settings,
             preset: settings,
-            zero: Some(-12_345),
+            zero: Some((-12_345, 12_000)),
             fault: Some(fault),
+            drivetrain: (271, 380),
             ..RecordInput::default()
         };
         let extra = input.record().expect("valid history");
         out.push(Record {
             calibration_zero: extra.calibration_zero,
+            calibration_pulls: extra.calibration_pulls,
             faults: extra.faults,
+            drivetrain: extra.drivetrain,
             ..record
         });
     }
@@ -204,6 +208,30 @@ proptest! {
         decode_is_total(&bytes);
     }
 
+    /// REQ-STORE-01/05/06 past the CRC: a record of every version with up to three bytes
+    /// replaced and its CRC recomputed (what the Kani harnesses' stand-in checksum lets
+    /// through) decodes, when it does, to a valid record in its canonical form.
+    #[test]
+    fn machine_store_resealed_mutations(version in 1u8..=4, which in 0usize..8, edits in prop::collection::vec((0usize..RECORD_LEN, any::<u8>()), 1..4)) {
+        let records: Vec<Record> = sample_records().into_iter().chain(sample_records_with_history()).collect();
+        let record = records[which];
+        let mut bytes = match version {
+            1 => as_version_1(&record).to_vec(),
+            2 => as_version_2(&record).to_vec(),
+            3 => as_version_3(&record).to_vec(),
+            _ => record.encode().to_vec(),
+        };
+        for (index, value) in edits {
+            if index != 2 && index < bytes.len() - 4 {
+                bytes[index] = value;
+            }
+        }
+        let crc_at = bytes.len() - 4;
+        let crc = checksum(&bytes[..crc_at]).to_le_bytes();
+        bytes[crc_at..].copy_from_slice(&crc);
+        decode_is_total(&bytes);
+    }
+
     /// REQ-UI-13: random slot bytes, and a real snapshot's bytes with one byte replaced.
     #[test]
     fn machine_store_snapshot_slots(bytes in prop::array::uniform22(any::<u8>()), index in 0usize..SNAPSHOT_LEN, value in any::<u8>(), record in 4usize..8) {
@@ -214,4 +242,47 @@ proptest! {
         real[index] = value;
         snapshot_slot_is_canonical(&real);
     }
+}
+
+/// REQ-STORE-01 past the CRC, exhaustively over one settings block's fields: every value of
+/// the set point (both units) and of the speed, pre-stretch and knot bytes, in a record of
+/// every version, either refused or decoded to its canonical form.
+#[test]
+fn machine_store_settings_bytes_exhaustive() {
+    let record = sample_records()[1];
+    let mut accepted = 0u32;
+    for version in 1u8..=4 {
+        let base = match version {
+            1 => as_version_1(&record).to_vec(),
+            2 => as_version_2(&record).to_vec(),
+            3 => as_version_3(&record).to_vec(),
+            _ => record.encode().to_vec(),
+        };
+        let reseal = |bytes: &mut Vec<u8>| {
+            let crc_at = bytes.len() - 4;
+            let crc = checksum(&bytes[..crc_at]).to_le_bytes();
+            bytes[crc_at..].copy_from_slice(&crc);
+        };
+        for unit in 0u8..=2 {
+            for tenths in 0..=u16::MAX {
+                let mut bytes = base.clone();
+                bytes[4..6].copy_from_slice(&tenths.to_le_bytes());
+                bytes[6] = unit;
+                reseal(&mut bytes);
+                decode_is_total(&bytes);
+                accepted += u32::from(Record::decode(&bytes).is_ok());
+            }
+        }
+        for field in 7..10 {
+            for value in 0..=u8::MAX {
+                let mut bytes = base.clone();
+                bytes[field] = value;
+                reseal(&mut bytes);
+                decode_is_total(&bytes);
+                accepted += u32::from(Record::decode(&bytes).is_ok());
+            }
+        }
+    }
+    println!("machine_store_settings_bytes_exhaustive: {accepted} accepted, all canonical");
+    assert!(accepted > 1_000);
 }

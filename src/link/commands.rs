@@ -176,7 +176,11 @@ fn identity_line(identity: &Identity) -> String {
         identity.record_format,
         identity.boots,
         identity.pulls,
-        if identity.calibrated { "calibrated" } else { "not calibrated" }
+        match (identity.calibrated, identity.calibration_age_pulls) {
+            (false, _) => "not calibrated".to_owned(),
+            (true, Some(age)) => format!("calibrated {age} pulls ago"),
+            (true, None) => "calibrated (age unknown: an older record)".to_owned(),
+        }
     )
 }
 

@@ -432,6 +432,11 @@ impl Chart {
         let stuck = (start_limits.home && limits.home) || (start_limits.end && limits.end);
         context.next = if forward >= MOTOR_TEST_STEPS {
             context.out.drive = DriveCommand::Coast;
+            // The drivetrain's drag trend (REQ-UI-14): the test's time against commissioning.
+            if self.record.drivetrain.observe(*elapsed) && self.notice.is_none() {
+                self.notice = Some(super::Notice::DrivetrainWear);
+            }
+            self.dirty = true;
             Some(if stuck {
                 State::fault(FaultCode::LimitStuck, Recovery::SelfTest, 0)
             } else {

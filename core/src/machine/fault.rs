@@ -180,6 +180,11 @@ crate::codes::numbered! {
             "the load cell's zero has drifted since power-up",
             "any key; calibrate again soon"
         },
+        DrivetrainWear = 5 {
+            "service: drivetrain drag",
+            "the motor test has become slower than at commissioning: the drivetrain drags",
+            "any key; clean and lubricate the screw and the slide, then calibrate"
+        },
     }
 }
 

@@ -49,6 +49,7 @@ pub mod panel;
 pub mod safety;
 pub mod snapshot;
 pub mod string;
+pub mod wear;
 
 use statig::prelude::{InitializedStateMachine, IntoStateMachineExt};
 

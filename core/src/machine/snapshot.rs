@@ -141,7 +141,6 @@ impl FaultSnapshot {
     /// The snapshot's bytes (an empty slot is [`Self::encode_slot`] of `None`).
     #[must_use]
     pub fn encode(&self) -> [u8; SNAPSHOT_LEN] {
-        let mut out = [0u8; SNAPSHOT_LEN];
         let (kind, detail) = state_code(self.state);
         let (direction, duty) = match self.command {
             DriveCommand::Coast => (0, 0),
@@ -154,29 +153,37 @@ impl FaultSnapshot {
         let ma = self.current.to_milli();
         let current = i16::try_from(ma).unwrap_or(if ma < 0 { i16::MIN } else { i16::MAX });
         let bus = u16::try_from(self.bus.to_milli().max(0)).unwrap_or(u16::MAX);
-        let fields: [&[u8]; 11] = [
-            &[self.code.number()],
-            &[kind],
-            &[detail],
-            &self.boot.to_le_bytes(),
-            &self.time_ms.to_le_bytes(),
-            &tension.to_le_bytes(),
-            &current.to_le_bytes(),
-            &bus.to_le_bytes(),
-            &self.hall_steps.to_le_bytes(),
-            &[direction],
-            &duty.to_le_bytes(),
-        ];
-        let mut at = 0usize;
-        for field in fields {
-            for &byte in field {
-                if let Some(slot) = out.get_mut(at) {
-                    *slot = byte;
-                }
-                at = at.saturating_add(1);
-            }
-        }
-        out
+        let [b0, b1] = self.boot.to_le_bytes();
+        let [t0, t1, t2, t3] = self.time_ms.to_le_bytes();
+        let [k0, k1] = tension.to_le_bytes();
+        let [c0, c1] = current.to_le_bytes();
+        let [v0, v1] = bus.to_le_bytes();
+        let [h0, h1, h2, h3] = self.hall_steps.to_le_bytes();
+        let [d0, d1] = duty.to_le_bytes();
+        [
+            self.code.number(),
+            kind,
+            detail,
+            b0,
+            b1,
+            t0,
+            t1,
+            t2,
+            t3,
+            k0,
+            k1,
+            c0,
+            c1,
+            v0,
+            v1,
+            h0,
+            h1,
+            h2,
+            h3,
+            direction,
+            d0,
+            d1,
+        ]
     }
 
     /// A history slot's bytes: the snapshot's, or all zero for an empty slot.

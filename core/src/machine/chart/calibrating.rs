@@ -94,7 +94,8 @@ impl Chart {
             Ok(Some(calibration)) => {
                 self.calibration = calibration;
                 self.record.calibration = Some(self.calibration_points);
-                self.record.calibration_zero = Some(self.scale.zero());
+                self.record.stamp_calibration(self.scale.zero());
+                self.record.drivetrain.recommission();
                 self.dirty = true;
                 context.out.store = true;
                 context.beep = Some(Beep::AtTension);

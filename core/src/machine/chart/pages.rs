@@ -75,11 +75,13 @@ pub const LOG_FIELDS: [&[u8; 4]; 9] =
 /// The counters page's items: pulls, power-ups, string used (m).
 pub const COUNTER_ITEMS: [&[u8; 4]; 3] = [b"PULL", b"bOOt", b"Str "];
 /// The service page's items: the live load-cell code, the tare code, the four calibration
-/// points' raw readings (kgf), the bus voltage, the last three faults since power-up, and the
-/// zero's drift since the self-test (kgf, the drift watch's, REQ-UI-12).
-pub const SERVICE_ITEMS: [&[u8; 4]; 11] = [
+/// points' raw readings (kgf), the bus voltage, the last three faults since power-up, the
+/// zero's drift since the self-test (kgf, the drift watch's, REQ-UI-12), the calibration's
+/// age in pulls and the drivetrain's drag trend (the motor test's time, % of its
+/// commissioning, REQ-UI-14).
+pub const SERVICE_ITEMS: [&[u8; 4]; 13] = [
     b"Cd  ", b"tArE", b"CAL1", b"CAL2", b"CAL3", b"CAL4", b"bUS ", b"Err1", b"Err2", b"Err3",
-    b"drFt",
+    b"drFt", b"CAgE", b"drAG",
 ];
 /// How long an information page shows its item's label after a key, ms.
 pub const LABEL_MS: u32 = 1_000;
@@ -386,6 +388,8 @@ impl Chart {
                 let kgf = Kgf(moved.0.saturating_mul(self.scale.kgf_per_volt()));
                 panel::hundredths(kgf.to_hundredths_rounded())
             }
+            11 => self.record.calibration_age().map_or(panel::text(b"----"), panel::integer),
+            12 => self.record.drivetrain.percent().map_or(panel::text(b"----"), panel::integer),
             _ => {
                 let index = usize::from(item.saturating_sub(7));
                 match self.record.faults.get(index).copied().flatten() {
@@ -423,8 +427,8 @@ mod tests {
         assert!(!View::Log { entry: 0, field: 9 }.is_valid());
         assert!(!View::Counters(3).is_valid() && !View::String(2).is_valid());
         assert!(
-            View::Service(10).is_valid()
-                && !View::Service(11).is_valid()
+            View::Service(12).is_valid()
+                && !View::Service(13).is_valid()
                 && !View::Preset(9).is_valid()
         );
         assert_eq!(View::String(1).log_field(), Some((0, 8)));

@@ -312,8 +312,31 @@ mod verification {
     fn slot_decode_model(
         bytes: &[u8; SNAPSHOT_LEN],
     ) -> Result<Option<FaultSnapshot>, SnapshotError> {
-        let [number, kind, detail, b0, b1, t0, t1, t2, t3, rest @ ..] = *bytes;
-        let [k0, k1, c0, c1, v0, v1, h0, h1, h2, h3, direction, d0, d1] = rest;
+        // Every byte bound by name (Kani does not support a sub-array binding, `rest @ ..`).
+        let [
+            number,
+            kind,
+            detail,
+            b0,
+            b1,
+            t0,
+            t1,
+            t2,
+            t3,
+            k0,
+            k1,
+            c0,
+            c1,
+            v0,
+            v1,
+            h0,
+            h1,
+            h2,
+            h3,
+            direction,
+            d0,
+            d1,
+        ] = *bytes;
         if number == 0 {
             return if bytes.iter().all(|byte| *byte == 0) {
                 Ok(None)

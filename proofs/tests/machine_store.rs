@@ -232,6 +232,39 @@ proptest! {
         decode_is_total(&bytes);
     }
 
+    /// REQ-STORE-02: records built from random field values (every settings field over and
+    /// past its range, any calibration, counters, preferences bits, stamp, history and wear
+    /// trend) round-trip whenever the values make a record.
+    #[test]
+    fn machine_store_random_records_round_trip(
+        settings in (any::<bool>(), 0u16..1_300, 0u8..12, 0u8..35, 0u8..25),
+        preset in (any::<bool>(), 0u16..1_300, 0u8..12, 0u8..35, 0u8..25),
+        calibration in proptest::option::of(any::<(i32, i32)>()),
+        counters in any::<(u32, u32, u32)>(),
+        preferences in 0u8..8,
+        zero in proptest::option::of(any::<(i32, u32)>()),
+        fault in proptest::option::of((1u8..40, any::<u16>(), any::<u32>(), any::<i32>())),
+        drivetrain in any::<(u16, u16)>(),
+    ) {
+        let block = |(pounds, tenths, speed, pre, knot)| SettingsInput { pounds, tenths, speed, pre, knot };
+        let input = RecordInput {
+            settings: block(settings),
+            preset: block(preset),
+            calibrated: calibration.is_some(),
+            calibration_bits: calibration.unwrap_or_default(),
+            pulls: counters.0,
+            string_mm: counters.1,
+            boots: counters.2,
+            preferences,
+            zero,
+            fault: fault.map(|(number, boot, time_ms, hall_steps)| SnapshotInput { number, boot, time_ms, hall_steps }),
+            drivetrain,
+        };
+        if let Some(record) = input.record() {
+            round_trips(&record);
+        }
+    }
+
     /// REQ-UI-13: random slot bytes, and a real snapshot's bytes with one byte replaced.
     #[test]
     fn machine_store_snapshot_slots(bytes in prop::array::uniform22(any::<u8>()), index in 0usize..SNAPSHOT_LEN, value in any::<u8>(), record in 4usize..8) {

@@ -322,3 +322,47 @@ fn the_release_stops_within_a_millimetre_of_home_and_never_meets_the_end_stop() 
         }
     }
 }
+
+/// REQ-DRV-14: the hold on the family's ball screws (back-driven efficiency from the axis's
+/// low to its high end) and on the family's centre, three string kinds at 25 kgf: the
+/// drive's count of PWM periods that coasted under a command for an empty window, over the
+/// hold, and the peak winding current there (never above the 8 A limit's fold-back region,
+/// far from the 12 A trip).
+#[test]
+fn the_hold_coasting_count_and_current_on_back_drivable_screws() {
+    let settings =
+        PullSettings::new(Kgf::from_int(25), Speed::MAX, PreStretch::NONE, KnotBoost::NONE)
+            .expect("settings");
+    let mut total = 0;
+    for kind in [StringKind::TennisPolyester, StringKind::TennisSynthetic] {
+        for (twin, name) in [
+            (TwinConfig::on_axis(Axis::BallScrew, 0.0, kind).with_seed(31), "ball screw 0"),
+            (TwinConfig::on_axis(Axis::BallScrew, 1.0, kind).with_seed(32), "ball screw 1"),
+            (TwinConfig::family_centre(kind).with_seed(33), "centre"),
+        ] {
+            let calibration = commissioned_calibration(&twin).expect("calibration accepted");
+            let mut rig = bench(&twin, calibration);
+            rig.start(&settings, PullKind::Main);
+            let (mut first, mut last, mut peak, mut p2p) = (None, 0, 0.0_f64, (f64::MAX, 0.0));
+            for _ in 0..3_000_u32 {
+                let row = rig.tick();
+                if row.control.phase == PullPhase::Hold && row.t_s > 1.5 {
+                    first.get_or_insert(row.truth.drive_coasting);
+                    last = row.truth.drive_coasting;
+                    peak = peak.max(row.truth.peak_current_a.abs());
+                    p2p = (p2p.0.min(row.truth.tension_kgf), p2p.1.max(row.truth.tension_kgf));
+                }
+            }
+            let first = first.expect("the hold was reached");
+            let coasted = last - first;
+            println!(
+                "{name}, {kind:?}: coasted {coasted} periods in the hold, peak {peak:.2} A, \
+                 peak-to-peak {:.3} kgf",
+                p2p.1 - p2p.0
+            );
+            assert!(peak < 9.5, "{name}: {peak:.2} A in the hold");
+            total += coasted;
+        }
+    }
+    println!("coasted under a command in the holds: {total} periods");
+}

@@ -491,7 +491,7 @@ fn machine_flow_the_logged_peak_is_the_tension_the_string_saw() {
     let tracked = rig.machine().watch().peak.to_milli();
     rig.press(Key::Start);
     rig.expect_state(MachineState::Ready, 20_000);
-    let logged = rig.machine().log().last().unwrap().peak.to_kgf().to_milli() as f64 / 1_000.0;
+    let logged = f64::from(rig.machine().log().last().unwrap().peak.to_kgf().to_milli()) / 1_000.0;
     println!(
         "true peak {true_peak:.3} kgf, logged {logged:.3}, the break detector's {:.3}",
         f64::from(tracked) / 1_000.0

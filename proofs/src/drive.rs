@@ -540,14 +540,17 @@ fn emf_toward(observer: &Observer, record: &StepRecord, direction: Direction) ->
             return 0;
         }
         let one_step = (k / quiet_for.max(1)).min(60_000);
-        // After a turn-around: at rest after the step before, accelerating at most
-        // `accel_emf_mv_per_ms` per ms since (plus the Hall filter's 100 µs lag).
-        let turn = turn_gap.map_or(u64::MAX, |gap| {
-            (u64::from(gap) + u64::from(quiet_for) + 1_000)
-                .saturating_mul(u64::from(limit.accel_emf_mv_per_ms))
-                / 10_000
+        // After a turn-around: at rest after the step before, gaining at most
+        // `accel_emf_mv_per_1024` mV per 1 024 ticks since (plus the Hall filter's 100 µs lag).
+        // u32, saturating: a saturated product is far above the 60 V cap.
+        let turn = turn_gap.map_or(60_000, |gap| {
+            (gap.saturating_add(quiet_for)
+                .saturating_add(1_000)
+                .saturating_mul(limit.accel_emf_mv_per_1024)
+                >> 10)
+                .min(60_000)
         });
-        return -i64::from(one_step).min(i64::try_from(turn.min(60_000)).unwrap_or(60_000));
+        return -i64::from(one_step.min(turn));
     } else {
         interval.max(quiet_for)
     };

@@ -55,8 +55,8 @@
 //!   at the limit (a braking current still flowing at the turn, `Kt·I_lim` = 0.481 N·m) plus
 //!   the string's back-drive through a lossless screw at twice the machine's 50 kgf rating
 //!   (981 N × 25.4 mm / (2π·20) = 0.198 N·m), over the smallest rotor + gearbox inertia of the
-//!   family (0.8 × 10⁻⁵ kg·m²): 84 900 rad/s², `Ke·a_max` = 5.10 V/ms
-//!   ([`CurrentLimit::accel_emf_mv_per_ms`], rounded up). The time since the step before is
+//!   family (0.8 × 10⁻⁵ kg·m²): 84 900 rad/s², `Ke·a_max` = 5.10 V/ms, 523 mV per 1 024
+//!   time units ([`CurrentLimit::accel_emf_mv_per_1024`], rounded up). The time since the step before is
 //!   lengthened by the Hall filter's confirmation lag ([`TURN_LAG`]); with no valid step
 //!   sequence (power-up, an invalid code, a skipped sector) no turn-around is credited.
 //! - `I_lim·R` with the *lowest* resistance the pair can have (cold windings, MOSFETs at their
@@ -223,10 +223,11 @@ pub struct CurrentLimit {
     pub emf_mv_time: u32,
     /// The per-period fold-back threshold on the sampled winding current, mA (9.5 A).
     pub fold_back_ma: u32,
-    /// The back-EMF a rotor can gain per millisecond at the largest acceleration it can have
-    /// while it turns against the torque, mV/ms: `Ke · a_max` with
-    /// `a_max = (Kt · I_lim + T_string) / J_min` (see [`DriveConfig::turn_emf_mv`]).
-    pub accel_emf_mv_per_ms: u32,
+    /// The back-EMF a rotor can gain per 1 024 [`DriveTime`] units (102.4 µs) at the largest
+    /// acceleration it can have while it turns against the torque, mV: `Ke · a_max` with
+    /// `a_max = (Kt · I_lim + T_string) / J_min` (see [`DriveConfig::turn_emf_mv`]; a power
+    /// of two of time units, so the bound is a product and a shift).
+    pub accel_emf_mv_per_1024: u32,
 }
 
 impl CurrentLimit {
@@ -236,7 +237,7 @@ impl CurrentLimit {
         resistance_mohm: 700,
         emf_mv_time: 157_350_000,
         fold_back_ma: 9_500,
-        accel_emf_mv_per_ms: 5_110,
+        accel_emf_mv_per_1024: 523,
     };
 }
 
@@ -492,9 +493,6 @@ pub const EMF_MAX_MV: u32 = 60_000;
 /// turn, which can only be longer than measured.
 pub const TURN_LAG: DriveTime = DriveTime::from_micros(100);
 
-/// [`DriveTime`] units in one millisecond.
-const UNITS_PER_MS: u32 = 10_000;
-
 impl DriveConfig {
     /// taut's own board and the paper's motor.
     pub const PAPER: Self = Self {
@@ -556,7 +554,7 @@ impl DriveConfig {
             || limit.fold_back_ma < limit.limit_ma
             || limit.fold_back_ma >= trip_ma
             || limit.emf_mv_time == 0
-            || limit.accel_emf_mv_per_ms == 0
+            || limit.accel_emf_mv_per_1024 == 0
         {
             return Err(DriveConfigError::Limit);
         }
@@ -633,15 +631,16 @@ impl DriveConfig {
     /// The largest back-EMF, mV, of a rotor that was at rest at some instant within the last
     /// `since` ([`DriveTime`] units) — a rotor whose last Hall step reversed the one before,
     /// `since` the time since that step before (at most [`EMF_MAX_MV`]):
-    /// `Ke · a_max · (since + TURN_LAG)`.
+    /// `Ke · a_max · (since + TURN_LAG)`, in `u32` (saturating: a saturated product is far
+    /// above the cap).
     #[must_use]
     pub fn turn_emf_mv(&self, since: u32) -> u32 {
-        let units = u64::from(since).saturating_add(u64::from(TURN_LAG.0));
-        let mv = units
-            .saturating_mul(u64::from(self.limit.accel_emf_mv_per_ms))
-            .checked_div(u64::from(UNITS_PER_MS))
-            .unwrap_or(u64::MAX);
-        u32::try_from(mv.min(u64::from(EMF_MAX_MV))).unwrap_or(EMF_MAX_MV)
+        let mv = since
+            .saturating_add(TURN_LAG.0)
+            .saturating_mul(self.limit.accel_emf_mv_per_1024)
+            .checked_shr(10)
+            .unwrap_or(u32::MAX);
+        mv.min(EMF_MAX_MV)
     }
 
     /// The duty window for a bus code and a back-EMF `emf_mv` that is positive when the rotor
@@ -1146,23 +1145,24 @@ mod tests {
         }
     }
 
-    /// The turn-around bound: `Ke·a_max` (5.11 V/ms) over the time since the step before
-    /// plus the Hall filter's 100 µs lag, capped at the largest back-EMF considered.
+    /// The turn-around bound: `Ke·a_max` (523 mV per 102.4 µs, 5.107 V/ms) over the time since
+    /// the step before plus the Hall filter's 100 µs lag, capped at the largest back-EMF
+    /// considered.
     #[test]
     fn the_turn_around_bound_is_the_acceleration_over_the_time_since_the_step_before() {
         let config = DriveConfig::PAPER;
-        assert_eq!(config.turn_emf_mv(0), 511);
-        assert_eq!(config.turn_emf_mv(9_000), 5_110);
-        assert_eq!(config.turn_emf_mv(9_001), 5_110);
-        assert_eq!(config.turn_emf_mv(9_020), 5_120);
-        assert_eq!(config.turn_emf_mv(116_415), 59_999);
+        assert_eq!(config.turn_emf_mv(0), 510);
+        assert_eq!(config.turn_emf_mv(9_000), 5_107);
+        assert_eq!(config.turn_emf_mv(9_002), 5_108);
+        assert_eq!(config.turn_emf_mv(116_475), 59_999);
+        assert_eq!(config.turn_emf_mv(116_477), EMF_MAX_MV);
         assert_eq!(config.turn_emf_mv(u32::MAX), EMF_MAX_MV);
         // The paper's data (Ke 60.1 mV·s/rad; 8 A; 981 N through 25.4 mm / 20; 0.8 × 10⁻⁵
-        // kg·m²), in f64: the constant is its value rounded up.
+        // kg·m²), in f64, per 1 024 units: the constant is its value rounded up.
         let torque = 0.0601 * 8.0 + 981.0 * 0.0254 / (2.0 * core::f64::consts::PI * 20.0);
-        let emf_per_ms = 0.0601 * torque / 0.8e-5;
-        assert!(emf_per_ms <= f64::from(CurrentLimit::PAPER.accel_emf_mv_per_ms));
-        assert!(emf_per_ms > f64::from(CurrentLimit::PAPER.accel_emf_mv_per_ms) - 20.0);
+        let emf_per_1024 = 0.0601 * torque / 0.8e-5 * 1_024.0 / 10_000.0;
+        let constant = f64::from(CurrentLimit::PAPER.accel_emf_mv_per_1024);
+        assert!(emf_per_1024 <= constant && emf_per_1024 > constant - 1.0, "{emf_per_1024}");
     }
 
     #[test]
@@ -1191,7 +1191,13 @@ mod tests {
             Err(DriveConfigError::Limit)
         );
         assert_eq!(
-            DriveConfig::new(s, b, CurrentLimit { accel_emf_mv_per_ms: 0, ..l }, 12_000, DEAD_TIME),
+            DriveConfig::new(
+                s,
+                b,
+                CurrentLimit { accel_emf_mv_per_1024: 0, ..l },
+                12_000,
+                DEAD_TIME
+            ),
             Err(DriveConfigError::Limit)
         );
         // The dead time: a zero one (no both-off time at all) and one beyond 5 µs are refused,

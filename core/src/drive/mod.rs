@@ -1653,10 +1653,10 @@ mod tests {
         assert_eq!(drive.status().rotation, Some(Direction::Release));
         assert_eq!(drive.status().quiet_for, DriveTime(0));
         let since = 5 * PERIOD + TURN_LAG.0;
-        // 5 110 mV/ms over 0.35 ms, against one step per period (tens of volts).
-        assert_eq!(drive.config().turn_emf_mv(5 * PERIOD), 1_788);
-        assert_eq!(u64::from(since) * 5_110 / 10_000, 1_788);
-        assert_eq!(drive.emf_toward(Direction::Pull), -1_788);
+        // 523 mV per 102.4 µs over 0.35 ms, against one step per period (tens of volts).
+        assert_eq!(drive.config().turn_emf_mv(5 * PERIOD), 1_787);
+        assert_eq!(since * 523 / 1_024, 1_787);
+        assert_eq!(drive.emf_toward(Direction::Pull), -1_787);
         assert_eq!(drive.emf_toward(Direction::Release), 0);
         // The window exists: the bridge pulls in the very next call, within it.
         let mut drive = drive;

@@ -282,6 +282,11 @@ pub struct Observer {
     rotation: Option<Direction>,
     /// Ticks between the last two moves of the accepted sector the same way (0: none yet).
     interval: u32,
+    /// The way the accepted sector last moved by one step, forgotten at an invalid code or a
+    /// skip.
+    last_step: Option<Direction>,
+    /// Ticks between the last two steps when the last reversed the one before (a turn-around).
+    turn_gap: Option<u32>,
     /// The comparator flag in the previous call.
     last_trip: bool,
 }
@@ -317,13 +322,16 @@ impl Observer {
             self.last_direction = record.input.command.command().direction();
             self.off_since = false;
         }
-        let (quiet_for, rotation, interval) = rotor_after(self, record);
+        let rotor = rotor_after(self, record);
+        (self.quiet_for, self.rotation, self.interval) =
+            (rotor.quiet_for, rotor.rotation, rotor.interval);
+        (self.last_step, self.turn_gap) = (rotor.last_step, rotor.turn_gap);
         if let HallState::Invalid(_) = record.after.hall() {
             // A confirmed invalid code ends the run of valid sectors: the next valid sector
             // is a fresh start, not a step from the one before the sensors failed.
             self.last_sector = None;
+            self.last_step = None;
         }
-        (self.quiet_for, self.rotation, self.interval) = (quiet_for, rotation, interval);
         if let HallState::Sector(sector) = record.after.hall() {
             self.last_sector = Some(sector);
         }
@@ -513,15 +521,17 @@ pub fn safe_reversal(observer: &Observer, record: &StepRecord) {
 /// The back-EMF bound, mV, toward `direction` at the end of `record`'s call: from the
 /// observer's own Hall bookkeeping and the motor's constant (`K / max(interval, quiet)`,
 /// `K / max(quiet, 1)` against the torque after a single step or with no step seen since
-/// power-up, 0 along it after a single step).
+/// power-up — after a turn-around at most `Ke·a_max` × the time since the step before —, 0
+/// along it after a single step).
 #[allow(
     clippy::arithmetic_side_effects,
     reason = "specification arithmetic on bounded values: codes ≤ 4 095, mV ≤ 120 000, duty ≤ 65 535, divisors ≥ 1, all in i64/u64"
 )]
 fn emf_toward(observer: &Observer, record: &StepRecord, direction: Direction) -> i64 {
-    let (quiet_for, rotation, interval) = rotor_after(observer, record);
+    let Rotor { quiet_for, rotation, interval, turn_gap, .. } = rotor_after(observer, record);
     // u32 throughout (a 32-bit divider is what the drive uses, and is cheap for CBMC).
-    let k = record.before.config().limit().emf_mv_time;
+    let limit = record.before.config().limit();
+    let k = limit.emf_mv_time;
     let Some(rotation) = rotation else {
         return -i64::from((k / quiet_for.max(1)).min(60_000));
     };
@@ -529,7 +539,18 @@ fn emf_toward(observer: &Observer, record: &StepRecord, direction: Direction) ->
         if rotation == direction {
             return 0;
         }
-        quiet_for.max(1)
+        let one_step = (k / quiet_for.max(1)).min(60_000);
+        // After a turn-around: at rest after the step before, gaining at most
+        // `accel_emf_mv_per_1024` mV per 1 024 ticks since (plus the Hall filter's 100 µs lag).
+        // u32, saturating: a saturated product is far above the 60 V cap.
+        let turn = turn_gap.map_or(60_000, |gap| {
+            (gap.saturating_add(quiet_for)
+                .saturating_add(1_000)
+                .saturating_mul(limit.accel_emf_mv_per_1024)
+                >> 10)
+                .min(60_000)
+        });
+        return -i64::from(one_step.min(turn));
     } else {
         interval.max(quiet_for)
     };
@@ -565,23 +586,46 @@ pub fn duty_within_window(observer: &Observer, record: &StepRecord) {
     }
 }
 
-/// The rotor as seen at the end of `record`'s call: ticks since the accepted sector last
-/// moved, the way it last moved, and the ticks between its last two steps the same way (0:
-/// none yet).
-fn rotor_after(observer: &Observer, record: &StepRecord) -> (u32, Option<Direction>, u32) {
+/// The rotor as the observer sees it.
+struct Rotor {
+    /// Ticks since the accepted sector last moved.
+    quiet_for: u32,
+    /// The way it last moved.
+    rotation: Option<Direction>,
+    /// Ticks between its last two steps the same way (0: none yet).
+    interval: u32,
+    /// The way its last step went, if the steps before it were one valid sequence.
+    last_step: Option<Direction>,
+    /// Ticks between its last two steps if the last reversed the one before.
+    turn_gap: Option<u32>,
+}
+
+/// The rotor as seen at the end of `record`'s call.
+fn rotor_after(observer: &Observer, record: &StepRecord) -> Rotor {
     let step = match (observer.last_sector, record.after.hall()) {
         (Some(previous), HallState::Sector(now)) => SectorStep::between(previous, now),
         _ => SectorStep::Stay,
     };
     let quiet = observer.quiet_for.saturating_add(record.input.elapsed);
-    let stepped = |direction: Direction| {
-        let interval = if observer.rotation == Some(direction) { quiet } else { 0 };
-        (0, Some(direction), interval)
+    let stepped = |direction: Direction| Rotor {
+        quiet_for: 0,
+        rotation: Some(direction),
+        interval: if observer.rotation == Some(direction) { quiet } else { 0 },
+        last_step: Some(direction),
+        turn_gap: (observer.last_step == Some(direction.reversed())).then_some(quiet),
+    };
+    let stayed = |last_step| Rotor {
+        quiet_for: quiet,
+        rotation: observer.rotation,
+        interval: observer.interval,
+        last_step,
+        turn_gap: observer.turn_gap,
     };
     match step {
         SectorStep::Forward => stepped(Direction::Pull),
         SectorStep::Backward => stepped(Direction::Release),
-        SectorStep::Stay | SectorStep::Skipped => (quiet, observer.rotation, observer.interval),
+        SectorStep::Stay => stayed(observer.last_step),
+        SectorStep::Skipped => stayed(None),
     }
 }
 

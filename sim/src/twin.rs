@@ -241,6 +241,9 @@ pub struct Truth {
     pub pattern: SwitchPattern,
     /// The drive's latched fault.
     pub drive_fault: Option<DriveFault>,
+    /// The drive's count of calls since power-up that coasted under a drive command because
+    /// its duty window was empty (`Drive::coasting`): torque asked for and none given.
+    pub drive_coasting: u32,
     /// The hardware overcurrent comparator fired during the last tick.
     pub comparator_tripped: bool,
     /// The string's state.
@@ -584,6 +587,7 @@ impl Twin {
                 duty: 0.0,
                 pattern: SwitchPattern::ALL_OFF,
                 drive_fault: None,
+                drive_coasting: 0,
                 comparator_tripped: false,
                 string: StringState::Absent,
                 string_relaxation_kgf_per_s: 0.0,
@@ -1376,6 +1380,7 @@ impl Twin {
             duty: self.last_duty,
             pattern: self.last_pattern,
             drive_fault: self.drive.fault(),
+            drive_coasting: self.drive.coasting(),
             comparator_tripped: s.comparator,
             string: self.string.state(),
             string_relaxation_kgf_per_s: self.string.relaxation_rate_n_per_s() / NEWTONS_PER_KGF,

@@ -144,6 +144,15 @@ pub fn markdown(results: &[ScenarioResult], lineup: &[Entry]) -> String {
         let all: Vec<&Metrics> = results.iter().map(|r| &r.metrics[which]).collect();
         let _ = writeln!(out, "| {}{}", entry.name, aggregate_row(&aggregate(&all)));
     }
+    for (which, entry) in lineup.iter().enumerate() {
+        let all: Vec<&Metrics> = results.iter().map(|r| &r.metrics[which]).collect();
+        let a = aggregate(&all);
+        let _ = writeln!(
+            out,
+            "{}: hold peak-to-peak p50 / p99 {:.3} / {:.3} kgf; coasting under a command in the hold: {} PWM periods in {} runs",
+            entry.name, a.hold_p2p_kgf[0], a.hold_p2p_kgf[1], a.hold_coasting.0, a.hold_coasting.1
+        );
+    }
     out.push_str("\nQuantiles over the scenarios that did not fail; against the true tension.\n");
     for (which, entry) in lineup.iter().enumerate() {
         let counts = failure_counts(results.iter().map(|r| &r.metrics[which]));

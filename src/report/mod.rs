@@ -113,6 +113,12 @@ pub struct Metrics {
     pub hold_error_kgf: f64,
     /// Mean true − target in the hold window, kgf: the static part of the hold error.
     pub hold_offset_kgf: f64,
+    /// Largest − smallest true tension in the hold window, kgf: its ripple, the stick-slip
+    /// sawtooth included.
+    pub hold_p2p_kgf: f64,
+    /// PWM periods in the hold window in which the drive coasted under a command because its
+    /// duty window was empty (`Drive::coasting`).
+    pub hold_coasting: u32,
     /// Mean true − measured (the machine's calibrated reading) in the hold window, kgf: the
     /// part of the static error that is the sensing's (calibration, load cell), not the law's.
     pub sense_offset_kgf: f64,
@@ -312,6 +318,15 @@ pub fn metrics(trace: &[ControllerRow], target: f64, t_min: Option<f64>) -> Metr
         }
     };
     let hold_offset_kgf = mean(&|r| r.truth.tension_kgf - target);
+    let hold_p2p_kgf = hold.iter().map(|r| r.truth.tension_kgf).fold(f64::NEG_INFINITY, f64::max)
+        - hold.iter().map(|r| r.truth.tension_kgf).fold(f64::INFINITY, f64::min);
+    let hold_p2p_kgf = if hold.is_empty() { 0.0 } else { hold_p2p_kgf };
+    let hold_coasting = match (hold.first(), hold.last()) {
+        (Some(first), Some(last)) => {
+            last.truth.drive_coasting.saturating_sub(first.truth.drive_coasting)
+        }
+        _ => 0,
+    };
     let sense_offset_kgf = mean(&|r| r.truth.tension_kgf - taut_sim::bench::kgf(r.control.tension));
     let overshoot_kgf = trace
         .iter()
@@ -336,6 +351,8 @@ pub fn metrics(trace: &[ControllerRow], target: f64, t_min: Option<f64>) -> Metr
         settle_ratio: settle_s.zip(t_min).map(|(s, t)| s / t),
         hold_error_kgf,
         hold_offset_kgf,
+        hold_p2p_kgf,
+        hold_coasting,
         sense_offset_kgf,
         overshoot_kgf,
         chattering: variation / (HOLD_WINDOW_S.1 - HOLD_WINDOW_S.0),
@@ -460,6 +477,11 @@ pub struct Aggregate {
     pub peak_current_max_a: f64,
     /// Highest bus voltage, V.
     pub bus_max_v: f64,
+    /// Hold peak-to-peak p50, p99 over the runs that did not fail, kgf.
+    pub hold_p2p_kgf: [f64; 2],
+    /// PWM periods coasted under a command in the hold windows, summed over every run, and
+    /// the runs with any.
+    pub hold_coasting: (u64, usize),
 }
 
 /// Aggregates `metrics`.
@@ -480,6 +502,14 @@ pub fn aggregate(metrics: &[&Metrics]) -> Aggregate {
         chattering_p50: percentile(&of(&|m| m.chattering), 50.0),
         peak_current_max_a: metrics.iter().map(|m| m.peak_current_a).fold(0.0, f64::max),
         bus_max_v: metrics.iter().map(|m| m.bus_peak_v).fold(0.0, f64::max),
+        hold_p2p_kgf: {
+            let p2p = of(&|m| m.hold_p2p_kgf);
+            [percentile(&p2p, 50.0), percentile(&p2p, 99.0)]
+        },
+        hold_coasting: (
+            metrics.iter().map(|m| u64::from(m.hold_coasting)).sum(),
+            metrics.iter().filter(|m| m.hold_coasting > 0).count(),
+        ),
     }
 }
 
@@ -524,5 +554,9 @@ pub fn aggregate_json(a: &Aggregate) -> serde_json::Value {
         "chattering_p50": number(a.chattering_p50),
         "peak_current_max_a": number(a.peak_current_max_a),
         "bus_max_v": number(a.bus_max_v),
+        "hold_p2p_p50_kgf": number(a.hold_p2p_kgf[0]),
+        "hold_p2p_p99_kgf": number(a.hold_p2p_kgf[1]),
+        "hold_coasting_periods": a.hold_coasting.0,
+        "hold_coasting_runs": a.hold_coasting.1,
     })
 }

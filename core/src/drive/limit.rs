@@ -43,6 +43,22 @@
 //!   the moment before a reversal are. (While the rotor speeds up the estimate lags by one step
 //!   interval; the limit's margin below the trip — 8 A against 12 A — covers it, and the
 //!   per-period fold-back on the sampled current catches what is left.)
+//!
+//!   Right after a **turn-around** — a Hall step against the one before, as when the string
+//!   back-drives a rotor that the drive holds — there is no interval, and one step per time
+//!   since the step would be tens of volts at first: the window would stay empty for
+//!   `K/(I_lim·R)` ≈ 2.8 ms after every backward step of a hold although the rotor has just
+//!   turned round. The rotor's speed was zero at the turn, which lies after the step before
+//!   it, so it is at most `a_max · (gap + time since the step)` — and the back-EMF at most
+//!   [`DriveConfig::turn_emf_mv`] of that time; the drive uses the smaller of the two bounds.
+//!   `a_max` is what can accelerate a rotor against the held torque: the motor's own torque
+//!   at the limit (a braking current still flowing at the turn, `Kt·I_lim` = 0.481 N·m) plus
+//!   the string's back-drive through a lossless screw at twice the machine's 50 kgf rating
+//!   (981 N × 25.4 mm / (2π·20) = 0.198 N·m), over the smallest rotor + gearbox inertia of the
+//!   family (0.8 × 10⁻⁵ kg·m²): 84 900 rad/s², `Ke·a_max` = 5.10 V/ms, 523 mV per 1 024
+//!   time units ([`CurrentLimit::accel_emf_mv_per_1024`], rounded up). The time since the step before is
+//!   lengthened by the Hall filter's confirmation lag ([`TURN_LAG`]); with no valid step
+//!   sequence (power-up, an invalid code, a skipped sector) no turn-around is credited.
 //! - `I_lim·R` with the *lowest* resistance the pair can have (cold windings, MOSFETs at their
 //!   best), so the real current is at most the limit.
 //!
@@ -207,6 +223,11 @@ pub struct CurrentLimit {
     pub emf_mv_time: u32,
     /// The per-period fold-back threshold on the sampled winding current, mA (9.5 A).
     pub fold_back_ma: u32,
+    /// The back-EMF a rotor can gain per 1 024 [`DriveTime`] units (102.4 µs) at the largest
+    /// acceleration it can have while it turns against the torque, mV: `Ke · a_max` with
+    /// `a_max = (Kt · I_lim + T_string) / J_min` (see [`DriveConfig::turn_emf_mv`]; a power
+    /// of two of time units, so the bound is a product and a shift).
+    pub accel_emf_mv_per_1024: u32,
 }
 
 impl CurrentLimit {
@@ -216,6 +237,7 @@ impl CurrentLimit {
         resistance_mohm: 700,
         emf_mv_time: 157_350_000,
         fold_back_ma: 9_500,
+        accel_emf_mv_per_1024: 523,
     };
 }
 
@@ -464,6 +486,13 @@ pub const LINK_DUTY_FLOOR: Duty = Duty::from_raw_clamped(8_192);
 /// The largest back-EMF the window considers, mV (above any bus the board supports).
 pub const EMF_MAX_MV: u32 = 60_000;
 
+/// How much later the drive accepts a Hall step than the rotor crosses the edge, at most: the
+/// filter's second confirming read one PWM period after the first (50 µs at 20 kHz), doubled
+/// for a period stretched by a Hall-edge call. The turn-around bound
+/// ([`DriveConfig::turn_emf_mv`]) adds it to the measured time since the step before the
+/// turn, which can only be longer than measured.
+pub const TURN_LAG: DriveTime = DriveTime::from_micros(100);
+
 impl DriveConfig {
     /// taut's own board and the paper's motor.
     pub const PAPER: Self = Self {
@@ -525,6 +554,7 @@ impl DriveConfig {
             || limit.fold_back_ma < limit.limit_ma
             || limit.fold_back_ma >= trip_ma
             || limit.emf_mv_time == 0
+            || limit.accel_emf_mv_per_1024 == 0
         {
             return Err(DriveConfigError::Limit);
         }
@@ -596,6 +626,21 @@ impl DriveConfig {
     #[must_use]
     pub fn emf_mv(&self, per_step: u32) -> u32 {
         self.limit.emf_mv_time.checked_div(per_step).unwrap_or(0).min(EMF_MAX_MV)
+    }
+
+    /// The largest back-EMF, mV, of a rotor that was at rest at some instant within the last
+    /// `since` ([`DriveTime`] units) — a rotor whose last Hall step reversed the one before,
+    /// `since` the time since that step before (at most [`EMF_MAX_MV`]):
+    /// `Ke · a_max · (since + TURN_LAG)`, in `u32` (saturating: a saturated product is far
+    /// above the cap).
+    #[must_use]
+    pub fn turn_emf_mv(&self, since: u32) -> u32 {
+        let mv = since
+            .saturating_add(TURN_LAG.0)
+            .saturating_mul(self.limit.accel_emf_mv_per_1024)
+            .checked_shr(10)
+            .unwrap_or(u32::MAX);
+        mv.min(EMF_MAX_MV)
     }
 
     /// The duty window for a bus code and a back-EMF `emf_mv` that is positive when the rotor
@@ -1100,6 +1145,26 @@ mod tests {
         }
     }
 
+    /// The turn-around bound: `Ke·a_max` (523 mV per 102.4 µs, 5.107 V/ms) over the time since
+    /// the step before plus the Hall filter's 100 µs lag, capped at the largest back-EMF
+    /// considered.
+    #[test]
+    fn the_turn_around_bound_is_the_acceleration_over_the_time_since_the_step_before() {
+        let config = DriveConfig::PAPER;
+        assert_eq!(config.turn_emf_mv(0), 510);
+        assert_eq!(config.turn_emf_mv(9_000), 5_107);
+        assert_eq!(config.turn_emf_mv(9_002), 5_108);
+        assert_eq!(config.turn_emf_mv(116_475), 59_999);
+        assert_eq!(config.turn_emf_mv(116_477), EMF_MAX_MV);
+        assert_eq!(config.turn_emf_mv(u32::MAX), EMF_MAX_MV);
+        // The paper's data (Ke 60.1 mV·s/rad; 8 A; 981 N through 25.4 mm / 20; 0.8 × 10⁻⁵
+        // kg·m²), in f64, per 1 024 units: the constant is its value rounded up.
+        let torque = 0.0601 * 8.0 + 981.0 * 0.0254 / (2.0 * core::f64::consts::PI * 20.0);
+        let emf_per_1024 = 0.0601 * torque / 0.8e-5 * 1_024.0 / 10_000.0;
+        let constant = f64::from(CurrentLimit::PAPER.accel_emf_mv_per_1024);
+        assert!(emf_per_1024 <= constant && emf_per_1024 > constant - 1.0, "{emf_per_1024}");
+    }
+
     #[test]
     fn refuses_configurations_that_do_not_make_sense() {
         let s = CurrentSense::PAPER;
@@ -1123,6 +1188,16 @@ mod tests {
         );
         assert_eq!(
             DriveConfig::new(s, b, CurrentLimit { emf_mv_time: 0, ..l }, 12_000, DEAD_TIME),
+            Err(DriveConfigError::Limit)
+        );
+        assert_eq!(
+            DriveConfig::new(
+                s,
+                b,
+                CurrentLimit { accel_emf_mv_per_1024: 0, ..l },
+                12_000,
+                DEAD_TIME
+            ),
             Err(DriveConfigError::Limit)
         );
         // The dead time: a zero one (no both-off time at all) and one beyond 5 µs are refused,

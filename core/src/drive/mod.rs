@@ -26,7 +26,9 @@
 //! 4. **What to drive.** Coast, a command toward an active limit switch, or an unknown rotor
 //!    position request all-off. So does a rotor turning against the commanded torque so fast
 //!    that no duty keeps the winding current within the limit (the duty window of
-//!    [`limit`] is empty: `|e| ≥ I_lim·R`, from the Hall timing). The bridge is
+//!    [`limit`] is empty: `|e| ≥ I_lim·R`, from the Hall timing; after a turn-around the
+//!    bound is what the rotor can have reached from rest, see [`limit`]); such a call is
+//!    counted ([`Drive::coasting`]: torque asked for and none given). The bridge is
 //!    **energised** (from all-off) only in a call where the window exists and the whole
 //!    table entry clears the dead time; a change of direction first de-energises.
 //!    Once energised, the request is [`six_step`] for the accepted sector. (Within a pull the
@@ -70,7 +72,7 @@ pub use commutation::{Gates, LegState, Phase, SwitchPattern, six_step};
 pub use dead_time::{DEAD_TIME_MAX, DEAD_TIME_MIN, DeadTimeSequencer};
 pub use duty::{DUTY_MAX, Duty};
 pub use hall::{HALL_CONFIRM_READS, HallCode, HallFilter, HallState, Sector, SectorStep};
-pub use limit::{BusSense, DriveConfig, DutyWindow, TARE_SETTLE, WindingHeat};
+pub use limit::{BusSense, DriveConfig, DutyWindow, TARE_SETTLE, TURN_LAG, WindingHeat};
 
 use crate::io::LimitSwitches;
 use crate::units::{AdcCode, Amps, Volts};
@@ -376,6 +378,16 @@ pub struct Drive {
     last_bus: AdcCode,
     /// The winding's temperature estimate: the resistance the window is computed with.
     heat: WindingHeat,
+    /// Calls that coasted under a command because the window was empty
+    /// ([`Drive::coasting`]).
+    coasting: u32,
+    /// The way the last accepted step went, forgotten when the sensors read nothing valid or
+    /// a sector was skipped (the next step is then no evidence of a turn-around).
+    last_step: Option<Direction>,
+    /// When the last accepted step reversed `last_step` (a turn-around: the rotor's speed
+    /// passed through zero after the step before), the time between the two steps
+    /// ([`Drive::emf_toward`]).
+    turn_gap: Option<DriveTime>,
 }
 
 /// The longest gap between calls the per-millisecond rates are scaled over: 1 ms (the slew's
@@ -441,6 +453,9 @@ impl Drive {
             last_current: config.sense().design_zero,
             last_bus: AdcCode::new(0),
             heat: WindingHeat::cold(&config),
+            coasting: 0,
+            last_step: None,
+            turn_gap: None,
         }
     }
 
@@ -477,9 +492,17 @@ impl Drive {
         };
         let per_step = self.interval.0.max(self.quiet_for.0);
         if self.interval.0 == 0 {
-            // One step seen, no interval yet: the speed is at most one step since then.
-            let e = i32::try_from(self.config.emf_mv(self.quiet_for.0.max(1))).unwrap_or(0);
-            return if rotation == direction { 0 } else { e.saturating_neg() };
+            // One step seen, no interval yet: the speed is at most one step since then — and,
+            // after a turn-around, at most what the rotor can reach from rest since the step
+            // before it ([`limit::DriveConfig::turn_emf_mv`]).
+            if rotation == direction {
+                return 0;
+            }
+            let mut e = self.config.emf_mv(self.quiet_for.0.max(1));
+            if let Some(gap) = self.turn_gap {
+                e = e.min(self.config.turn_emf_mv(gap.0.saturating_add(self.quiet_for.0)));
+            }
+            return i32::try_from(e).unwrap_or(0).saturating_neg();
         }
         let e = i32::try_from(self.config.emf_mv(per_step)).unwrap_or(i32::MAX);
         if rotation == direction { e } else { e.saturating_neg() }
@@ -612,6 +635,7 @@ impl Drive {
                 // valid: the next valid sector is a fresh start, not a step from the last one
                 // seen (counting it would credit a speed — a back-EMF — nobody measured).
                 self.last_sector = None;
+                self.last_step = None;
                 self.latch(DriveFault::HallInvalid);
             }
             HallState::Unknown => {}
@@ -653,6 +677,7 @@ impl Drive {
                     Some(_) => self.engage(direction, sector, sample.elapsed),
                     None => {
                         // The rotor turns against the torque too fast: coast until it slows.
+                        self.coasting = self.coasting.saturating_add(1);
                         self.energized = None;
                         SwitchPattern::ALL_OFF
                     }
@@ -752,6 +777,18 @@ impl Drive {
     fn hold_duty(&mut self, applied: Duty, elapsed: DriveTime) {
         let fallen = self.duty_hold.raw().saturating_sub(hold_decay_for(elapsed));
         self.duty_hold = applied.max(Duty::from_raw_clamped(fallen));
+    }
+
+    /// Calls since power-up (saturating) in which a drive command was held, no fault was
+    /// latched, no limit switch blocked it and the rotor's sector was known, yet the bridge
+    /// was all-off because the duty window was empty (the rotor turned against the torque
+    /// too fast for any duty to keep the current within the limit): torque asked for and
+    /// none given. One call per PWM period (and per Hall edge where the binding calls on
+    /// edges too). A counter of the drive beside [`Drive::lifted_for`], not part of
+    /// [`DriveStatus`]: the machine does not act on it; the twin and the bench read it.
+    #[must_use]
+    pub const fn coasting(&self) -> u32 {
+        self.coasting
     }
 
     /// Net time the window's lower edge has held the duty above the command ([`LIFT_LIMIT`]).
@@ -860,7 +897,10 @@ impl Drive {
                     self.steps = self.steps.wrapping_sub(1);
                     self.stepped(Direction::Release);
                 }
-                SectorStep::Skipped => self.latch(DriveFault::SectorSkipped),
+                SectorStep::Skipped => {
+                    self.last_step = None;
+                    self.latch(DriveFault::SectorSkipped);
+                }
             }
         }
         self.last_sector = Some(sector);
@@ -879,6 +919,8 @@ impl Drive {
             }
             (now, average) => DriveTime(average.saturating_sub(average.saturating_sub(now) / 8)),
         };
+        self.turn_gap = (self.last_step == Some(direction.reversed())).then_some(self.quiet_for);
+        self.last_step = Some(direction);
         self.rotation = Some(direction);
         self.quiet_for = DriveTime(0);
     }
@@ -1584,6 +1626,131 @@ mod tests {
             out = drive.step(sample(Sector::S1));
         }
         assert_eq!(out.pattern, six_step(Sector::S1, Direction::Release));
+    }
+
+    /// A settled drive held toward `Pull` at `duty` whose rotor steps S0 → S1 (forward) and,
+    /// `gap` periods later, S1 → S0 (backward: a turn-around under a pull command).
+    fn turned_round(gap: u32, duty: u16) -> Drive {
+        let mut drive = settled(Sector::S0);
+        drive.set_command(pull(duty));
+        for _ in 0..HALL_CONFIRM_READS {
+            drive.step(sample(Sector::S1));
+        }
+        for _ in 0..gap {
+            drive.step(sample(Sector::S1));
+        }
+        for _ in 0..HALL_CONFIRM_READS {
+            drive.step(sample(Sector::S0));
+        }
+        drive
+    }
+
+    #[test]
+    fn after_a_turn_around_the_back_emf_is_what_the_rotor_reached_from_rest() {
+        // The backward step came 4 periods (200 µs) after the forward one, and was accepted
+        // one period after it was first read: 5 periods since the step before, plus the lag.
+        let drive = turned_round(3, 10_000);
+        assert_eq!(drive.status().rotation, Some(Direction::Release));
+        assert_eq!(drive.status().quiet_for, DriveTime(0));
+        let since = 5 * PERIOD + TURN_LAG.0;
+        // 523 mV per 102.4 µs over 0.35 ms, against one step per period (tens of volts).
+        assert_eq!(drive.config().turn_emf_mv(5 * PERIOD), 1_787);
+        assert_eq!(since * 523 / 1_024, 1_787);
+        assert_eq!(drive.emf_toward(Direction::Pull), -1_787);
+        assert_eq!(drive.emf_toward(Direction::Release), 0);
+        // The window exists: the bridge pulls in the very next call, within it.
+        let mut drive = drive;
+        let out = drive.step(sample(Sector::S0));
+        assert_eq!(out.pattern, six_step(Sector::S0, Direction::Pull));
+        assert!(!out.duty.is_zero());
+        assert_eq!(drive.coasting(), 0);
+    }
+
+    #[test]
+    fn the_turn_around_bound_grows_with_time_and_yields_to_one_step_per_time() {
+        let mut drive = turned_round(3, 10_000);
+        let one_step = |drive: &Drive| {
+            i32::try_from(drive.config().emf_mv(drive.status().quiet_for.0.max(1))).unwrap_or(0)
+        };
+        let mut crossed = false;
+        for _ in 0..200 {
+            drive.step(sample(Sector::S0));
+            let since = 5 * PERIOD + drive.status().quiet_for.0;
+            let turn = i32::try_from(drive.config().turn_emf_mv(since)).unwrap_or(0);
+            let expected = turn.min(one_step(&drive));
+            assert_eq!(drive.emf_toward(Direction::Pull), -expected);
+            crossed |= one_step(&drive) < turn;
+        }
+        assert!(crossed, "the one-step bound takes over once it is the smaller");
+    }
+
+    #[test]
+    fn a_first_step_against_the_torque_is_no_turn_around() {
+        // Power-up, no step seen; then one step backward: no step before it, no turn credit.
+        let mut drive = settled(Sector::S1);
+        drive.set_command(pull(10_000));
+        for _ in 0..HALL_CONFIRM_READS {
+            drive.step(sample(Sector::S0));
+        }
+        // At the step itself: one step in no time, the largest back-EMF considered.
+        assert_eq!(drive.emf_toward(Direction::Pull), -60_000);
+        // Two steps the same way are no turn-around either (the interval bounds the speed).
+        let mut drive = turned_round(3, 10_000);
+        for _ in 0..4 {
+            drive.step(sample(Sector::S5));
+        }
+        let per_step = 2 * PERIOD;
+        let expected = i32::try_from(drive.config().emf_mv(per_step)).unwrap_or(0);
+        assert_eq!(drive.emf_toward(Direction::Pull), -expected);
+    }
+
+    #[test]
+    fn an_invalid_code_or_a_skip_forgets_the_steps_before() {
+        for bad in [HallCode::from_raw(0), Sector::S3.hall_code()] {
+            let mut drive = settled(Sector::S0);
+            for _ in 0..HALL_CONFIRM_READS {
+                drive.step(sample(Sector::S1));
+            }
+            for _ in 0..HALL_CONFIRM_READS {
+                drive.step(DriveSample { hall: bad, ..sample(Sector::S1) });
+            }
+            assert!(drive.fault().is_some());
+            for sector in [Sector::S1, Sector::S1, Sector::S0, Sector::S0] {
+                drive.step(sample(sector));
+            }
+            // The backward step follows a gap in the sequence: one step in no time, no turn
+            // credited (a turn-around would bound it by a few volts).
+            assert_eq!(drive.emf_toward(Direction::Pull), -60_000, "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn coasting_under_a_command_is_counted_only_for_an_empty_window() {
+        // A rotor stepping backward every period under a pull: the window is empty.
+        let mut drive = settled(Sector::S0);
+        drive.set_command(pull(10_000));
+        let backward = [Sector::S5, Sector::S4, Sector::S3, Sector::S2, Sector::S1, Sector::S0];
+        let mut coasted = 0;
+        for sector in backward.iter().cycle().take(24) {
+            for _ in 0..HALL_CONFIRM_READS {
+                let out = drive.step(sample(*sector));
+                if drive.window(Direction::Pull, BUS_24V).is_none() {
+                    assert_eq!(out, DriveOutput::OFF);
+                    coasted += 1;
+                }
+            }
+        }
+        assert!(coasted > 20);
+        assert_eq!(drive.coasting(), coasted);
+        // Coast, a blocked command and a fault are not counted.
+        drive.set_command(DriveCommand::Coast);
+        drive.step(sample(Sector::S5));
+        drive.set_command(pull(10_000));
+        let blocked = LimitSwitches { home: false, end: true };
+        drive.step(DriveSample { limits: blocked, ..sample(Sector::S5) });
+        drive.step(DriveSample { overcurrent_trip: true, ..sample(Sector::S4) });
+        drive.step(sample(Sector::S4));
+        assert_eq!(drive.coasting(), coasted);
     }
 
     #[test]

@@ -4,23 +4,28 @@
 //! - [`decode_is_total`]: for **any** bytes, [`Record::decode`] returns (never panics);
 //!   when it accepts, the record satisfies its invariant and re-encodes to exactly the same
 //!   bytes (there is one encoding per record, so a record that passes cannot hide junk).
+//! - [`decode_is_total_in`]: its first half for bytes of a given version — returns, valid,
+//!   read as that version.
 //! - [`round_trips`]: every record built through the real constructors decodes back from
 //!   its encoding.
 //! - [`snapshot_slot_is_canonical`]: for any bytes of one fault-history slot,
 //!   [`FaultSnapshot::decode`] returns, and an accepted slot re-encodes to exactly its bytes.
 //!
-//! Under Kani the record-level harnesses see the history slots through a model codec
-//! (`slot_decode_model`, `slot_encode_model` below): the record hands each slot's 22 bytes
-//! to the slot codec whole and takes them back whole, so what the record-level proofs need
-//! of it is only that it be canonical on what it accepts — which the model is by
-//! construction, and the real codec by its own harness (`verify_snapshot_slot_is_canonical`).
-//! The real codec's fixed-point conversions, three slots over, were what made the whole-record
-//! problem too large for the solver. Under `cargo test` every property runs on the real
-//! codec.
+//! Kani proves [`decode_is_total_in`], one harness a format version (each decodes one
+//! layout at constant offsets), and [`snapshot_slot_is_canonical`]. The record-level
+//! harnesses see the history slots through a model decoder (`slot_decode_model` below): the record hands each slot's 22 bytes to the slot codec whole,
+//! so what they need of it is only that it be total — the real codec's fixed-point
+//! conversions, three slots over, would make the whole-record problem too large for the
+//! solver, and the real codec has its own harness. The canonical form of whole records and
+//! their round trip are properties of about two hundred bytes re-encoded and compared: too
+//! large a problem for the solver's budget, they run under `cargo test` instead, on the real
+//! codecs — exhaustively over every single-bit flip of the sample records and every value of
+//! a settings block's bytes, and by proptest over random field values and over mutations past
+//! the CRC.
 //!
-//! Drivers: Kani (`verify_store_*`), `proofs/tests/machine_store.rs` (proptest over random
-//! and mutated bytes, exhaustive over single-bit flips and every settings field value), and
-//! the `machine` fuzz target (its record bytes go through `Record::decode`).
+//! Drivers: Kani (`verify_store_*`, `verify_snapshot_slot_is_canonical`),
+//! `proofs/tests/machine_store.rs` (the tests above), and the `machine` and `record_decoder`
+//! fuzz targets (their record bytes go through `Record::decode`).
 
 use taut_core::drive::DriveCommand;
 use taut_core::machine::snapshot::{FAULT_HISTORY, FaultSnapshot, SNAPSHOT_LEN};
@@ -52,6 +57,9 @@ pub fn decode_is_total_in(bytes: &[u8], version: u8) {
     if let Ok((record, decoded)) = Record::decode_version(bytes) {
         assert_eq!(decoded, version, "REQ-STORE-01: read as another version");
         assert!(record.is_valid(), "REQ-STORE-01: decoded an invalid record");
+        // Not vacuous: some bytes of this version are accepted (every cover must be met).
+        #[cfg(kani)]
+        kani::cover!(true, "a record of this version is accepted");
     }
 }
 
@@ -290,7 +298,7 @@ mod verification {
     // `taut_core::store::checksum`, with a stand-in. The CRC is not what these harnesses
     // prove (its known answer, and that every single-bit flip is caught, are unit tests in
     // `core/src/store.rs`). Remove the stubs when a Kani release compiles `crc` (check with
-    // `cargo kani -p taut-proofs --harness verify_store_round_trips` without the stub).
+    // `cargo kani -p taut-proofs --harness verify_store_decode_migrates_version_1` without the stub).
 
     /// The stand-in checksum: zero for every body. The stored CRC field is four bytes the
     /// solver chooses freely, so it can meet the stand-in or miss it with any body: both the
@@ -307,8 +315,7 @@ mod verification {
 
     /// The model slot decoder: an all-zero slot is empty; a slot is a snapshot when its fault
     /// number is known, its state is Ready and its tension, current, bus and command bytes
-    /// are zero (the boot, time and Hall bytes are anything) — exactly the bytes
-    /// `slot_encode_model` writes; any other bytes are an error.
+    /// are zero (the boot, time and Hall bytes are anything); any other bytes are an error.
     fn slot_decode_model(
         bytes: &[u8; SNAPSHOT_LEN],
     ) -> Result<Option<FaultSnapshot>, SnapshotError> {
@@ -358,42 +365,6 @@ mod verification {
         input.snapshot().map(Some).ok_or(SnapshotError::Invalid)
     }
 
-    /// The model slot encoder: the inverse of `slot_decode_model` on the snapshots it yields.
-    fn slot_encode_model(slot: Option<&FaultSnapshot>) -> [u8; SNAPSHOT_LEN] {
-        let mut out = [0; SNAPSHOT_LEN];
-        if let Some(snapshot) = slot {
-            let [b0, b1] = snapshot.boot.to_le_bytes();
-            let [t0, t1, t2, t3] = snapshot.time_ms.to_le_bytes();
-            let [h0, h1, h2, h3] = snapshot.hall_steps.to_le_bytes();
-            let [kind, detail] = MODEL_STATE;
-            out = [
-                snapshot.code.number(),
-                kind,
-                detail,
-                b0,
-                b1,
-                t0,
-                t1,
-                t2,
-                t3,
-                0,
-                0,
-                0,
-                0,
-                0,
-                0,
-                h0,
-                h1,
-                h2,
-                h3,
-                0,
-                0,
-                0,
-            ];
-        }
-        out
-    }
-
     /// REQ-UI-13: the real slot codec, on any 22 bytes.
     #[kani::proof]
     fn verify_snapshot_slot_is_canonical() {
@@ -418,9 +389,17 @@ mod verification {
     #[kani::unwind(230)]
     #[kani::stub(taut_core::store::checksum, zero_checksum)]
     #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::decode, slot_decode_model)]
-    #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::encode_slot, slot_encode_model)]
     fn verify_store_decode_is_total() {
-        decode_is_total_in(&bytes_of_version::<RECORD_LEN>(FORMAT_VERSION), FORMAT_VERSION);
+        let mut bytes = bytes_of_version::<RECORD_LEN>(FORMAT_VERSION);
+        // The presets as the default settings (tenths 250 kg, speed 5): a preset is decoded by
+        // the same code in every version, and the version 1–3 harnesses take all nine of them
+        // symbolic; here the solver's effort goes to what only today's format has.
+        let [t0, t1] = Settings::DEFAULT.set_point().tenths().to_le_bytes();
+        let preset = [t0, t1, 0, Settings::DEFAULT.speed().get(), 0, 0];
+        for (byte, value) in bytes.iter_mut().skip(10).take(54).zip(preset.iter().cycle()) {
+            *byte = *value;
+        }
+        decode_is_total_in(&bytes, FORMAT_VERSION);
         crate::harness_end_reached();
     }
 
@@ -431,7 +410,6 @@ mod verification {
     #[kani::unwind(250)]
     #[kani::stub(taut_core::store::checksum, zero_checksum)]
     #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::decode, slot_decode_model)]
-    #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::encode_slot, slot_encode_model)]
     fn verify_store_decode_newer_and_unknown_versions() {
         let bytes: [u8; MAX_RECORD_LEN] = kani::any();
         let version = bytes.get(2).copied().unwrap_or(0);
@@ -449,7 +427,6 @@ mod verification {
     #[kani::unwind(230)]
     #[kani::stub(taut_core::store::checksum, zero_checksum)]
     #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::decode, slot_decode_model)]
-    #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::encode_slot, slot_encode_model)]
     fn verify_store_decode_migrates_version_1() {
         decode_is_total_in(&bytes_of_version::<LEGACY_LEN>(FORMAT_V1), FORMAT_V1);
         crate::harness_end_reached();
@@ -460,7 +437,6 @@ mod verification {
     #[kani::unwind(230)]
     #[kani::stub(taut_core::store::checksum, zero_checksum)]
     #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::decode, slot_decode_model)]
-    #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::encode_slot, slot_encode_model)]
     fn verify_store_decode_migrates_version_2() {
         decode_is_total_in(&bytes_of_version::<LEGACY_LEN>(FORMAT_V2), FORMAT_V2);
         crate::harness_end_reached();
@@ -471,22 +447,8 @@ mod verification {
     #[kani::unwind(230)]
     #[kani::stub(taut_core::store::checksum, zero_checksum)]
     #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::decode, slot_decode_model)]
-    #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::encode_slot, slot_encode_model)]
     fn verify_store_decode_migrates_version_3() {
         decode_is_total_in(&bytes_of_version::<LEGACY_LEN>(FORMAT_V3), FORMAT_V3);
-        crate::harness_end_reached();
-    }
-
-    #[kani::proof]
-    #[kani::unwind(230)]
-    #[kani::stub(taut_core::store::checksum, zero_checksum)]
-    #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::decode, slot_decode_model)]
-    #[kani::stub(taut_core::machine::snapshot::FaultSnapshot::encode_slot, slot_encode_model)]
-    fn verify_store_round_trips() {
-        let input: RecordInput = kani::any();
-        if let Some(record) = input.record() {
-            round_trips(&record);
-        }
         crate::harness_end_reached();
     }
 }

@@ -209,7 +209,7 @@ impl Mcu {
                 let soc = uc.get_data_mut();
                 soc.cycles += n;
                 soc.block_pc = address;
-                if soc.cycles >= soc.deadline {
+                if soc.cycles >= soc.deadline && !std::mem::take(&mut soc.run_one_block) {
                     let _ = uc.emu_stop();
                 }
             },
@@ -517,8 +517,11 @@ impl Mcu {
                     self.pc
                 );
             }
-            // Stop again at the next block: the IT block ends within four instructions.
-            self.uc.get_data_mut().deadline = 0;
+            // Run the block at the resume point, then stop again at the next: the IT block
+            // ends within four instructions.
+            let soc = self.uc.get_data_mut();
+            soc.deadline = 0;
+            soc.run_one_block = true;
             self.it_block_wait = true;
             return Ok(false);
         }

@@ -500,6 +500,10 @@ pub struct Soc {
     pub cycles: u64,
     /// When the CPU must stop so the bench can process events.
     pub deadline: u64,
+    /// Let the next block run even if the deadline has passed (an interrupt waiting for an IT
+    /// block to end must let the block at the resume point execute, or it would stop before
+    /// it again and again without progress).
+    pub run_one_block: bool,
     /// Why the run must stop, if it must.
     pub stop: Option<Stop>,
     /// The program counter of the current block (for messages).
@@ -660,6 +664,7 @@ impl Soc {
         Self {
             cycles: 0,
             deadline: 0,
+            run_one_block: false,
             stop: None,
             block_pc: 0,
             rcc,

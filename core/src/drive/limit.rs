@@ -878,6 +878,30 @@ mod tests {
         assert_eq!(heat.rise_uk(), 0);
     }
 
+    /// The heat model's sums cannot overflow: a span closes early when its call count or its
+    /// sum of squares would saturate, however short the calls.
+    #[test]
+    fn a_span_closes_before_its_sums_saturate() {
+        let config = DriveConfig::PAPER;
+        // Calls of no duration: the count closes the span, not the time.
+        let mut heat = WindingHeat::with_rise(&config, 0);
+        for _ in 0..u16::MAX - 1 {
+            heat.step(&config, 100, true, DriveTime(0));
+        }
+        assert_eq!((heat.calls, heat.span), (u16::MAX - 1, 0), "still gathering");
+        heat.step(&config, 100, true, DriveTime(0));
+        assert_eq!((heat.calls, heat.squares, heat.span), (0, 0, 0), "closed at the count");
+        // A sum of squares at its ceiling closes the span in the call that reached it.
+        let mut heat = WindingHeat::with_rise(&config, 0);
+        heat.step(&config, u16::MAX, true, DriveTime(1));
+        assert_eq!((heat.calls, heat.squares, heat.span), (1, 4_294_836_225, 1), "gathering");
+        heat.step(&config, u16::MAX, true, DriveTime(1));
+        assert_eq!((heat.calls, heat.squares, heat.span), (0, 0, 0), "closed at the sum");
+        // An ordinary call gathers.
+        heat.step(&config, 100, true, DriveTime(1));
+        assert_eq!((heat.calls, heat.squares, heat.span), (1, 10_000, 1));
+    }
+
     #[test]
     fn the_paper_constants_are_what_new_computes() {
         let built = DriveConfig::new(

@@ -149,6 +149,10 @@ mod tests {
         assert_eq!(empty, DrivetrainTrend::default());
         assert_eq!(empty.percent(), None);
         assert!(!empty.worn());
+        // A trend with no commissioning (a record's bytes can say so) is never wear.
+        let uncommissioned = DrivetrainTrend { commissioned_ms: 0, trend_ms: 300 };
+        assert!(!uncommissioned.worn());
+        assert_eq!(uncommissioned.percent(), None);
     }
 
     #[test]

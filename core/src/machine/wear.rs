@@ -149,6 +149,10 @@ mod tests {
         assert_eq!(empty, DrivetrainTrend::default());
         assert_eq!(empty.percent(), None);
         assert!(!empty.worn());
+        // No trend to recommission at: the commissioning is kept.
+        let mut untested = DrivetrainTrend { commissioned_ms: 250, trend_ms: 0 };
+        untested.recommission();
+        assert_eq!(untested.commissioned_ms, 250);
         // A trend with no commissioning (a record's bytes can say so) is never wear.
         let uncommissioned = DrivetrainTrend { commissioned_ms: 0, trend_ms: 300 };
         assert!(!uncommissioned.worn());

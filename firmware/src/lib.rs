@@ -21,6 +21,8 @@
 //!   (the dead time in the drive's configuration, elapsed time as [`taut_core::drive::DriveTime`]).
 //! - [`flash_layout`] and [`settings`]: where the persisted record lives in internal flash and
 //!   the power-safe store (sequential-storage) that keeps it there.
+//! - [`link`]: the machine link's receive and transmit rings (the USART's DMA fills and
+//!   drains them; the server of `taut-link` reads and writes them).
 //! - [`panel`]: the TM1637 7-segment driver that shifts the core's
 //!   [`taut_core::io::Segments`] out on two wires.
 //! - [`timing`]: the PWM period and dead time from the core, and where in the period the ADCs
@@ -45,6 +47,7 @@ extern crate std;
 
 pub mod bridge;
 pub mod flash_layout;
+pub mod link;
 pub mod log;
 pub mod panel;
 pub mod pins;

@@ -27,4 +27,4 @@ pub mod server;
 
 pub use frame::{Deframer, FrameError, MAX_FRAME, MAX_PAYLOAD, decode, encode};
 pub use message::{Command, Message, PROTOCOL_VERSION, Request, Response};
-pub use server::{Server, Sink};
+pub use server::{BAUD, LINE_BYTES_PER_MS, Server, Sink, TX_QUEUE};

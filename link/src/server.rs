@@ -31,6 +31,19 @@ use crate::message::{
     Response, SAMPLE_PERIOD_MIN_MS, Status, WireSettings, WireState,
 };
 
+/// The line's rate, baud (8 data bits, no parity, one stop bit): the ST-LINK virtual COM
+/// port's standard rate, which every host opens without configuration.
+pub const BAUD: u32 = 115_200;
+
+/// Bytes a millisecond the line carries each way at [`BAUD`], 8N1 (11.52, rounded down).
+pub const LINE_BYTES_PER_MS: usize = 11;
+
+/// The transmit queue a binding gives the server, bytes: six of the longest frames
+/// ([`MAX_FRAME`]), so a log page, an event and a sample queued in one tick never wait for
+/// each other, and 89 ms of the line at [`BAUD`] — the line, not the queue, bounds the rate.
+/// A frame that finds no room is dropped and counted ([`Event::Dropped`]).
+pub const TX_QUEUE: usize = 1_024;
+
 /// Where the server's frames go: the line's transmit queue.
 pub trait Sink {
     /// Queues one whole frame; `false` when there is no room (the frame is dropped).

@@ -46,8 +46,7 @@ pub trait Line {
     fn now_ms(&self) -> u64;
 }
 
-/// The baud rate of the board's link (USART2 on the ST-LINK virtual COM port).
-pub const BAUD: u32 = 115_200;
+pub use taut_link::BAUD;
 
 /// A serial port.
 pub struct SerialLine {

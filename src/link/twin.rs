@@ -9,7 +9,7 @@
 //! server the bytes the line delivered in that millisecond, then lets it observe the tick
 //! (samples, events). The line runs at the ST-LINK virtual COM port's 115 200 baud, 8N1:
 //! [`LINE_BYTES_PER_MS`] bytes a millisecond each way, with a transmit queue of
-//! [`TX_QUEUE`] bytes (the firmware's DMA ring) that drops frames when full. Time passes
+//! [`TX_QUEUE`] bytes (the firmware's transmit ring, the same size) that drops frames when full. Time passes
 //! only when the host reads ([`Line::read_some`]): the twin is a fake that owns time.
 //!
 //! The operator works a session: the machine is commissioned first (calibration, the
@@ -29,11 +29,7 @@ use taut_sim::{StringKind, Twin, TwinConfig};
 
 use super::Line;
 
-/// Bytes a millisecond at 115 200 baud, 8N1 (11.52, rounded down).
-pub const LINE_BYTES_PER_MS: usize = 11;
-
-/// The machine's transmit queue, bytes: the firmware's DMA ring.
-pub const TX_QUEUE: usize = 2_048;
+pub use taut_link::{LINE_BYTES_PER_MS, TX_QUEUE};
 
 /// The twin's board identity.
 pub const TWIN_BOARD: BoardId = *b"taut-twin-01";

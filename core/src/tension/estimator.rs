@@ -262,6 +262,10 @@ impl TensionEstimator {
     ///
     /// # Errors
     /// [`EstimatorError`] for a zero period or an out-of-range gain.
+    // Always inlined: from a constant configuration (the firmware's) the whole construction
+    // folds to its result at compile time, so the image carries no constructor
+    // (`scripts/firmware-size` checks).
+    #[inline(always)]
     pub fn new(config: &EstimatorConfig, period_us: u32) -> Result<Self, EstimatorError> {
         if period_us == 0 || period_us > 1_000_000 {
             return Err(EstimatorError::Period);

@@ -397,6 +397,10 @@ impl Rsmc {
     ///
     /// # Errors
     /// [`GainError`] from [`RsmcGains::coefficients`].
+    // Always inlined: from a constant configuration (the firmware's) the whole construction
+    // folds to its result at compile time, so the image carries no constructor
+    // (`scripts/firmware-size` checks).
+    #[inline(always)]
     pub fn new(gains: &RsmcGains, period_us: u32) -> Result<Self, GainError> {
         Ok(Self {
             coefficients: gains.coefficients(period_us)?,
@@ -577,6 +581,10 @@ impl Pd {
     /// # Errors
     /// [`GainError::PdGain`] for a negative or huge gain; [`GainError::Plant`] for a zero
     /// period.
+    // Always inlined: from a constant configuration (the firmware's) the whole construction
+    // folds to its result at compile time, so the image carries no constructor
+    // (`scripts/firmware-size` checks).
+    #[inline(always)]
     pub fn new(gains: &PdGains, period_us: u32) -> Result<Self, GainError> {
         let limit = Q16::const_from_int(10_000);
         if gains.kp < Q16::ZERO || gains.kd < Q16::ZERO || gains.kp > limit || gains.kd > limit {

@@ -172,6 +172,10 @@ impl ForceToDuty {
     ///
     /// # Errors
     /// [`MotorError`] for implausible data or coefficients outside Q7.24.
+    // Always inlined: from a constant configuration (the firmware's) the whole construction
+    // folds to its result at compile time, so the image carries no constructor
+    // (`scripts/firmware-size` checks).
+    #[inline(always)]
     pub fn new(motor: &MotorModel, map: DutyMap) -> Result<Self, MotorError> {
         if motor.bus_mv < 5_000
             || motor.bus_mv > 60_000
@@ -407,6 +411,10 @@ impl SpeedEstimator {
     ///
     /// # Errors
     /// [`MotorError::Parameter`] for a zero period or negative `tau`.
+    // Always inlined: from a constant configuration (the firmware's) the whole construction
+    // folds to its result at compile time, so the image carries no constructor
+    // (`scripts/firmware-size` checks).
+    #[inline(always)]
     pub fn new(period_us: u32, tau: Seconds) -> Result<Self, MotorError> {
         if period_us == 0 || tau.0 < Q16::ZERO {
             return Err(MotorError::Parameter);

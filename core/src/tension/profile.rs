@@ -163,6 +163,10 @@ impl ProfileConfig {
     ///
     /// # Errors
     /// The first parameter out of range.
+    // Always inlined: from a constant configuration (the firmware's) the whole construction
+    // folds to its result at compile time, so the image carries no constructor
+    // (`scripts/firmware-size` checks).
+    #[inline(always)]
     pub fn validate(&self) -> Result<(), ProfileError> {
         let check = |ok: bool, error| if ok { Ok(()) } else { Err(error) };
         let slip_ok =
@@ -471,6 +475,10 @@ impl ProfileCoefficients {
     ///
     /// # Errors
     /// The [`ProfileError`] of the first parameter out of range.
+    // Always inlined: from a constant configuration (the firmware's) the whole construction
+    // folds to its result at compile time, so the image carries no constructor
+    // (`scripts/firmware-size` checks).
+    #[inline(always)]
     pub fn new(config: &ProfileConfig, period_us: u32) -> Result<Self, ProfileError> {
         config.validate()?;
         const TAU_REFUSED: ProfileError = ProfileError::ClosingTimeConstant;
@@ -558,6 +566,10 @@ impl Profile {
     ///
     /// # Errors
     /// As [`ProfileCoefficients::new`].
+    // Always inlined: from a constant configuration (the firmware's) the whole construction
+    // folds to its result at compile time, so the image carries no constructor
+    // (`scripts/firmware-size` checks).
+    #[inline(always)]
     pub fn new(config: &ProfileConfig, period_us: u32) -> Result<Self, ProfileError> {
         let coefficients = ProfileCoefficients::new(config, period_us)?;
         Ok(Self { coefficients, state: ProfileState::default() })

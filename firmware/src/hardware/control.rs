@@ -7,7 +7,8 @@
 //! the limit switches and keys (GPIO), and the drive's status — hands the machine one
 //! [`Inputs`], and applies the [`Outputs`]: the drive command (and a fault-clear request) to the
 //! drive, the beeper to its pin, the display to the panel task, and a copy of the record to the
-//! store task, which encodes and writes it in thread mode.
+//! store task, which encodes and writes it in thread mode. Then, last, it serves the machine
+//! link ([`link`]) with that tick's inputs and outputs.
 
 use core::cell::RefCell;
 use critical_section::Mutex;
@@ -29,7 +30,7 @@ use taut_core::store::{Record, StoreError};
 use taut_core::units::AdcCode;
 use taut_firmware::timing::OVERSAMPLING_SHIFT;
 
-use super::{display, fast_loop, store};
+use super::{display, fast_loop, link, store};
 
 /// ADC1 channel of the bus current (PA0 = ADC1_IN1).
 const CURRENT_CHANNEL: u8 = 1;
@@ -178,6 +179,8 @@ pub struct Resources {
     pub tick_timer: Peri<'static, TIM6>,
     /// The machine, built from the stored record ([`build_machine`]).
     pub machine: &'static mut Machine,
+    /// The machine link, served after each tick's outputs.
+    pub link: link::Link,
 }
 
 struct Tick {
@@ -186,6 +189,7 @@ struct Tick {
     encoder: Qei<'static, TIM4>,
     keys: [Input<'static>; 5],
     beeper: Output<'static>,
+    link: link::Link,
     now_ms: u32,
 }
 
@@ -225,6 +229,8 @@ impl Tick {
             // it in thread mode, never on the tick.
             store::REQUEST.signal(*self.machine.record());
         }
+        // Last: the link, after every output is applied (it never delays them).
+        self.link.service(self.machine, &inputs, &outputs);
     }
 }
 
@@ -247,7 +253,7 @@ pub fn build_machine(record: Result<Record, StoreError>) -> &'static mut Machine
 /// [`build_machine`]).
 #[inline(never)]
 pub fn init(resources: Resources) {
-    let Resources { analog, encoder, limits, keys, beeper, tick_timer, machine } = resources;
+    let Resources { analog, encoder, limits, keys, beeper, tick_timer, machine, link } = resources;
     let qei_config = QeiConfig { ch1_pull: Pull::Up, ch2_pull: Pull::Up, ..QeiConfig::default() };
     let encoder = Qei::new(encoder.0, encoder.1, encoder.2, qei_config);
     // The limit switches are read by the fast loop straight from the input registers.
@@ -262,7 +268,7 @@ pub fn init(resources: Resources) {
     ];
     let beeper = Output::new(beeper, Level::Low, Speed::Low);
     static CELL: StaticCell<Tick> = StaticCell::new();
-    let tick = CELL.init(Tick { machine, analog, encoder, keys, beeper, now_ms: 0 });
+    let tick = CELL.init(Tick { machine, analog, encoder, keys, beeper, link, now_ms: 0 });
     critical_section::with(|cs| *TICK.borrow_ref_mut(cs) = Some(tick));
 
     core::mem::forget(Timer::new(tick_timer));

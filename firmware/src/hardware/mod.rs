@@ -8,7 +8,7 @@
 //! | context | trigger | rate | does |
 //! |---|---|---|---|
 //! | fast loop, priority 0 | TIM1 update (`TIM1_UP_TIM16`) and Hall edge capture (`TIM2`) | 20 kHz + every Hall edge | sample → [`taut_core::drive::Drive::step`] → TIM1 registers ([`fast_loop`]) |
-//! | control tick, priority 1 | TIM6 update (`TIM6_DAC`) | 1 kHz | sample → [`taut_core::io::Inputs`] → machine → [`taut_core::io::Outputs`] → peripherals ([`control`]) |
+//! | control tick, priority 1 | TIM6 update (`TIM6_DAC`) | 1 kHz | sample → [`taut_core::io::Inputs`] → machine → [`taut_core::io::Outputs`] → peripherals ([`control`]); then the machine link's bytes, moved by DMA ([`link`]) |
 //! | thread mode | embassy executor | when signalled | settings store writes, TM1637 refresh ([`store`], [`display`]) |
 //!
 //! The hardware protections need no software at all: the overcurrent comparator's break
@@ -38,6 +38,7 @@ mod bridge;
 mod control;
 mod display;
 mod fast_loop;
+mod link;
 mod store;
 mod watchdog;
 
@@ -150,6 +151,7 @@ fn start_up() -> Loops {
         beeper: p.PB11,
         tick_timer: p.TIM6,
         machine,
+        link: link::Link::init(p.PA2, p.PA3),
     });
     Loops { store: settings, display: (p.PB5, p.PB9), watchdog: p.IWDG }
 }

@@ -109,7 +109,7 @@ impl<const N: usize> TxRing<N> {
     pub fn finish(&mut self) {
         let sent = core::mem::take(&mut self.in_flight);
         self.len = self.len.saturating_sub(sent);
-        self.head = if N == 0 { 0 } else { self.head.saturating_add(sent) % N };
+        self.head = self.head.saturating_add(sent).checked_rem(N).unwrap_or(0);
     }
 
     /// Whether a span is in flight.
@@ -124,7 +124,7 @@ impl<const N: usize> Sink for TxRing<N> {
         if frame.len() > N.saturating_sub(self.len) {
             return false;
         }
-        let mut at = if N == 0 { 0 } else { self.head.saturating_add(self.len) % N };
+        let mut at = self.head.saturating_add(self.len).checked_rem(N).unwrap_or(0);
         for &byte in frame {
             if let Some(slot) = self.bytes.get_mut(at) {
                 *slot = byte;
@@ -273,7 +273,7 @@ mod tests {
             seed ^= seed << 13;
             seed ^= seed >> 17;
             seed ^= seed << 5;
-            if seed % 3 == 0 {
+            if seed.is_multiple_of(3) {
                 if let Some(span) = ring.start() {
                     out.extend_from_slice(&ring.bytes()[span]);
                     ring.finish();

@@ -63,7 +63,25 @@ pub struct Bench {
     window_start: u64,
     /// Print every window's gates (`TAUT_PIL_GATES`).
     debug_gates: bool,
+    /// The PC's end of the ST-LINK virtual COM port (USART2).
+    pub line: Line,
 }
+
+/// The PC's end of the serial line: what it sends the part and what it has received.
+#[derive(Debug, Default)]
+pub struct Line {
+    /// Bytes on their way to the part, oldest first.
+    pub to_machine: std::collections::VecDeque<u8>,
+    /// Bytes the part sent, oldest first (the PC's reader drains them).
+    pub from_machine: Vec<u8>,
+    /// Bytes the line carried to the part (received by its DMA or lost).
+    pub delivered: u64,
+    /// Byte times not yet used, fractions of a byte (the rate is not a whole number a ms).
+    credit: f64,
+}
+
+/// The PC's port rate, baud: what the link's host opens (`taut_link::BAUD`).
+pub const HOST_BAUD: f64 = taut_link::BAUD as f64;
 
 fn port_pin(port: char, pin: u8) -> (u8, u8) {
     (port as u8 - b'A', pin)
@@ -88,6 +106,7 @@ impl Bench {
             window_start: 0,
             last_gate_on: 0,
             priority_reported: false,
+            line: Line::default(),
         };
         bench.drive_pins();
         bench.drive_hall();
@@ -239,6 +258,7 @@ impl Bench {
             self.period()?;
         }
         self.twin.end_tick();
+        self.serial_millisecond()?;
         let mcu = &mut self.mcu;
         let mut writes = Vec::new();
         self.log.poll(|a, n| mcu.read_memory(a, n), |a, b| writes.push((a, b.to_vec())));
@@ -252,6 +272,56 @@ impl Bench {
             beeper: self.beeper(),
             ..Outputs::default()
         });
+        Ok(())
+    }
+
+    /// One millisecond of the serial line, both ways, at the rate USART2 is programmed for:
+    /// each byte to the part goes where its receive DMA puts it (lost if nothing takes it),
+    /// and the part's transmit DMA hands over what it sends. The line is connected only when
+    /// PA2 and PA3 are USART2's (alternate function 7), and a rate more than 2.5 % off the
+    /// PC's would be read as garbage, which no correct binding does: the run stops.
+    fn serial_millisecond(&mut self) -> Result<(), Stop> {
+        let soc = self.mcu.soc_mut();
+        let per_second = soc.serial.bytes_per_second(soc.pclk1_hz());
+        if per_second == 0.0 {
+            self.line.credit = 0.0;
+            return Ok(());
+        }
+        let baud = per_second * 10.0;
+        if (baud - HOST_BAUD).abs() > 0.025 * HOST_BAUD {
+            return Err(Stop::Misuse(format!(
+                "USART2 runs at {baud:.0} baud; the PC's port at {HOST_BAUD:.0}"
+            )));
+        }
+        let af7 = |pin: u8| soc.gpio[0].mode(pin) == crate::soc::PinMode::Alternate(7);
+        let (tx_connected, rx_connected) = (af7(2), af7(3));
+        self.line.credit += per_second / 1000.0;
+        let bytes = self.line.credit.floor();
+        self.line.credit -= bytes;
+        let mut writes = Vec::new();
+        let mut reads = Vec::new();
+        for _ in 0..bytes as usize {
+            if let Some(byte) = self.line.to_machine.pop_front() {
+                self.line.delivered += 1;
+                if rx_connected {
+                    if let Some(address) = soc.serial.receive() {
+                        writes.push((address, byte));
+                    }
+                }
+            }
+            if tx_connected {
+                if let Some(address) = soc.serial.transmit() {
+                    reads.push(address);
+                }
+            }
+        }
+        for (address, byte) in writes {
+            self.mcu.write_memory(address, &[byte]).map_err(Stop::Misuse)?;
+        }
+        for address in reads {
+            let byte = self.mcu.read_memory(address, 1);
+            self.line.from_machine.push(byte.first().copied().unwrap_or(0));
+        }
         Ok(())
     }
 

@@ -12,7 +12,6 @@
 
 use taut_core::io::Leds;
 use taut_core::settings::{SetPoint, Settings, Unit};
-use taut_core::store::Record;
 use taut_sim::bench::{
     self as host_bench, Bench as HostBench, Session, factory_config, run_session,
 };
@@ -197,7 +196,7 @@ fn session(
     operator: &mut Operator,
     name: &str,
     progress: Progress<'_>,
-    mut done: impl FnMut(&Bench, &Operator) -> bool,
+    mut done: impl FnMut(&mut Bench, &Operator) -> bool,
 ) -> Result<(), Stop> {
     let limit = std::env::var("TAUT_PIL_SESSION_MS")
         .ok()
@@ -222,6 +221,8 @@ pub struct PilRun {
     pub run: Run,
     /// The bench.
     pub bench: Bench,
+    /// The PC's traffic on the machine link during the job, and what came back.
+    pub traffic: crate::link::Traffic,
 }
 
 /// A machine commissioned on the image: the bench at the end of the commissioning session.
@@ -316,8 +317,12 @@ pub fn pil(
     let mut operator = Operator::new(plan);
     let mut samples = Vec::new();
     let mut tail = None;
+    let mut traffic = crate::link::Traffic::default();
     let result = session(&mut bench, &mut operator, "job", progress, |bench, operator| {
         let (_, leds) = bench.panel();
+        let now = bench.twin.now_ms();
+        let busy = leds.pulling || leds.holding;
+        traffic.millisecond(&mut bench.line, now, busy, operator.finished() && !busy);
         let truth = bench.twin.truth();
         samples.push(Sample {
             t_ms: bench.twin.now_ms(),
@@ -327,8 +332,9 @@ pub fn pil(
             carriage_mm: truth.carriage_mm,
         });
         if operator.finished() {
+            // The closing reads of the link are answered within a second.
             let end = *tail.get_or_insert(bench.twin.now_ms() + 200);
-            return bench.twin.now_ms() >= end;
+            return bench.twin.now_ms() >= end && (traffic.done() || now >= end + 1_000);
         }
         false
     });
@@ -337,8 +343,7 @@ pub fn pil(
     }
     let figures = figures(&samples, scenario.target_kgf());
     let completed = operator.finished() && !operator.stopped();
-    let _ = Record::default();
-    Ok(PilRun { run: Run { samples, commissioning_ms, figures, completed }, bench })
+    Ok(PilRun { run: Run { samples, commissioning_ms, figures, completed }, bench, traffic })
 }
 
 /// The tolerances within which the image's figures must agree with the host bench's: the

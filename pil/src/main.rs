@@ -277,7 +277,27 @@ fn main() -> ExitCode {
             for line in &agreement.lines {
                 println!("{line}");
             }
-            let clean = run.bench.checker.violations.is_empty() && latency_ok && agreement.agrees;
+            println!();
+            println!("## The machine link on the emulated USART2 during the job");
+            println!();
+            let board = taut_link::message::BoardId::from(taut_pil::link::unique_id_bytes());
+            let (link_ok, lines) = run.traffic.verdict(board);
+            for line in &lines {
+                println!("{line}");
+            }
+            let line = &run.bench.line;
+            println!(
+                "line: {} bytes to the machine ({} sent), {} bytes back; {} received bytes the machine's DMA did not take",
+                line.delivered,
+                run.traffic.bytes_sent,
+                line.from_machine.len(),
+                run.bench.mcu.soc().serial.lost
+            );
+            let clean = run.bench.checker.violations.is_empty()
+                && latency_ok
+                && agreement.agrees
+                && link_ok
+                && run.bench.mcu.soc().serial.lost == 0;
             if run.run.completed && clean { ExitCode::SUCCESS } else { ExitCode::from(1) }
         }
         Err((stop, bench)) => {

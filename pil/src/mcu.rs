@@ -124,6 +124,10 @@ impl Mcu {
         uc.mem_map(u64::from(FLASH_BASE), u64::from(FLASH_SIZE), Prot::ALL).map_err(err)?;
         uc.mem_write(u64::from(FLASH_BASE), &vec![0xFF; FLASH_SIZE as usize]).map_err(err)?;
         uc.mem_map(u64::from(RAM_BASE), u64::from(RAM_SIZE), Prot::ALL).map_err(err)?;
+        // The factory words in system memory: the 96-bit unique id (RM0440 section 48.1).
+        uc.mem_map(u64::from(soc::UID_BASE & !0xFFF), 0x1000, Prot::READ).map_err(err)?;
+        let uid: Vec<u8> = soc::UNIQUE_ID.iter().flat_map(|w| w.to_le_bytes()).collect();
+        uc.mem_write(u64::from(soc::UID_BASE), &uid).map_err(err)?;
         for segment in &image.segments {
             uc.mem_write(u64::from(segment.address), &segment.bytes).map_err(|e| {
                 format!(
@@ -190,6 +194,12 @@ impl Mcu {
         let mut flash = vec![0u8; FLASH_SIZE as usize];
         uc.mem_read(u64::from(FLASH_BASE), &mut flash).map_err(err)?;
         let mut counts: HashMap<(u32, u32), u64> = HashMap::new();
+        // The firmware's link service, timed inside the control tick (`Soc::link_calls`).
+        let link_service = image
+            .symbols
+            .iter()
+            .find(|(_, (name, _))| crate::elf::demangle_short(name) == "Link::service")
+            .map(|(&address, _)| address);
         uc.add_block_hook(
             u64::from(FLASH_BASE),
             u64::from(FLASH_BASE + FLASH_SIZE - 1),
@@ -206,6 +216,13 @@ impl Mcu {
                     }
                     n
                 });
+                if let Some(entry) = link_service {
+                    let link = || uc.reg_read(RegisterARM::LR).unwrap_or(0) as u32;
+                    let lr = if address == entry { link() } else { 0 };
+                    let soc = uc.get_data_mut();
+                    let cycles = soc.cycles;
+                    soc.link_calls.block(address, cycles, entry, || lr);
+                }
                 let soc = uc.get_data_mut();
                 soc.cycles += n;
                 soc.block_pc = address;

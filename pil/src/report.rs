@@ -85,6 +85,17 @@ pub fn timing(mcu: &Mcu) -> String {
             );
         }
     }
+    let link = &mcu.soc().link_calls;
+    if link.calls > 0 {
+        let _ = writeln!(
+            s,
+            "| of which the machine link (`Link::service`, last in the tick) | {} | {:.0} | {} | — | {:.1} % |",
+            link.calls,
+            link.total as f64 / link.calls as f64,
+            link.max,
+            100.0 * link.total as f64 / total as f64
+        );
+    }
     let _ = writeln!(
         s,
         "asleep (WFE) {:.1} % of the time; deepest stack at exception entry: {} B below the top of RAM",

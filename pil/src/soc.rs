@@ -80,6 +80,45 @@ pub const REGIONS: &[(u32, u32, &str)] = &[
     (0xE004_2000, 0x400, "DBGMCU"),
 ];
 
+/// The cycles of every call of one function (from its first instruction to the return to
+/// its caller, whatever preempted it meanwhile): the bench times the firmware's link service
+/// with it, inside the control tick's handler.
+#[derive(Debug, Clone, Default)]
+pub struct CallTimes {
+    /// Calls in progress: (return address, cycle entered).
+    open: Vec<(u32, u64)>,
+    /// Calls completed.
+    pub calls: u64,
+    /// Their cycles, summed.
+    pub total: u64,
+    /// The longest.
+    pub max: u64,
+}
+
+impl CallTimes {
+    /// A block at `address` starts at `cycle`; `entry` is the function's first instruction and
+    /// `link` the caller's return address when the block is the entry.
+    pub fn block(&mut self, address: u32, cycle: u64, entry: u32, link: impl FnOnce() -> u32) {
+        if address == entry {
+            self.open.push((link() & !1, cycle));
+        } else if let Some(&(ret, start)) = self.open.last() {
+            if address == ret {
+                self.open.pop();
+                let took = cycle.saturating_sub(start);
+                self.calls += 1;
+                self.total += took;
+                self.max = self.max.max(took);
+            }
+        }
+    }
+}
+
+/// The unique device id's address (RM0440 section 48.1).
+pub const UID_BASE: u32 = 0x1FFF_7590;
+/// The emulated part's unique id: wafer coordinates, wafer number and lot (the layout of the
+/// real part's words; the values are the bench's own).
+pub const UNIQUE_ID: [u32; 3] = [0x0041_0032, 0x3053_5712, 0x2038_3431];
+
 /// The peripheral and register an address falls in, for messages.
 pub fn name_of(address: u32) -> String {
     if (0x0800_0000..0x0802_0000).contains(&address) {
@@ -554,6 +593,10 @@ pub struct Soc {
     pub trace: bool,
     /// The panel's TM1637.
     pub panel: crate::panel::Tm1637,
+    /// USART2 with its DMA channels: the machine link's port.
+    pub serial: crate::usart::SerialPort,
+    /// The firmware's link service calls, timed (see [`CallTimes`]).
+    pub link_calls: CallTimes,
     /// The core signalled an exception return (Unicorn stops for it; the bench unstacks).
     pub stop_reason_exit: bool,
 }
@@ -689,6 +732,8 @@ impl Soc {
             accesses: 0,
             stop_reason_exit: false,
             panel: crate::panel::Tm1637::default(),
+            serial: crate::usart::SerialPort::new(),
+            link_calls: CallTimes::default(),
             resume_at: None,
             trace: std::env::var_os("TAUT_PIL_TRACE").is_some(),
         }
@@ -705,6 +750,12 @@ impl Soc {
         let n = u64::from((pll >> 8) & 0x7F);
         let r = 2 * (u64::from((pll >> 25) & 3) + 1);
         HSI_HZ / m * n / r
+    }
+
+    /// APB1's clock (USART2's kernel clock at reset): the system clock over `CFGR.PPRE1`.
+    pub fn pclk1_hz(&self) -> u64 {
+        let ppre1 = (self.rcc.value(0x08) >> 8) & 7;
+        self.sysclk_hz() >> if ppre1 >= 4 { ppre1 - 3 } else { 0 }
     }
 
     fn traced(&self, address: u32) -> bool {
@@ -775,6 +826,9 @@ impl Soc {
             0x5000_0000..=0x5000_00FF => self.adc[0].read(address - 0x5000_0000),
             0x5000_0100..=0x5000_01FF => self.adc[1].read(address - 0x5000_0100),
             0x5000_0300..=0x5000_03FF => self.adc_common.get(address - 0x5000_0300),
+            0x4000_4400..=0x4000_47FF => self.serial.read_usart(address - 0x4000_4400),
+            0x4002_0000..=0x4002_03FF => self.serial.read_dma(address - 0x4002_0000),
+            0x4002_0800..=0x4002_0BFF => self.serial.read_mux(address - 0x4002_0800),
             0x4000_3000 => Some(0),
             0x4000_3004 => Some(self.iwdg.pr),
             0x4000_3008 => Some(self.iwdg.rlr),
@@ -865,6 +919,25 @@ impl Soc {
             0x5000_0000..=0x5000_00FF => self.adc[0].write(address - 0x5000_0000, value),
             0x5000_0100..=0x5000_01FF => self.adc[1].write(address - 0x5000_0100, value),
             0x5000_0300..=0x5000_03FF => self.adc_common.set(address - 0x5000_0300, value),
+            0x4000_4400..=0x4000_47FF => {
+                match self.serial.write_usart(address - 0x4000_4400, value) {
+                    Ok(modelled) => modelled,
+                    Err(text) => {
+                        self.misuse(text);
+                        true
+                    }
+                }
+            }
+            0x4002_0000..=0x4002_03FF => {
+                match self.serial.write_dma(address - 0x4002_0000, value) {
+                    Ok(modelled) => modelled,
+                    Err(text) => {
+                        self.misuse(text);
+                        true
+                    }
+                }
+            }
+            0x4002_0800..=0x4002_0BFF => self.serial.write_mux(address - 0x4002_0800, value),
             0x4000_3000 => {
                 match value & 0xFFFF {
                     0xCCCC => {
@@ -1317,8 +1390,13 @@ mod tests {
     #[test]
     fn an_unmodelled_register_stops_the_run_with_its_name() {
         let mut soc = Soc::new();
-        let _ = soc.read(0x4000_4400, 4);
+        let _ = soc.read(0x4000_4800, 4);
         let stop = soc.stop.clone().expect("stopped");
-        assert!(stop.to_string().contains("USART2+0x000"), "{stop}");
+        assert!(stop.to_string().contains("USART3+0x000"), "{stop}");
+        // A register of a modelled peripheral that the model does not hold stops it too.
+        let mut soc = Soc::new();
+        let _ = soc.read(0x4000_4430, 4);
+        let stop = soc.stop.clone().expect("stopped");
+        assert!(stop.to_string().contains("USART2+0x030"), "{stop}");
     }
 }

@@ -15,12 +15,14 @@
 //!
 //! The message layer of [`decoding_is_total`] (postcard on any short payload) is a Kani
 //! harness; the frame layer (COBS and the CRC over a 162-byte body) did not verify within the
-//! two-minute budget of a harness and is checked by the tests and the fuzzer only. Both bodies by `proofs/tests/link.rs` (every state kind × every
-//! request kind, truncations and bit flips of real frames, proptest) and by the `link_frame`
-//! fuzz target ([`check_input`]). The no-motion rule has no Kani harness of its own: a
-//! machine under Kani needs the compositional stubs of `proofs/src/machine.rs`, and the rule
-//! rests first on the type — `LinkAccess` has no method that could move the machine — which
-//! the tests then exercise in every state.
+//! two-minute budget of a harness and is checked by the tests and the fuzzer only. The
+//! no-motion rule's Kani harnesses take a machine at any valid checkpoint of a state kind
+//! (`crate::machine`'s compositional set-up), any request of any kind with any field values,
+//! and check that answering it leaves the state (and, outside Ready, the record) as it was; the
+//! record's codec and the calibration fit are over-approximated by any value. Both bodies run
+//! in `proofs/tests/link.rs` (every state kind × every request kind, then ticks compared with an
+//! unserved copy; truncations and bit flips of real frames; proptest) and in the `link_frame`
+//! fuzz target ([`check_input`]).
 
 use taut_core::io::{Inputs, Outputs};
 use taut_core::machine::access::LinkAccess;
@@ -189,6 +191,10 @@ pub fn check_input(data: &[u8]) {
 #[cfg(kani)]
 mod verification {
     use super::*;
+    use crate::machine::verification::checkpoint_in;
+    use taut_core::sense::calibration::{Calibration, CalibrationError, CalibrationPoints};
+    use taut_core::store::{RECORD_LEN, StoreError};
+    use taut_link::message::{RECORD_PART_LEN, WirePreferences, WireSettings, WireUnit};
 
     /// REQ-LINK-01, the message layer: any payload of up to 6 bytes is a command or a typed
     /// error.
@@ -201,4 +207,105 @@ mod verification {
         let _ = take_message::<Command>(bytes.get(..len).unwrap_or(&[]));
         crate::harness_end_reached();
     }
+
+    /// Any settings as the wire carries them (valid or not).
+    fn any_settings() -> WireSettings {
+        WireSettings {
+            unit: if kani::any() { WireUnit::Kilograms } else { WireUnit::Pounds },
+            tension_tenths: kani::any(),
+            speed: kani::any(),
+            pre_stretch_percent: kani::any(),
+            knot_percent: kani::any(),
+        }
+    }
+
+    /// Any request of every kind, with any fields.
+    fn any_request() -> Request {
+        match kani::any::<u8>() {
+            0 => Request::Hello,
+            1 => Request::ReadLog { page: kani::any() },
+            2 => Request::ReadStatus,
+            3 => Request::ReadPreset { index: kani::any() },
+            4 => Request::ReadRecord { part: kani::any() },
+            5 => Request::ReadFaults,
+            6 => Request::Stream { period_ms: kani::any() },
+            7 => Request::WriteSettings {
+                settings: any_settings(),
+                preferences: WirePreferences { beeper: kani::any(), constant_pull: kani::any() },
+            },
+            8 => Request::WritePreset { index: kani::any(), settings: any_settings() },
+            9 => Request::StageRecord { part: kani::any(), bytes: [kani::any(); RECORD_PART_LEN] },
+            _ => Request::CommitRecord,
+        }
+    }
+
+    /// The record's encoding, over-approximated: any bytes (a read; no property reads them).
+    fn any_record_bytes(_record: &Record) -> [u8; RECORD_LEN] {
+        [kani::any(); RECORD_LEN]
+    }
+
+    /// Decoding a staged record, over-approximated: refused, or the default record (a valid
+    /// record; what matters is that it is proposed, and the proposal is what is checked).
+    fn any_decoded(_bytes: &[u8]) -> Result<Record, StoreError> {
+        if kani::any() { Ok(Record::default()) } else { Err(StoreError::CrcMismatch) }
+    }
+
+    /// The calibration fit of a proposed record, over-approximated: accepted or rejected.
+    fn any_calibration_fit(_points: &CalibrationPoints) -> Result<Calibration, CalibrationError> {
+        if kani::any() { Ok(Calibration::IDENTITY) } else { Err(CalibrationError::PointOffLine) }
+    }
+
+    /// REQ-LINK-02 for one state kind: any request, answered by the server, leaves a machine
+    /// at any valid checkpoint of `state` in that state with its record unchanged (outside
+    /// Ready: the server's one write, a record proposal, is refused there); in Ready the
+    /// machine stays in Ready. Every request kind with every field value; the record's codec
+    /// and the calibration fit are over-approximated (they are `crate::machine_store`'s and
+    /// core's own tests'), which makes the proof hold for any record they could produce.
+    fn serving_any_request_never_moves(state: MachineState) {
+        let checkpoint = checkpoint_in(state);
+        let mut machine = Machine::<1>::resume(Record::default(), &checkpoint);
+        let (state_before, record_before) = (machine.state(), *machine.record());
+        let mut server = Server::new([0; 12], [0, 1, 0]);
+        let request = any_request();
+        let _ = server.respond(&request, &mut LinkAccess::new(&mut machine));
+        assert!(machine.state() == state_before, "REQ-LINK-02: a request changed the state");
+        if state_before != MachineState::Ready {
+            assert!(
+                *machine.record() == record_before,
+                "REQ-LINK-02: a request changed the record outside Ready"
+            );
+        }
+    }
+
+    macro_rules! no_motion {
+        ($(#[$doc:meta])* fn $name:ident = $state:expr) => {
+            $(#[$doc])*
+            #[kani::proof]
+            #[kani::unwind(10)]
+            #[kani::stub(taut_core::store::Record::encode, any_record_bytes)]
+            #[kani::stub(taut_core::store::Record::decode, any_decoded)]
+            #[kani::stub(taut_core::sense::calibration::Calibration::new, any_calibration_fit)]
+            fn $name() {
+                serving_any_request_never_moves($state);
+                crate::harness_end_reached();
+            }
+        };
+    }
+
+    no_motion!(
+        /// REQ-LINK-02 while the machine pulls.
+        fn verify_link_never_moves_a_pulling_machine = MachineState::Pulling
+    );
+    no_motion!(
+        /// REQ-LINK-02 while the machine holds.
+        fn verify_link_never_moves_a_holding_machine = MachineState::Holding
+    );
+    no_motion!(
+        /// REQ-LINK-02 while the machine releases.
+        fn verify_link_never_moves_a_releasing_machine = MachineState::Releasing
+    );
+    no_motion!(
+        /// REQ-LINK-02 in Ready: the state stays Ready (a proposed record may be taken).
+        fn verify_link_keeps_a_ready_machine_ready = MachineState::Ready
+    );
 }

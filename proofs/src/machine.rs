@@ -487,7 +487,7 @@ pub fn global_fault_is_sound(inputs: &Inputs) {
     reason = "the stubs are referenced only from `#[kani::stub]` attributes, which rustc's \
               dead-code analysis does not see"
 )]
-mod verification {
+pub(crate) mod verification {
     use super::*;
     use taut_core::io::{Display, Key, Segments};
     use taut_core::machine::KeyEvent;
@@ -643,7 +643,7 @@ mod verification {
     }
 
     /// An arbitrary valid checkpoint in `state` (with a fresh key pad, see above).
-    fn checkpoint_in(state: MachineState) -> Checkpoint {
+    pub(crate) fn checkpoint_in(state: MachineState) -> Checkpoint {
         let watch = TensionWatch::from_parts(
             kani::any(),
             [Kgf::from_bits(kani::any()), Kgf::from_bits(kani::any()), Kgf::from_bits(kani::any())],

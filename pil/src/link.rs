@@ -5,7 +5,7 @@
 //! [`Traffic`] is what the PC does during the job: it says hello and asks for the live stream
 //! as the job starts, then, while the machine pulls and holds, keeps the line busy both
 //! ways — every kind of read, a settings write (which the machine must refuse while it pulls),
-//! random garbage and cut frames between them — and reads the log and the counters once the
+//! random garbage, cut frames and runs of zero bytes (a line held low) between them — and reads the log and the counters once the
 //! machine is idle again. [`Traffic::verdict`] checks what came back: every frame intact,
 //! every request answered, the write refused, the stream and events present, the log's last
 //! pull the counters' last.
@@ -87,6 +87,8 @@ pub struct Traffic {
     writes_in_pull: Vec<u16>,
     /// Garbage chunks sent (each ends a frame the machine cannot decode).
     pub garbage: u64,
+    /// Runs of zero bytes sent (a line held low).
+    pub breaks: u64,
     /// Bytes sent in all.
     pub bytes_sent: u64,
     /// The closing reads: status and log page 0.
@@ -108,6 +110,7 @@ impl Default for Traffic {
             sent: Vec::new(),
             writes_in_pull: Vec::new(),
             garbage: 0,
+            breaks: 0,
             bytes_sent: 0,
             closing: None,
             write_in_ready: None,
@@ -164,7 +167,7 @@ impl Traffic {
         if outstanding >= OUTSTANDING {
             return;
         }
-        let pick = self.random() % 9;
+        let pick = self.random() % 10;
         let request = match pick {
             0 => Request::ReadLog { page: (now_ms % 5) as u8 },
             1 => Request::ReadStatus,
@@ -178,6 +181,15 @@ impl Traffic {
                     WirePreferences::from(taut_core::settings::Preferences::default());
                 let seq = self.send(line, Request::WriteSettings { settings, preferences });
                 self.writes_in_pull.push(seq);
+                return;
+            }
+            9 => {
+                // A line held low (a break, a cable pulled out mid-byte): zero bytes, which
+                // delimit only empty frames.
+                let len = 1 + self.random() % 30;
+                line.to_machine.extend(std::iter::repeat_n(0u8, len as usize));
+                self.bytes_sent += len;
+                self.breaks += 1;
                 return;
             }
             _ => {
@@ -252,8 +264,8 @@ impl Traffic {
             "garbage",
             h.bad_frames >= 1 && h.bad_frames <= self.garbage + 1,
             format!(
-                "{} chunks of garbage and cut frames sent, {} refused as bad frames",
-                self.garbage, h.bad_frames
+                "{} chunks of garbage and cut frames sent, {} refused as bad frames; {} runs of a line held low, ignored",
+                self.garbage, h.bad_frames, self.breaks
             ),
         );
         let refused = self

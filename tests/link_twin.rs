@@ -1,5 +1,5 @@
-//! The machine link against the twin (REQ-LINK-04, REQ-LINK-05, REQ-LINK-06): the pull log
-//! a host exports shows the panel's log-page figures; backup → factory reset → restore gives
+//! The machine link against the twin (REQ-LINK-03 to REQ-LINK-06): `taut connect` shows a
+//! pull live; the pull log a host exports shows the panel's log-page figures; backup → factory reset → restore gives
 //! back the settings, presets and calibration; a flood of requests and garbage during a
 //! pull changes none of its figures and never faults or stalls the machine.
 #![allow(
@@ -214,5 +214,34 @@ fn link_a_flood_during_pulls_changes_nothing_and_never_stalls() {
     let mut client = Client::new(flooded);
     if let Err(e) = client.hello() {
         panic!("{e}")
+    }
+}
+
+/// `taut connect --twin`: the hello's identity, then the live stream of a whole pull — the
+/// state changes as events, the hold's samples at the target, the pull logged — and exit 0.
+#[test]
+fn link_connect_twin_shows_a_live_pull() {
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_taut"))
+        .args(["connect", "--twin", "--pulls", "1"])
+        .output()
+        .expect("taut runs");
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let text = String::from_utf8_lossy(&output.stdout);
+    let first = text.lines().next().unwrap_or_default();
+    assert!(first.starts_with("machine ") && first.contains("link protocol 1"), "{first}");
+    for event in
+        ["event: ready -> pulling", "event: pulling -> holding", "event: releasing -> ready"]
+    {
+        assert!(text.contains(event), "no `{event}` in:\n{text}");
+    }
+    assert!(text.contains("event: pull 1 logged: target 22.00 kg"), "{text}");
+    // The hold's live samples: the tension shown is the target's to the 0.1 kg.
+    let holding: Vec<&str> =
+        text.lines().filter(|l| l.contains(" holding ") && l.contains("tension")).collect();
+    assert!(holding.len() >= 20, "{} hold samples", holding.len());
+    for line in &holding {
+        let tension = line.split("tension").nth(1).and_then(|t| t.split_whitespace().next());
+        let value: f64 = tension.and_then(|t| t.parse().ok()).expect("a tension");
+        assert!((value - 22.0).abs() <= 0.15, "{line}");
     }
 }

@@ -324,6 +324,9 @@ mod tests {
         let ones = [1u8; MAX_BODY];
         let len = stuff(&ones, &mut frame).unwrap();
         assert_eq!(len, MAX_BODY + 1);
+        // A body without zeros is COBS's worst case: with its delimiter it is the longest
+        // frame, exactly.
+        assert_eq!(len + 1, MAX_FRAME);
         assert_eq!(unstuff(&frame[..len], &mut back), Ok(MAX_BODY));
         assert_eq!(back, ones);
     }

@@ -180,6 +180,34 @@ mod tests {
         assert_eq!(machine.state(), MachineState::Ready);
     }
 
+    /// REQ-LINK-03: the fault history is the machine's own too: a proposed record's history
+    /// (a backup's, from another day or another machine) never replaces it.
+    #[test]
+    fn a_record_accepted_in_ready_keeps_the_fault_history() {
+        use crate::drive::DriveCommand;
+        use crate::machine::snapshot::{FaultSnapshot, Latch};
+        use crate::units::{Amps, Volts};
+        let latch = |code| Latch {
+            code,
+            state: MachineState::Pulling,
+            boots: 3,
+            now_ms: 1_000,
+            tension: Kgf::from_int(20),
+            current: Amps::from_milli(2_000),
+            bus: Volts::from_int(24),
+            hall_steps: 100,
+            command: DriveCommand::Coast,
+        };
+        let mut own = Record::default();
+        own.push_fault(FaultSnapshot::capture(&latch(FaultCode::StringBreak)));
+        let mut machine: Machine = Machine::resume(own, &Checkpoint::at(MachineState::Ready));
+        let mut proposed = Record { settings: settings_30kg(), ..Record::default() };
+        proposed.push_fault(FaultSnapshot::capture(&latch(FaultCode::LimitsBoth)));
+        assert_eq!(LinkAccess::new(&mut machine).propose_record(&proposed), Ok(()));
+        assert_eq!(machine.record().settings, settings_30kg());
+        assert_eq!(machine.record().faults, own.faults);
+    }
+
     /// REQ-LINK-03: outside Ready every proposal is refused and changes nothing.
     #[test]
     fn a_record_is_refused_outside_ready() {

@@ -166,7 +166,8 @@ pub fn unframe<'a>(frame: &[u8], body: &'a mut [u8; MAX_BODY]) -> Result<&'a [u8
     if frame.is_empty() {
         return Err(FrameError::Empty);
     }
-    if frame.len() > MAX_FRAME {
+    // MAX_FRAME counts the delimiter, which `frame` does not hold.
+    if frame.len() >= MAX_FRAME {
         return Err(FrameError::TooLong);
     }
     let body_len = unstuff(frame, body)?;
@@ -327,6 +328,12 @@ mod tests {
         // A body without zeros is COBS's worst case: with its delimiter it is the longest
         // frame, exactly.
         assert_eq!(len + 1, MAX_FRAME);
+        // One byte more than the longest frame is refused for its length before it is
+        // unstuffed; the longest is unstuffed (here: a misplaced zero).
+        let mut long = [1u8; MAX_FRAME];
+        long[1] = 0;
+        assert_eq!(unframe(&long, &mut back), Err(FrameError::TooLong));
+        assert_eq!(unframe(&long[..MAX_FRAME - 1], &mut back), Err(FrameError::Stuffing));
         assert_eq!(unstuff(&frame[..len], &mut back), Ok(MAX_BODY));
         assert_eq!(back, ones);
     }

@@ -314,6 +314,18 @@ mod tests {
     }
 
     #[test]
+    fn the_deframer_counts_the_bytes_it_holds() {
+        let mut deframer = Deframer::new();
+        assert_eq!(deframer.pending(), 0);
+        for (held, byte) in [7u8, 8, 9].into_iter().enumerate() {
+            assert_eq!(deframer.push::<u8>(byte), None);
+            assert_eq!(deframer.pending(), held + 1);
+        }
+        assert!(deframer.push::<u8>(0).is_some(), "a delimiter ends the frame");
+        assert_eq!(deframer.pending(), 0);
+    }
+
+    #[test]
     fn a_long_body_stuffs_and_unstuffs() {
         let body: [u8; MAX_BODY] = core::array::from_fn(|i| (i % 7) as u8);
         let mut frame = [0u8; MAX_FRAME];

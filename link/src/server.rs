@@ -331,3 +331,23 @@ fn part_range(part: u8) -> Option<core::ops::Range<usize>> {
     let start = usize::from(part).saturating_mul(RECORD_PART_LEN);
     Some(start..start.saturating_add(RECORD_PART_LEN))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use taut_core::machine::Machine;
+
+    /// The stream's period: as asked, raised to the shortest, and 0 to stop.
+    #[test]
+    fn the_stream_period_is_what_the_host_asked_within_the_shortest() {
+        let mut machine: Machine = Machine::new(Record::default());
+        let mut access = LinkAccess::new(&mut machine);
+        let mut server = Server::new([0; 12], [0, 1, 0]);
+        assert_eq!(server.period_ms(), 0, "not streaming until asked");
+        for (asked, period) in [(100, 100), (5, SAMPLE_PERIOD_MIN_MS), (0, 0), (20, 20)] {
+            let response = server.respond(&Request::Stream { period_ms: asked }, &mut access);
+            assert_eq!(response, Response::Accepted);
+            assert_eq!(server.period_ms(), period, "asked {asked} ms");
+        }
+    }
+}

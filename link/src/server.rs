@@ -333,14 +333,66 @@ fn part_range(part: u8) -> Option<core::ops::Range<usize>> {
 }
 
 #[cfg(test)]
+#[allow(
+    clippy::indexing_slicing,
+    clippy::panic,
+    reason = "unit tests: an index or a panic is how a test fails"
+)]
 mod tests {
     use super::*;
-    use taut_core::machine::Machine;
+    use crate::frame::{Deframer, encode};
+    use taut_core::io::LimitSwitches;
+    use taut_core::machine::{Checkpoint, FaultCode, Machine};
+    use taut_core::settings::{SetPoint, Settings, Unit};
+
+    /// A sink that keeps every frame, or refuses them all.
+    #[derive(Default)]
+    struct Line {
+        frames: std::vec::Vec<std::vec::Vec<u8>>,
+        full: bool,
+    }
+
+    extern crate std;
+
+    impl Sink for Line {
+        fn send(&mut self, frame: &[u8]) -> bool {
+            if self.full {
+                return false;
+            }
+            self.frames.push(frame.to_vec());
+            true
+        }
+    }
+
+    impl Line {
+        /// Every message sent, decoded.
+        fn messages(&self) -> std::vec::Vec<Message> {
+            let mut deframer = Deframer::new();
+            let mut out = std::vec::Vec::new();
+            for byte in self.frames.iter().flatten() {
+                if let Some(Ok(message)) = deframer.push::<Message>(*byte) {
+                    out.push(message);
+                }
+            }
+            out
+        }
+    }
+
+    fn ready() -> Machine {
+        Machine::resume(Record::default(), &Checkpoint::at(MachineState::Ready))
+    }
+
+    fn settings_30kg() -> Settings {
+        match SetPoint::new(Unit::Kilograms, 300).and_then(|p| Settings::new(p, 7, 10, 5)) {
+            Ok(settings) => settings,
+            Err(error) => panic!("valid settings: {error:?}"),
+        }
+    }
 
     /// The stream's period: as asked, raised to the shortest, and 0 to stop.
     #[test]
     fn the_stream_period_is_what_the_host_asked_within_the_shortest() {
-        let mut machine: Machine = Machine::new(Record::default());
+        let mut machine = ready();
         let mut access = LinkAccess::new(&mut machine);
         let mut server = Server::new([0; 12], [0, 1, 0]);
         assert_eq!(server.period_ms(), 0, "not streaming until asked");
@@ -349,5 +401,191 @@ mod tests {
             assert_eq!(response, Response::Accepted);
             assert_eq!(server.period_ms(), period, "asked {asked} ms");
         }
+    }
+
+    /// Bytes in: a framed request is answered to its number, garbage is refused as a bad
+    /// frame.
+    #[test]
+    fn received_frames_are_answered_and_garbage_refused() {
+        let mut machine = ready();
+        let mut server = Server::new([7; 12], [1, 2, 3]);
+        let mut line = Line::default();
+        let mut frame = [0u8; MAX_FRAME];
+        let len = encode(&Command { seq: 9, request: Request::Hello }, &mut frame).unwrap_or(0);
+        let mut bytes = std::vec![3u8, 1, 0];
+        bytes.extend_from_slice(&frame[..len]);
+        server.receive(&bytes, &mut LinkAccess::new(&mut machine), &mut line);
+        let messages = line.messages();
+        assert_eq!(messages.len(), 2, "{messages:?}");
+        assert_eq!(messages[0].response, Response::Refused(Refusal::BadFrame));
+        assert_eq!(messages[1].reply_to, Some(9));
+        let Response::Identity(identity) = messages[1].response else {
+            panic!("{:?}", messages[1]);
+        };
+        assert_eq!((identity.board, identity.firmware), ([7; 12], [1, 2, 3]));
+    }
+
+    /// While streaming: samples at the period, a state change and a latched fault as events;
+    /// a frame the line could not take is counted and reported once there is room.
+    #[test]
+    fn observing_streams_samples_events_and_what_was_dropped() {
+        let mut machine = ready();
+        let mut server = Server::new([0; 12], [0, 1, 0]);
+        let mut line = Line::default();
+        let inputs = |now_ms| Inputs { now_ms, ..Inputs::default() };
+        let outputs = Outputs::default();
+        // Not streaming: nothing is sent.
+        server.observe(&inputs(1), &outputs, &LinkAccess::new(&mut machine), &mut line);
+        assert!(line.frames.is_empty());
+        let _ =
+            server.respond(&Request::Stream { period_ms: 20 }, &mut LinkAccess::new(&mut machine));
+        for now in 2..=42 {
+            server.observe(&inputs(now), &outputs, &LinkAccess::new(&mut machine), &mut line);
+        }
+        let times: std::vec::Vec<u32> = line
+            .messages()
+            .iter()
+            .filter_map(|m| match m.response {
+                Response::Sample(sample) => Some(sample.time_ms),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(times, [2, 22, 42], "a sample every 20 ms, the first at once");
+        // A fault: the state change and the fault with its inputs.
+        let both = LimitSwitches { home: true, end: true };
+        let latching = Inputs { now_ms: 43, limits: both, ..Inputs::default() };
+        let _ = machine.tick(&latching);
+        line.frames.clear();
+        server.observe(&latching, &outputs, &LinkAccess::new(&mut machine), &mut line);
+        let events: std::vec::Vec<Event> = line
+            .messages()
+            .iter()
+            .filter_map(|m| if let Response::Event(e) = m.response { Some(e) } else { None })
+            .collect();
+        assert!(
+            matches!(events[0], Event::State { time_ms: 43, to: WireState::Fault(_), .. }),
+            "{events:?}"
+        );
+        let Event::Fault { code, inputs: snapshot, .. } = events[1] else { panic!("{events:?}") };
+        assert_eq!(code, FaultCode::LimitsBoth.number());
+        assert!(snapshot.home_limit && snapshot.end_limit);
+        // A full line: the sample is dropped and counted, then reported.
+        line.full = true;
+        server.observe(&inputs(70), &outputs, &LinkAccess::new(&mut machine), &mut line);
+        line.full = false;
+        server.observe(&inputs(71), &outputs, &LinkAccess::new(&mut machine), &mut line);
+        let dropped = line
+            .messages()
+            .iter()
+            .any(|m| m.response == Response::Event(Event::Dropped { count: 1 }));
+        assert!(dropped, "{:?}", line.messages());
+    }
+
+    /// The fault latched now is read as such; outside a fault none is.
+    #[test]
+    fn the_latched_fault_is_read() {
+        let mut faulted: Machine = Machine::resume(
+            Record::default(),
+            &Checkpoint::at(MachineState::Fault(FaultCode::LimitsBoth)),
+        );
+        let mut server = Server::new([0; 12], [0, 1, 0]);
+        let Response::Faults(faults) =
+            server.respond(&Request::ReadFaults, &mut LinkAccess::new(&mut faulted))
+        else {
+            panic!("no faults reply")
+        };
+        assert_eq!(faults.latched, Some(FaultCode::LimitsBoth.number()));
+        let mut machine = ready();
+        let Response::Faults(faults) =
+            server.respond(&Request::ReadFaults, &mut LinkAccess::new(&mut machine))
+        else {
+            panic!("no faults reply")
+        };
+        assert_eq!(faults.latched, None);
+    }
+
+    /// The log's pages: the first always (empty or not), a page past the log refused.
+    #[test]
+    fn log_pages_past_the_log_are_refused() {
+        let mut machine = ready();
+        let mut server = Server::new([0; 12], [0, 1, 0]);
+        let mut access = LinkAccess::new(&mut machine);
+        let Response::LogPage(page) = server.respond(&Request::ReadLog { page: 0 }, &mut access)
+        else {
+            panic!("page 0 of an empty log")
+        };
+        assert_eq!((page.page, page.total), (0, 0));
+        assert!(page.entries.iter().all(Option::is_none));
+        assert_eq!(
+            server.respond(&Request::ReadLog { page: 1 }, &mut access),
+            Response::Refused(Refusal::OutOfRange)
+        );
+    }
+
+    /// Settings written in Ready are the machine's, with the preferences.
+    #[test]
+    fn settings_written_in_ready_are_taken_with_the_preferences() {
+        let mut machine = ready();
+        let mut server = Server::new([0; 12], [0, 1, 0]);
+        let preferences = crate::message::WirePreferences { beeper: false, constant_pull: true };
+        let request = Request::WriteSettings { settings: settings_30kg().into(), preferences };
+        assert_eq!(
+            server.respond(&request, &mut LinkAccess::new(&mut machine)),
+            Response::Accepted
+        );
+        assert_eq!(machine.record().settings, settings_30kg());
+        assert!(machine.record().preferences.constant_pull);
+        assert!(!machine.record().preferences.beeper);
+    }
+
+    /// A record is restored only once every part is staged since the last commit; each part
+    /// is the stored record's own bytes, and a part past the record is refused.
+    #[test]
+    fn a_record_is_committed_only_whole() {
+        let mut source = Record { settings: settings_30kg(), ..Record::default() };
+        source.counters.pulls = 5;
+        let mut from: Machine = Machine::resume(source, &Checkpoint::at(MachineState::Ready));
+        let mut server = Server::new([0; 12], [0, 1, 0]);
+        let mut parts = std::vec::Vec::new();
+        for part in 0..RECORD_PARTS {
+            let Response::RecordPart { bytes, .. } =
+                server.respond(&Request::ReadRecord { part }, &mut LinkAccess::new(&mut from))
+            else {
+                panic!("part {part}")
+            };
+            parts.push(bytes);
+        }
+        assert_eq!(
+            server.respond(
+                &Request::ReadRecord { part: RECORD_PARTS },
+                &mut LinkAccess::new(&mut from)
+            ),
+            Response::Refused(Refusal::OutOfRange)
+        );
+        let encoded: std::vec::Vec<u8> = parts.iter().flatten().copied().collect();
+        assert_eq!(encoded[..], source.encode()[..]);
+        let mut to = ready();
+        let mut access = LinkAccess::new(&mut to);
+        // Every part but the last: refused, and the staging starts afresh.
+        for (part, bytes) in (0..).zip(&parts).take(parts.len() - 1) {
+            let stage = Request::StageRecord { part, bytes: *bytes };
+            assert_eq!(server.respond(&stage, &mut access), Response::Accepted);
+        }
+        assert_eq!(
+            server.respond(&Request::CommitRecord, &mut access),
+            Response::Refused(Refusal::InvalidRecord)
+        );
+        for (part, bytes) in (0..).zip(&parts) {
+            let stage = Request::StageRecord { part, bytes: *bytes };
+            assert_eq!(server.respond(&stage, &mut access), Response::Accepted);
+        }
+        assert_eq!(server.respond(&Request::CommitRecord, &mut access), Response::Accepted);
+        assert_eq!(to.record().settings, settings_30kg());
+        assert_eq!(to.record().counters.pulls, 0, "the machine's own counters");
+        let stage = Request::StageRecord { part: RECORD_PARTS, bytes: parts[0] };
+        assert_eq!(
+            server.respond(&stage, &mut LinkAccess::new(&mut to)),
+            Response::Refused(Refusal::OutOfRange)
+        );
     }
 }

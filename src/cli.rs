@@ -10,6 +10,7 @@
 use std::ops::RangeInclusive;
 use std::path::PathBuf;
 
+use clap::builder::PossibleValue;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use taut_core::machine::string::{CREEP_SETTLE_MS, CREEP_WINDOW_MS};
 use taut_core::settings::{SetPoint, Unit};
@@ -211,34 +212,46 @@ fn seed(text: &str) -> Result<u64, String> {
 
 // ───────────────────────────── value enums ─────────────────────────────
 
-/// A string kind on the command line.
-#[derive(Clone, Copy, PartialEq, Eq, Debug, ValueEnum)]
-pub enum StringArg {
-    /// Soft badminton string (1.7 kgf/cm).
-    BadmintonSoft,
-    /// Hard badminton string (2.5 kgf/cm).
-    BadmintonHard,
-    /// Natural gut (5.4 kgf/cm).
-    TennisGut,
-    /// Synthetic gut (7.6 kgf/cm).
-    TennisSynthetic,
-    /// Polyester (12.5 kgf/cm).
-    #[value(alias = "tennis-polyester")]
-    TennisPoly,
-    /// No string in the gripper.
-    None,
+/// A string kind on the command line: [`StringKind`] itself, every kind under its
+/// [`StringKind::name`], with its [`StringKind::summary`] and its stiffness (`E·A/L`) as the
+/// help; `tennis-polyester` is an alias of `tennis-poly`.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct StringArg(pub StringKind);
+
+/// Every [`StringArg`], in [`StringKind::ALL`]'s order.
+const STRING_ARGS: [StringArg; StringKind::ALL.len()] = {
+    let mut args = [StringArg(StringKind::NoString); StringKind::ALL.len()];
+    let mut i = 0;
+    while i < args.len() {
+        args[i] = StringArg(StringKind::ALL[i]);
+        i += 1;
+    }
+    args
+};
+
+impl ValueEnum for StringArg {
+    fn value_variants<'a>() -> &'a [Self] {
+        &STRING_ARGS
+    }
+
+    fn to_possible_value(&self) -> Option<PossibleValue> {
+        let kind = self.0;
+        let help = match kind.spec() {
+            Some(spec) => format!("{} ({:.1} kgf/cm)", kind.summary(), spec.stiffness_kgf_per_cm()),
+            None => kind.summary().to_owned(),
+        };
+        let value = PossibleValue::new(kind.name()).help(help);
+        Some(if kind == StringKind::TennisPolyester {
+            value.alias("tennis-polyester")
+        } else {
+            value
+        })
+    }
 }
 
 impl From<StringArg> for StringKind {
     fn from(value: StringArg) -> Self {
-        match value {
-            StringArg::BadmintonSoft => Self::BadmintonSoft,
-            StringArg::BadmintonHard => Self::BadmintonHard,
-            StringArg::TennisGut => Self::TennisGut,
-            StringArg::TennisSynthetic => Self::TennisSynthetic,
-            StringArg::TennisPoly => Self::TennisPolyester,
-            StringArg::None => Self::NoString,
-        }
+        value.0
     }
 }
 
@@ -678,6 +691,30 @@ mod tests {
             assert_eq!(typed.as_deref(), Some(board.name()));
             assert_eq!(SensingArg::from_str(board.name(), false), Ok(*board));
         }
+    }
+
+    #[test]
+    fn every_string_kind_is_taken_under_its_name() {
+        assert_eq!(StringArg::value_variants().len(), StringKind::ALL.len());
+        for kind in StringKind::ALL {
+            let arg = StringArg::from_str(kind.name(), false).map(StringKind::from);
+            assert_eq!(arg, Ok(kind), "{kind}");
+            let named = StringArg(kind).to_possible_value().map(|v| v.get_name().to_owned());
+            assert_eq!(named.as_deref(), Some(kind.name()));
+            assert_eq!(kind.name().parse::<StringKind>(), Ok(kind));
+            for command in [&["taut"][..], &["taut", "panel"], &["taut", "pull"]] {
+                let line = [command, &["--string", kind.name()]].concat();
+                let parsed = Cli::try_parse_from(&line).map(|cli| match cli.command {
+                    None => Some(cli.job.string),
+                    Some(Command::Panel(args)) => Some(args.string),
+                    Some(Command::Pull(args)) => args.string,
+                    Some(_) => None,
+                });
+                assert_eq!(parsed.ok().flatten().map(StringKind::from), Some(kind), "{line:?}");
+            }
+        }
+        let long = StringArg::from_str("tennis-polyester", false).map(StringKind::from);
+        assert_eq!(long, Ok(StringKind::TennisPolyester));
     }
 
     #[test]

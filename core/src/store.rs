@@ -11,8 +11,8 @@
 //! the firmware writes [`Record::encode`]'s bytes to flash when convenient. At boot the
 //! firmware reads the bytes back and hands [`Record::decode`]'s result to the machine; a
 //! record that is missing, corrupt or from an unknown format version is a typed
-//! [`StoreError`], never a panic — the machine then runs on [`Record::default`] and shows the
-//! error's code once.
+//! [`StoreError`], never a panic — the machine then runs on [`Record::default`] (with the
+//! counters of a newer format's record, see below) and shows the error's code once.
 //!
 //! Every settings field is validated when decoded, through the same constructors the panel
 //! uses ([`crate::settings`]), so a record that passes [`Record::decode`] satisfies every
@@ -30,24 +30,21 @@
 //! | 3 | 1 | the record's length in bytes (224; versions 1–3: reserved, 0, and 128 bytes) |
 //! | 4 | 6 | current settings (see below) |
 //! | 10 | 54 | presets 1–9, 6 bytes each |
-//! | 64 | 1 | calibration: number of points (0: none; else [`CALIBRATION_POINTS`]) |
-//! | 65 | 8 × points | calibration: (raw reading, reference reading) per point, each Q15.16 kgf bits (`i32`) |
-//! | *c* = 65 + 8 × points | 4 | counter: pulls (`u32`) |
-//! | *c* + 4 | 4 | counter: string used, millimetres (`u32`) |
-//! | *c* + 8 | 4 | counter: boots (`u32`) |
-//! | *c* + 12 | 1 | preferences: bit 0 beeper off, bit 1 constant pull off; other bits 0 |
-//! | *c* + 13 | 1 | the load cell's zero at calibration: 1 stored, 0 not |
-//! | *c* + 14 | 4 | that zero, volts, Q15.16 bits (`i32`; 0 when not stored) |
-//! | *c* + 18 | 4 | the pull counter when the calibration was accepted (`u32`; 0 when not stored): the calibration's age in pulls |
-//! | *c* + 22 | 3 × 22 | fault history, the latest first ([`crate::machine::snapshot`]; an empty slot all 0) |
-//! | *c* + 88 | 2 | the drivetrain's motor test at commissioning, ms (`u16`; 0: none yet; [`crate::machine::wear`]) |
-//! | *c* + 90 | 2 | the motor test's trend since, ms (`u16`) |
-//! | *c* + 92 | to 220 | reserved, 0 |
+//! | 64 | 1 | calibration: number of points (0: none; else 4) |
+//! | 65 | 8 × 4 | calibration: (raw reading, reference reading) per point, each Q15.16 kgf bits (`i32`) |
+//! | 97 | 4 | counter: pulls (`u32`) |
+//! | 101 | 4 | counter: string used, millimetres (`u32`) |
+//! | 105 | 4 | counter: boots (`u32`) |
+//! | 109 | 1 | preferences: bit 0 beeper off, bit 1 constant pull off; other bits 0 |
+//! | 110 | 1 | the load cell's zero at calibration: 1 stored, 0 not |
+//! | 111 | 4 | that zero, volts, Q15.16 bits (`i32`; 0 when not stored) |
+//! | 115 | 4 | the pull counter when the calibration was accepted (`u32`; 0 when not stored): the calibration's age in pulls |
+//! | 119 | 3 × 22 | fault history, the latest first ([`crate::machine::snapshot`]; an empty slot all 0) |
+//! | 185 | 2 | the drivetrain's motor test at commissioning, ms (`u16`; 0: none yet; [`crate::machine::wear`]) |
+//! | 187 | 2 | the motor test's trend since, ms (`u16`) |
+//! | 189 | to 220 | reserved, 0 |
 //! | 220 | 4 | CRC-32/ISCSI of bytes 0..220 |
 //!
-//! With four points *c* = 97 and 31 bytes are reserved. Today's layout is computed from
-//! [`CALIBRATION_POINTS`] (another point count is one constant: the fields after the points
-//! move with it), and a `const` assertion keeps it inside the record; up to seven points fit.
 //! A settings block is: set point in tenths of its unit (`u16`), unit (0 kg, 1 lb), speed
 //! (1–9), pre-stretch percent (0–30), knot percent (0–20).
 //!
@@ -56,31 +53,40 @@
 //!
 //! # Format versions and the bump rule
 //!
-//! The layouts of the versions already in the field are frozen as literals (`Layout::V1`,
-//! `Layout::V2`, `Layout::V3`: four points, counters at 97, 128 bytes, CRC at 124), so a change
-//! of [`CALIBRATION_POINTS`] cannot move a field of a record already written. A format change
+//! A past format never changes: every version's layout is written here as literals
+//! (`Layout::V1` … `Layout::V4`; versions 1–3: four points, counters at 97, 128 bytes, CRC at
+//! 124), never computed from a constant that a later build could change. A format change
 //! follows one rule:
 //!
-//! 1. A new field is **appended** after the last field of the previous format (in its
-//!    reserved bytes, or by lengthening the record, up to [`MAX_RECORD_LEN`]); the version
-//!    byte goes up by one and byte 3 says the new length. No field of an earlier format ever
-//!    moves or changes its meaning — a change that needs that is a new magic, not a version.
-//! 2. The previous format's layout is frozen as a literal here, with its migration and a test
-//!    that decodes a record written in it.
+//! 1. **Any change to today's layout is a new version.** The version byte goes up by one,
+//!    today's layout stays here as the literal it is, and [`Record::decode`] gets a migration
+//!    from it with a test that decodes a record written in it. This includes a calibration of
+//!    another point count ([`CALIBRATION_POINTS`]): a `const` assertion refuses to build one
+//!    until its format is written.
+//! 2. **The new version appends.** Its new fields go after the last field of the previous
+//!    format (in its reserved bytes, or by lengthening the record, up to [`MAX_RECORD_LEN`]),
+//!    and byte 3 says the new length. No field of an earlier format ever moves or changes its
+//!    meaning — in particular the counters stay at 97 (pulls), 101 (string used) and 105
+//!    (boots), where every format has had them (boots since version 2); more calibration
+//!    points keep the first four where they are and put the others after today's fields. A
+//!    change that cannot append is a new magic, not a version.
 //!
-//! Because of (1), a record from a **newer** format (version above [`FORMAT_VERSION`], with
+//! Because of (2), a record from a **newer** format (version above [`FORMAT_VERSION`], with
 //! byte 3 a length from [`RECORD_LEN`] to [`MAX_RECORD_LEN`] and its CRC at that length
 //! less 4) is read as far as this code knows it: settings, presets, calibration, counters and
 //! fault history are kept, and the unknown tail is ignored (the machine then writes the record
-//! back in its own format). A newer record's counters are therefore never lost to a firmware
-//! that is older than the record.
+//! back in its own format). When a field this code knows holds a value it does not accept (a
+//! fault number, a setting or a preference bit that only the newer firmware has), the record
+//! is refused with [`StoreError::NewerFormat`], which carries the record's counters: the
+//! machine starts from the defaults with the store notice, and the counters kept. A newer
+//! record's counters are therefore never lost to a firmware that is older than the record.
 //!
 //! # Migration
 //!
 //! Format version 1 had no boot counter and a calibration flag (0/1) where later versions have
 //! the point count; version 2 had no preferences byte (it was reserved, so zero: the default
 //! preferences); version 3 had neither the zero at calibration nor the fault history and was
-//! 128 bytes long. Their other fields lie where version 4 has them (with four points).
+//! 128 bytes long. Their other fields lie where version 4 has them.
 //! [`Record::decode`] reads a version 1–3 record into today's [`Record`] (boots 0 for version
 //! 1, the default preferences for 1 and 2, no zero at calibration and an empty fault history
 //! for all three) instead of refusing it, and [`Record::decode_version`] says which format the
@@ -145,6 +151,9 @@ const SETTINGS_LEN: usize = 6;
 const OFFSET_SETTINGS: usize = 4;
 const OFFSET_PRESETS: usize = OFFSET_SETTINGS + SETTINGS_LEN;
 const OFFSET_CALIBRATION: usize = OFFSET_PRESETS + SETTINGS_LEN * PRESET_COUNT;
+/// Where the counters start in every format: pulls, string used, then (from version 2)
+/// boots. A format never moves them (the bump rule).
+const OFFSET_COUNTERS: usize = 97;
 const OFFSET_CRC: usize = RECORD_LEN - 4;
 const LEGACY_CRC: usize = LEGACY_LEN - 4;
 
@@ -168,7 +177,8 @@ struct Layout {
 }
 
 impl Layout {
-    /// Version 1, frozen: four points, no boot counter, 128 bytes.
+    /// Version 1, frozen (a past format never changes): four points, no boot counter, 128
+    /// bytes.
     const V1: Self = Self {
         len: 128,
         points: 4,
@@ -182,10 +192,23 @@ impl Layout {
     const V2: Self = Self { boots: true, reserved: 109, ..Self::V1 };
     /// Version 3, frozen: the preferences byte.
     const V3: Self = Self { preferences: true, reserved: 110, ..Self::V2 };
-    /// Today's version, derived from [`CALIBRATION_POINTS`].
-    const CURRENT: Self = Self::derived(CALIBRATION_POINTS);
+    /// Version 4, frozen: the zero at calibration, the fault history and the drivetrain's
+    /// trend after the preferences, 224 bytes.
+    const V4: Self = Self {
+        len: 224,
+        points: 4,
+        counters: 97,
+        boots: true,
+        preferences: true,
+        history: true,
+        reserved: 189,
+    };
+    /// Today's format: version 4.
+    const CURRENT: Self = Self::V4;
 
-    /// Today's layout for a calibration of `points` points.
+    /// Today's fields around a calibration of `points` points, in a record of today's length:
+    /// how much room another point count would take (its format would place the points after
+    /// four differently, see the bump rule, but in the same number of bytes).
     const fn derived(points: usize) -> Self {
         let counters =
             OFFSET_CALIBRATION.saturating_add(1).saturating_add(points.saturating_mul(8));
@@ -222,6 +245,23 @@ impl Layout {
     }
 }
 
+// Another point count is another record format (the bump rule in the module docs): today's
+// layout, version 4, holds four points.
+const _: () = assert!(
+    CALIBRATION_POINTS == Layout::CURRENT.points,
+    "another calibration point count is a new record format: see store.rs's bump rule"
+);
+
+// The counters sit where every format has had them, so a newer record never loses them.
+const _: () = assert!(
+    Layout::V1.counters == OFFSET_COUNTERS
+        && Layout::V2.counters == OFFSET_COUNTERS
+        && Layout::V3.counters == OFFSET_COUNTERS
+        && Layout::V4.counters == OFFSET_COUNTERS
+        && Layout::CURRENT.len == RECORD_LEN,
+    "a field of a past format moved"
+);
+
 const _: () = assert!(
     Layout::CURRENT.fits()
         && Layout::V3.fits()
@@ -232,8 +272,9 @@ const _: () = assert!(
     "layout overflows"
 );
 
-/// Whether today's layout would hold a calibration of `points` points (the record's side of
-/// "another point count is one constant": up to seven fit, eight would not).
+/// Whether a record of today's length has room for today's fields beside a calibration of
+/// `points` points (up to seven fit, eight would not). Another count is still another
+/// format: see the bump rule in the module docs.
 #[must_use]
 pub const fn layout_fits(points: usize) -> bool {
     Layout::derived(points).fits()
@@ -313,6 +354,23 @@ pub enum StoreError {
     InvalidZero,
     /// A fault snapshot's field is out of its range.
     InvalidSnapshot,
+    /// A record of a newer format, intact (its CRC matches), whose fields this code knows
+    /// hold a value it does not accept — one only the newer format has (a fault number, a
+    /// setting's range, a preference bit). It carries the record's counters, which every
+    /// format keeps in the same place, for the machine to keep.
+    NewerFormat(Counters),
+}
+
+impl StoreError {
+    /// The counters the refused record still gives the machine ([`StoreError::NewerFormat`]'s;
+    /// `None` for every other error: nothing in the bytes can be trusted).
+    #[must_use]
+    pub const fn kept_counters(self) -> Option<Counters> {
+        match self {
+            Self::NewerFormat(counters) => Some(counters),
+            _ => None,
+        }
+    }
 }
 
 /// Everything the machine persists.
@@ -481,7 +539,15 @@ impl Record {
                     return Err(StoreError::UnknownVersion);
                 }
                 let layout = Layout { len, ..Layout::CURRENT };
-                Self::decode_layout(bytes, layout, FORMAT_VERSION, true, false)?
+                match Self::decode_layout(bytes, layout, FORMAT_VERSION, true, false) {
+                    Ok(record) => record,
+                    // Not all of it, or not intact: nothing can be trusted.
+                    Err(error @ (StoreError::TooShort | StoreError::CrcMismatch)) => {
+                        return Err(error);
+                    }
+                    // Intact, with a value only the newer format knows: its counters stand.
+                    Err(_) => return Err(StoreError::NewerFormat(read_counters(bytes))),
+                }
             }
             _ => return Err(StoreError::UnknownVersion),
         };
@@ -580,6 +646,12 @@ impl Record {
         let [latest, older, _] = self.faults;
         self.faults = [Some(snapshot), latest, older];
     }
+}
+
+/// The counters of a record of format 2 or later, at [`OFFSET_COUNTERS`].
+fn read_counters(bytes: &[u8]) -> Counters {
+    let mut r = Reader { bytes, at: OFFSET_COUNTERS };
+    Counters { pulls: r.u32(), string_used_mm: r.u32(), boots: r.u32() }
 }
 
 /// Whether `body[start..end]` is all zero (an empty or out-of-range span is).
@@ -934,17 +1006,25 @@ mod tests {
         assert!(layout_fits(7) && !layout_fits(8), "seven fit; eight need a longer record");
     }
 
-    /// The frozen layouts of versions 1–3 are what the derivation gave for their four points,
-    /// and today's is derived from the point count.
+    /// The frozen layouts of versions 1–4 are what the derivation gives for their four
+    /// points, and today's is version 4's.
     #[test]
     fn the_frozen_layouts_are_the_derivation_at_four_points() {
         assert_eq!(Layout::V1, Layout::derived_legacy(4, false, false));
         assert_eq!(Layout::V2, Layout::derived_legacy(4, true, false));
         assert_eq!(Layout::V3, Layout::derived_legacy(4, true, true));
         assert_eq!((Layout::V3.counters, Layout::V3.reserved, Layout::V3.len), (97, 110, 128));
-        let five = Layout::derived(5);
-        assert_eq!(five.counters, Layout::derived(4).counters + 8, "the fields move with it");
-        assert_eq!(Layout::derived(4).reserved, 97 + 92);
+        assert_eq!(Layout::V4, Layout::derived(4));
+        assert_eq!((Layout::V4.counters, Layout::V4.reserved, Layout::V4.len), (97, 189, 224));
+        assert_eq!(Layout::CURRENT, Layout::V4);
+        // Today's bytes are where the module's table says.
+        let bytes = sample().encode();
+        let at = |offset: usize| u32::from_le_bytes(bytes[offset..offset + 4].try_into().unwrap());
+        assert_eq!((at(97), at(101), at(105)), (1300, 987_654, 42));
+        assert_eq!(
+            u16::from_le_bytes([bytes[185], bytes[186]]),
+            sample().drivetrain.commissioned_ms
+        );
     }
 
     /// REQ-STORE-06: a version-3 record (128 bytes) is migrated: everything it held is kept,
@@ -988,15 +1068,53 @@ mod tests {
         let mut corrupt = newer;
         corrupt[MAX_RECORD_LEN - 10] ^= 1;
         assert_eq!(Record::decode(&corrupt), Err(StoreError::CrcMismatch));
-        // Its known fields are still validated.
+        // Its known fields are still validated: one this code does not accept leaves only the
+        // counters (see the next test).
         let mut bad = newer;
         bad[OFFSET_SETTINGS + 3] = 10;
-        assert_eq!(Record::decode(&resealed_at(bad)), Err(StoreError::InvalidSettings));
+        let counters = Err(StoreError::NewerFormat(record.counters));
+        assert_eq!(Record::decode(&resealed_at(bad)), counters);
         // A length of exactly today's is accepted too (a version that only changed meaning
         // of reserved bits would be a new magic, not a version).
         let mut same = record.encode();
         same[2] = FORMAT_VERSION + 3;
         assert_eq!(Record::decode_version(&resealed(same)), Ok((record, FORMAT_VERSION + 3)));
+    }
+
+    /// REQ-STORE-06: a newer record that is intact but holds a value this code does not
+    /// accept in a field it knows (a fault number added later, a wider setting, a new
+    /// preference bit) is refused with its counters, which the machine keeps.
+    #[test]
+    fn a_newer_record_this_code_cannot_read_still_gives_its_counters() {
+        let record = sample();
+        let mut newer = [0u8; MAX_RECORD_LEN];
+        newer[..OFFSET_CRC].copy_from_slice(&record.encode()[..OFFSET_CRC]);
+        newer[2] = FORMAT_VERSION + 1;
+        newer[3] = u8::try_from(MAX_RECORD_LEN).unwrap_or(0);
+        let first_snapshot = Layout::CURRENT.counters + 22;
+        let kept = Err(StoreError::NewerFormat(record.counters));
+        for (at, value) in [
+            (first_snapshot, 99),      // a fault number this build does not know
+            (OFFSET_SETTINGS + 3, 12), // speed 12
+            (Layout::CURRENT.counters + 12, 0b100), // a third preference bit
+            (OFFSET_CALIBRATION, 5),   // five points
+        ] {
+            let mut bytes = newer;
+            bytes[at] = value;
+            let decoded = Record::decode(&resealed_at(bytes));
+            assert_eq!(decoded, kept, "byte {at} = {value}");
+            assert_eq!(decoded.err().and_then(StoreError::kept_counters), Some(record.counters));
+        }
+        // Not intact: nothing is kept.
+        let mut corrupt = newer;
+        corrupt[first_snapshot] = 99;
+        assert_eq!(Record::decode(&corrupt), Err(StoreError::CrcMismatch));
+        // Today's format with the same value is corrupt, not newer: nothing is kept.
+        let mut today = record.encode();
+        today[first_snapshot] = 99;
+        let refused = Record::decode(&resealed(today));
+        assert_eq!(refused, Err(StoreError::InvalidSnapshot));
+        assert_eq!(refused.err().and_then(StoreError::kept_counters), None);
     }
 
     /// REQ-STORE-06: the zero at calibration and the fault history round-trip; bad bytes in

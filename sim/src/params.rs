@@ -127,6 +127,19 @@ impl StringKind {
         }
     }
 
+    /// What the kind is, in a few words (`Natural gut`), as the command line's help lists it.
+    #[must_use]
+    pub const fn summary(self) -> &'static str {
+        match self {
+            Self::BadmintonSoft => "Soft badminton string",
+            Self::BadmintonHard => "Hard badminton string",
+            Self::TennisGut => "Natural gut",
+            Self::TennisSynthetic => "Synthetic gut",
+            Self::TennisPolyester => "Polyester",
+            Self::NoString => "No string in the gripper",
+        }
+    }
+
     /// The kind's physical description, or `None` for [`StringKind::NoString`].
     ///
     /// Relaxation arms are assumptions of the order of published tension-loss tests: a

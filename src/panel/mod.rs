@@ -35,7 +35,9 @@ pub mod script;
 pub mod terminal;
 
 use taut_core::io::{Key, Keys, Outputs};
+use taut_core::machine::snapshot::FAULT_HISTORY;
 use taut_core::machine::{MachineState, View};
+use taut_core::sense::calibration::CALIBRATION_POINTS;
 use taut_core::settings::Unit;
 use taut_core::store::{RECORD_LEN, Record};
 use taut_sim::bench::{
@@ -372,7 +374,9 @@ pub fn information_text(view: View) -> Option<String> {
             "the last pull's string: StiF kgf/mm, CrEP %/min of the tension (Up/Down; Function: service)"
         }
         View::Service(_) => {
-            "service (Up/Down: Cd load-cell code, tArE zero V, CAL1-4 raw kgf, bUS V, Err1-3 faults, drFt zero drift kgf; Start: self-test again; Function: the tension)"
+            return Some(format!(
+                "service (Up/Down: Cd load-cell code, tArE zero V, CAL1-{CALIBRATION_POINTS} raw kgf, bUS V, Err1-{FAULT_HISTORY} faults, drFt zero drift kgf; Start: self-test again; Function: the tension)"
+            ));
         }
         _ => return None,
     };

@@ -51,8 +51,8 @@ mod checkpoint;
 mod pages;
 mod storage;
 
+use calibrating::{calibration_label, entry_average};
 pub use calibrating::{calibration_settings, point_of_reading};
-use calibrating::{entry_average, point_label};
 pub(crate) use checkpoint::{power_up, public_state, state_at};
 pub use pages::{COUNTER_ITEMS, LABEL_MS, LOG_FIELDS, SERVICE_ITEMS, StringingTimer, View};
 pub use storage::Chart;
@@ -495,7 +495,7 @@ impl Chart {
     ) -> Outcome<State> {
         let Tick(sample) = event;
         *elapsed = elapsed.saturating_add(1);
-        context.out.display = panel::text(&point_label(*point));
+        context.out.display = panel::text(&calibration_label(usize::from(*point)));
         let output = self.controller.step(&Self::measurement(sample, sample.raw));
         context.out.drive = output.command;
         context.expect_motion = taking_up(sample.raw, self.peak_target);

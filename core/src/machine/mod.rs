@@ -322,7 +322,8 @@ impl Machine {
     }
 
     /// A machine at power-up with whatever the store yielded: a record that failed to load
-    /// is replaced by defaults and its notice (`n-01`) is shown once Ready.
+    /// is replaced by defaults and its notice (`n-01`) is shown once Ready; the counters of
+    /// a newer format's record it could not read are kept ([`StoreError::kept_counters`]).
     #[must_use]
     pub fn from_stored(stored: Result<Record, StoreError>) -> Self {
         Self::with_stored(stored)
@@ -345,7 +346,8 @@ impl<const LOG: usize> Machine<LOG> {
         match stored {
             Ok(record) => Self::with_record(record),
             Err(error) => {
-                let mut chart = Chart::new(Record::default());
+                let counters = error.kept_counters().unwrap_or_default();
+                let mut chart = Chart::new(Record { counters, ..Record::default() });
                 chart.count_boot();
                 chart.notice = Some(Notice::from_store(error));
                 Self::build(chart, chart::power_up(), Sample::default(), KeyPad::new())
@@ -654,6 +656,24 @@ mod tests {
         }
         assert_eq!(MachineState::CalibrationEntry { point: 5 }.kind(), 5);
         assert_eq!(MachineState::Fault(FaultCode::Overload).kind(), 10);
+    }
+
+    /// A newer format's record this build cannot read leaves its counters to the machine,
+    /// which starts from the defaults and shows the store notice; any other store error
+    /// leaves nothing.
+    #[test]
+    fn a_newer_records_counters_survive_the_store_notice() {
+        let counters =
+            crate::store::Counters { pulls: 5_000, string_used_mm: 3_210_000, boots: 77 };
+        let machine: Machine = Machine::with_stored(Err(StoreError::NewerFormat(counters)));
+        let record = machine.record();
+        assert_eq!(record.counters, crate::store::Counters { boots: 78, ..counters });
+        assert_eq!((record.settings, record.calibration), (Record::default().settings, None));
+        assert_eq!(machine.notice(), Some(Notice::StoreInvalid));
+        let machine: Machine = Machine::with_stored(Err(StoreError::CrcMismatch));
+        assert_eq!(machine.record().counters.pulls, 0);
+        assert_eq!(machine.record().counters.boots, 1);
+        assert_eq!(machine.notice(), Some(Notice::StoreInvalid));
     }
 
     /// Feeds `ticks` ticks reading `code`; returns the last outputs.

@@ -262,6 +262,14 @@ pub const fn text(characters: &[u8; 4]) -> Display {
     [glyph(characters[0]), glyph(characters[1]), glyph(characters[2]), glyph(characters[3])]
 }
 
+/// The ASCII digit of `number % 10`: the digit of a label numbered on the panel (`CAL1`,
+/// `C2-1`, `Err3`), whose count is kept to nine where it is defined.
+#[must_use]
+#[allow(clippy::cast_possible_truncation, reason = "a remainder of 10 fits any integer type")]
+pub const fn last_digit(number: usize) -> u8 {
+    digit((number % 10) as u32)
+}
+
 /// The ASCII digit of `value % 10`.
 const fn digit(value: u32) -> u8 {
     match value.checked_rem(10) {

@@ -13,10 +13,10 @@
 
 use super::{AfterRelease, CALIBRATION_SPEED, Chart, Context, ENTRY_MAX, State};
 use crate::machine::fault::Notice;
-use crate::machine::panel::Beep;
+use crate::machine::panel::{self, Beep};
 use crate::sense::calibration::{
-    CALIBRATION_POINTS, CALIBRATION_READINGS, CALIBRATION_TARGETS, Calibration, CalibrationError,
-    CalibrationPoint, merge_passes,
+    CALIBRATION_PASSES, CALIBRATION_POINTS, CALIBRATION_READINGS, CALIBRATION_TARGETS, Calibration,
+    CalibrationError, CalibrationPoint, merge_passes,
 };
 use crate::settings::{KnotBoost, PreStretch, PullSettings, Speed};
 use crate::units::Kgf;
@@ -37,16 +37,30 @@ pub fn calibration_settings(reading: u8) -> PullSettings {
     PullSettings::new(target, speed, PreStretch::NONE, KnotBoost::NONE).unwrap_or_default()
 }
 
-/// The label of calibration reading `reading`: `CAL1`…`CAL4` in the first pass, `C2-1`…
-/// `C2-4` in the second.
-pub(super) fn point_label(reading: u8) -> [u8; 4] {
-    let digit = b'1'.saturating_add(u8::try_from(point_of_reading(reading)).unwrap_or(0));
-    if usize::from(reading) < CALIBRATION_POINTS {
-        [b'C', b'A', b'L', digit]
+/// The label of calibration reading `reading` (0 to [`CALIBRATION_READINGS`] − 1), one digit
+/// for the point and, after the first pass, one for the pass: `CAL1`…`CAL4` in the first pass,
+/// `C2-1`…`C2-4` in the second. The service page labels each point's raw reading with its
+/// first-pass label, so the two follow [`CALIBRATION_POINTS`] together.
+#[must_use]
+pub const fn calibration_label(reading: usize) -> [u8; 4] {
+    let (pass, point) =
+        match (reading.checked_div(CALIBRATION_POINTS), reading.checked_rem(CALIBRATION_POINTS)) {
+            (Some(pass), Some(point)) => (pass, point),
+            _ => (0, 0),
+        };
+    let point_digit = panel::last_digit(point.saturating_add(1));
+    if pass == 0 {
+        [b'C', b'A', b'L', point_digit]
     } else {
-        [b'C', b'2', b'-', digit]
+        [b'C', panel::last_digit(pass.saturating_add(1)), b'-', point_digit]
     }
 }
+
+// One digit each for the pass and the point is what the four-digit display has room for.
+const _: () = assert!(
+    CALIBRATION_POINTS <= 9 && CALIBRATION_PASSES <= 9,
+    "a calibration label has one digit for the point and one for the pass"
+);
 
 /// The mean of `ticks` readings summing to `sum` (kgf bits), if any were taken.
 pub(super) fn entry_average(sum: i64, ticks: u32) -> Option<Kgf> {
@@ -162,12 +176,28 @@ mod tests {
             assert_eq!(Some(settings.tension()), target, "reading {reading}");
             assert_eq!(Some(settings.peak_target(PullKind::Main)), target);
         }
-        let labels: [[u8; 4]; 8] =
-            core::array::from_fn(|r| point_label(u8::try_from(r).unwrap_or(0)));
-        assert_eq!(
-            labels,
-            [*b"CAL1", *b"CAL2", *b"CAL3", *b"CAL4", *b"C2-1", *b"C2-2", *b"C2-3", *b"C2-4"]
-        );
+        if (CALIBRATION_POINTS, CALIBRATION_PASSES) == (4, 2) {
+            let labels: [[u8; 4]; 8] = core::array::from_fn(calibration_label);
+            assert_eq!(
+                labels,
+                [*b"CAL1", *b"CAL2", *b"CAL3", *b"CAL4", *b"C2-1", *b"C2-2", *b"C2-3", *b"C2-4"]
+            );
+        }
+    }
+
+    /// Every reading's label is its own and shows on the four digits whole: no character
+    /// without a seven-segment form, for however many points and passes there are.
+    #[test]
+    fn calibration_labels_fit_the_display_and_name_each_reading_once() {
+        let labels: [[u8; 4]; CALIBRATION_READINGS] = core::array::from_fn(calibration_label);
+        for (reading, label) in labels.iter().enumerate() {
+            let shown = panel::text(label);
+            assert!(shown.iter().all(|&digit| digit != panel::BLANK), "{label:?}");
+            let same = labels.iter().filter(|&other| other == label).count();
+            assert_eq!(same, 1, "reading {reading}: {label:?}");
+            let point = u8::try_from(point_of_reading(u8::try_from(reading).unwrap_or(0)));
+            assert_eq!(label.last().copied(), point.ok().map(|p| b'1' + p));
+        }
     }
 
     /// Confirms calibration reading `reading` with the raw reading `raw` and the keyed

@@ -13,9 +13,12 @@
 //! here means a change to a page never touches the statechart the whole-tick proofs cover
 //! (they still run through these functions: Ready is one of their states).
 
+use super::calibrating::calibration_label;
 use super::{Chart, Context, Sample, State};
 use crate::io::Key;
 use crate::machine::panel::{self, Beep, KeyEvent};
+use crate::machine::snapshot::FAULT_HISTORY;
+use crate::sense::calibration::CALIBRATION_POINTS;
 use crate::settings::Unit;
 use crate::store::PRESET_COUNT;
 use crate::units::{Kgf, Volts};
@@ -74,15 +77,104 @@ pub const LOG_FIELDS: [&[u8; 4]; 9] =
     [b"PULL", b"SEt ", b"PEAk", b"Adj ", b"riSE", b"HOLd", b"Str ", b"StiF", b"CrEP"];
 /// The counters page's items: pulls, power-ups, string used (m).
 pub const COUNTER_ITEMS: [&[u8; 4]; 3] = [b"PULL", b"bOOt", b"Str "];
-/// The service page's items: the live load-cell code, the tare code, the four calibration
-/// points' raw readings (kgf), the bus voltage, the last three faults since power-up, the
-/// zero's drift since the self-test (kgf, the drift watch's, REQ-UI-12), the calibration's
-/// age in pulls and the drivetrain's drag trend (the motor test's time, % of its
-/// commissioning, REQ-UI-14).
-pub const SERVICE_ITEMS: [&[u8; 4]; 13] = [
-    b"Cd  ", b"tArE", b"CAL1", b"CAL2", b"CAL3", b"CAL4", b"bUS ", b"Err1", b"Err2", b"Err3",
-    b"drFt", b"CAgE", b"drAG",
-];
+/// The service page's items' labels, in the order Up walks them: the live load-cell code, the
+/// tare code, each calibration point's raw reading (kgf) under its first-pass label, the bus
+/// voltage, the last faults since power-up, the zero's drift since the self-test (kgf, the
+/// drift watch's, REQ-UI-12), the calibration's age in pulls and the drivetrain's drag trend
+/// (the motor test's time, % of its commissioning, REQ-UI-14). The points and the faults are
+/// as many as [`CALIBRATION_POINTS`] and [`FAULT_HISTORY`] say.
+pub const SERVICE_ITEMS: [[u8; 4]; SERVICE_ITEM_COUNT] = service_items();
+
+/// How many items the service page has.
+pub const SERVICE_ITEM_COUNT: usize = DRAG_ITEM + 1;
+
+/// The service page's first calibration point, after the code and the zero.
+const FIRST_POINT_ITEM: usize = 2;
+/// The service page's bus voltage, after the calibration points.
+const BUS_ITEM: usize = FIRST_POINT_ITEM + CALIBRATION_POINTS;
+/// The service page's latest fault, after the bus voltage.
+const FIRST_FAULT_ITEM: usize = BUS_ITEM + 1;
+/// The service page's zero drift, after the faults.
+const DRIFT_ITEM: usize = FIRST_FAULT_ITEM + FAULT_HISTORY;
+/// The service page's calibration age.
+const AGE_ITEM: usize = DRIFT_ITEM + 1;
+/// The service page's drag trend, the last item.
+const DRAG_ITEM: usize = AGE_ITEM + 1;
+
+// `Err1`… has one digit for the fault.
+const _: () = assert!(FAULT_HISTORY <= 9, "a fault's service label has one digit");
+
+/// One item of the service page.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum ServiceItem {
+    /// The live load-cell code (`Cd`).
+    LoadCellCode,
+    /// The tared zero, V (`tArE`).
+    Zero,
+    /// Calibration point `n`'s raw reading, kgf (`CAL1`…).
+    CalibrationPoint(usize),
+    /// The bus voltage, V (`bUS`).
+    BusVoltage,
+    /// The `n`th latest fault since power-up (`Err1`…).
+    Fault(usize),
+    /// The zero's drift since the self-test, kgf (`drFt`).
+    ZeroDrift,
+    /// Pulls since the calibration (`CAgE`).
+    CalibrationAge,
+    /// The drivetrain's drag trend, % (`drAG`).
+    Drag,
+}
+
+impl ServiceItem {
+    /// The item at `index` of the service page, if there is one.
+    const fn at(index: usize) -> Option<Self> {
+        Some(match index {
+            0 => Self::LoadCellCode,
+            1 => Self::Zero,
+            BUS_ITEM => Self::BusVoltage,
+            DRIFT_ITEM => Self::ZeroDrift,
+            AGE_ITEM => Self::CalibrationAge,
+            DRAG_ITEM => Self::Drag,
+            _ if index < BUS_ITEM => Self::CalibrationPoint(index.saturating_sub(FIRST_POINT_ITEM)),
+            _ if index < DRIFT_ITEM => Self::Fault(index.saturating_sub(FIRST_FAULT_ITEM)),
+            _ => return None,
+        })
+    }
+
+    /// The item's label.
+    const fn label(self) -> [u8; 4] {
+        match self {
+            Self::LoadCellCode => *b"Cd  ",
+            Self::Zero => *b"tArE",
+            Self::CalibrationPoint(point) => calibration_label(point),
+            Self::BusVoltage => *b"bUS ",
+            Self::Fault(latest) => [b'E', b'r', b'r', panel::last_digit(latest.saturating_add(1))],
+            Self::ZeroDrift => *b"drFt",
+            Self::CalibrationAge => *b"CAgE",
+            Self::Drag => *b"drAG",
+        }
+    }
+}
+
+/// Every service item's label, in order.
+#[allow(
+    clippy::indexing_slicing,
+    reason = "a const fn cannot call `get_mut`; `index < SERVICE_ITEM_COUNT` is the loop's own \
+              bound, and a `const` that indexed out of bounds would fail to compile rather than \
+              panic"
+)]
+const fn service_items() -> [[u8; 4]; SERVICE_ITEM_COUNT] {
+    let mut items = [*b"----"; SERVICE_ITEM_COUNT];
+    let mut index = 0;
+    while index < SERVICE_ITEM_COUNT {
+        if let Some(item) = ServiceItem::at(index) {
+            items[index] = item.label();
+        }
+        index = index.saturating_add(1);
+    }
+    items
+}
+
 /// How long an information page shows its item's label after a key, ms.
 pub const LABEL_MS: u32 = 1_000;
 
@@ -322,9 +414,7 @@ impl Chart {
     /// machine's, which keeps the log: [`crate::machine::Machine::tick`] draws them).
     pub(super) fn render(&self, view: View, sample: &Sample) -> crate::io::Display {
         let settings = self.record.settings;
-        let labelled_item = |labels: &[&[u8; 4]], item: u8, value: crate::io::Display| match labels
-            .get(usize::from(item))
-        {
+        let labelled_item = |label: Option<&[u8; 4]>, value: crate::io::Display| match label {
             Some(label) if self.idle < LABEL_MS => panel::text(label),
             _ => value,
         };
@@ -359,44 +449,54 @@ impl Chart {
                             .unwrap_or(i32::MAX),
                     ),
                 };
-                labelled_item(&COUNTER_ITEMS, item, value)
+                labelled_item(COUNTER_ITEMS.get(usize::from(item)).copied(), value)
             }
-            View::Service(item) => {
-                labelled_item(&SERVICE_ITEMS, item, self.service_value(item, sample))
-            }
+            View::Service(item) => labelled_item(
+                SERVICE_ITEMS.get(usize::from(item)),
+                self.service_value(item, sample),
+            ),
             View::Log { .. } | View::String(_) => panel::text(b"----"),
         }
     }
 
     /// The service page's value of `item` (see [`SERVICE_ITEMS`]).
     pub(super) fn service_value(&self, item: u8, sample: &Sample) -> crate::io::Display {
-        match item {
-            0 => panel::integer(u32::from(sample.inputs.load_cell.get())),
+        match ServiceItem::at(usize::from(item)) {
+            Some(ServiceItem::LoadCellCode) => {
+                panel::integer(u32::from(sample.inputs.load_cell.get()))
+            }
             // The tared zero, volts to the hundredth (`0.05`).
-            1 => panel::hundredths(self.scale.zero().to_milli().checked_div(10).unwrap_or(0)),
-            2..=5 => {
-                let point = usize::from(item.saturating_sub(2));
+            Some(ServiceItem::Zero) => {
+                panel::hundredths(self.scale.zero().to_milli().checked_div(10).unwrap_or(0))
+            }
+            Some(ServiceItem::CalibrationPoint(point)) => {
                 match self.record.calibration.as_ref().and_then(|points| points.get(point)) {
                     Some(p) => panel::hundredths(p.raw.to_hundredths_rounded()),
                     None => panel::text(b"----"),
                 }
             }
-            6 => panel::tenths(sample.inputs.drive.bus.to_milli().checked_div(100).unwrap_or(0)),
-            // The zero's drift since the self-test, kgf to the hundredth at the scale's gain.
-            10 => {
-                let moved = Volts(self.scale.zero().0.saturating_sub(self.rezero.reference().0));
-                let kgf = Kgf(moved.0.saturating_mul(self.scale.kgf_per_volt()));
-                panel::hundredths(kgf.to_hundredths_rounded())
+            Some(ServiceItem::BusVoltage) => {
+                panel::tenths(sample.inputs.drive.bus.to_milli().checked_div(100).unwrap_or(0))
             }
-            11 => self.record.calibration_age().map_or(panel::text(b"----"), panel::integer),
-            12 => self.record.drivetrain.percent().map_or(panel::text(b"----"), panel::integer),
-            _ => {
-                let index = usize::from(item.saturating_sub(7));
-                match self.record.faults.get(index).copied().flatten() {
+            Some(ServiceItem::Fault(latest)) => {
+                match self.record.faults.get(latest).copied().flatten() {
                     Some(snapshot) => panel::fault(snapshot.code.number()),
                     None => panel::text(b"----"),
                 }
             }
+            // The zero's drift since the self-test, kgf to the hundredth at the scale's gain.
+            Some(ServiceItem::ZeroDrift) => {
+                let moved = Volts(self.scale.zero().0.saturating_sub(self.rezero.reference().0));
+                let kgf = Kgf(moved.0.saturating_mul(self.scale.kgf_per_volt()));
+                panel::hundredths(kgf.to_hundredths_rounded())
+            }
+            Some(ServiceItem::CalibrationAge) => {
+                self.record.calibration_age().map_or(panel::text(b"----"), panel::integer)
+            }
+            Some(ServiceItem::Drag) => {
+                self.record.drivetrain.percent().map_or(panel::text(b"----"), panel::integer)
+            }
+            None => panel::text(b"----"),
         }
     }
 }
@@ -434,6 +534,29 @@ mod tests {
         assert_eq!(View::String(1).log_field(), Some((0, 8)));
         assert_eq!(View::Log { entry: 3, field: 2 }.log_field(), Some((3, 2)));
         assert_eq!(View::Counters(0).log_field(), None);
+    }
+
+    /// The service page's items follow the calibration points and the fault history: today
+    /// four points and three faults.
+    #[test]
+    fn service_items_follow_the_calibration_points() {
+        if (CALIBRATION_POINTS, FAULT_HISTORY) == (4, 3) {
+            let today = [
+                *b"Cd  ", *b"tArE", *b"CAL1", *b"CAL2", *b"CAL3", *b"CAL4", *b"bUS ", *b"Err1",
+                *b"Err2", *b"Err3", *b"drFt", *b"CAgE", *b"drAG",
+            ];
+            assert_eq!(SERVICE_ITEMS.as_slice(), today.as_slice());
+        }
+        assert_eq!(SERVICE_ITEM_COUNT, 6 + CALIBRATION_POINTS + FAULT_HISTORY);
+        for point in 0..CALIBRATION_POINTS {
+            let item = ServiceItem::at(FIRST_POINT_ITEM + point);
+            assert_eq!(item, Some(ServiceItem::CalibrationPoint(point)));
+            assert_eq!(
+                SERVICE_ITEMS.get(FIRST_POINT_ITEM + point),
+                Some(&calibration_label(point))
+            );
+        }
+        assert_eq!(ServiceItem::at(SERVICE_ITEM_COUNT), None);
     }
 
     #[test]

@@ -1049,15 +1049,22 @@ mod tests {
         assert_eq!(record.encode_legacy(FORMAT_VERSION), None);
     }
 
+    /// `record`'s fields in a record of the next format, as long as a record can be (its own
+    /// tail zero, its CRC not yet written).
+    fn newer_than_today(record: &Record) -> [u8; MAX_RECORD_LEN] {
+        let mut newer = [0u8; MAX_RECORD_LEN];
+        newer[..OFFSET_CRC].copy_from_slice(&record.encode()[..OFFSET_CRC]);
+        newer[2] = FORMAT_VERSION + 1;
+        newer[3] = u8::try_from(MAX_RECORD_LEN).unwrap_or(0);
+        newer
+    }
+
     /// REQ-STORE-06: a record from a newer format — longer, its new fields in a tail this code
     /// does not know — keeps its settings, calibration, counters and fault history.
     #[test]
     fn a_newer_records_unknown_tail_never_loses_the_counters() {
         let record = sample();
-        let mut newer = [0u8; MAX_RECORD_LEN];
-        newer[..OFFSET_CRC].copy_from_slice(&record.encode()[..OFFSET_CRC]);
-        newer[2] = FORMAT_VERSION + 1;
-        newer[3] = u8::try_from(MAX_RECORD_LEN).unwrap_or(0);
+        let mut newer = newer_than_today(&record);
         // Its own fields, in today's reserved bytes and beyond.
         for (index, byte) in newer.iter_mut().enumerate().skip(Layout::CURRENT.reserved) {
             *byte = u8::try_from(index % 251).unwrap_or(0) | 1;
@@ -1087,10 +1094,7 @@ mod tests {
     #[test]
     fn a_newer_record_this_code_cannot_read_still_gives_its_counters() {
         let record = sample();
-        let mut newer = [0u8; MAX_RECORD_LEN];
-        newer[..OFFSET_CRC].copy_from_slice(&record.encode()[..OFFSET_CRC]);
-        newer[2] = FORMAT_VERSION + 1;
-        newer[3] = u8::try_from(MAX_RECORD_LEN).unwrap_or(0);
+        let mut newer = newer_than_today(&record);
         let first_snapshot = Layout::CURRENT.counters + 22;
         let kept = Err(StoreError::NewerFormat(record.counters));
         for (at, value) in [

@@ -773,6 +773,15 @@ impl Soc {
         }
     }
 
+    /// A model's verdict on a write: modelled or not, or a misuse (which stops the run; the
+    /// register counts as modelled).
+    fn modelled_or_misuse(&mut self, result: Result<bool, String>) -> bool {
+        result.unwrap_or_else(|text| {
+            self.misuse(text);
+            true
+        })
+    }
+
     fn misuse(&mut self, text: String) {
         if self.stop.is_none() {
             self.stop = Some(Stop::Misuse(text));
@@ -920,22 +929,12 @@ impl Soc {
             0x5000_0100..=0x5000_01FF => self.adc[1].write(address - 0x5000_0100, value),
             0x5000_0300..=0x5000_03FF => self.adc_common.set(address - 0x5000_0300, value),
             0x4000_4400..=0x4000_47FF => {
-                match self.serial.write_usart(address - 0x4000_4400, value) {
-                    Ok(modelled) => modelled,
-                    Err(text) => {
-                        self.misuse(text);
-                        true
-                    }
-                }
+                let result = self.serial.write_usart(address - 0x4000_4400, value);
+                self.modelled_or_misuse(result)
             }
             0x4002_0000..=0x4002_03FF => {
-                match self.serial.write_dma(address - 0x4002_0000, value) {
-                    Ok(modelled) => modelled,
-                    Err(text) => {
-                        self.misuse(text);
-                        true
-                    }
-                }
+                let result = self.serial.write_dma(address - 0x4002_0000, value);
+                self.modelled_or_misuse(result)
             }
             0x4002_0800..=0x4002_0BFF => self.serial.write_mux(address - 0x4002_0800, value),
             0x4000_3000 => {

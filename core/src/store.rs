@@ -1094,7 +1094,7 @@ mod tests {
     #[test]
     fn a_newer_record_this_code_cannot_read_still_gives_its_counters() {
         let record = sample();
-        let mut newer = newer_than_today(&record);
+        let newer = newer_than_today(&record);
         let first_snapshot = Layout::CURRENT.counters + 22;
         let kept = Err(StoreError::NewerFormat(record.counters));
         for (at, value) in [

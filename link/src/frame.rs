@@ -232,12 +232,13 @@ impl Deframer {
     /// inside a frame and after an empty one.
     pub fn push<T: DeserializeOwned>(&mut self, byte: u8) -> Option<Result<T, FrameError>> {
         if byte != 0 {
+            // A full buffer stays full (its length stays at its end) until the delimiter.
             match self.buffer.get_mut(self.len) {
-                Some(slot) if !self.overflowed => {
+                Some(slot) => {
                     *slot = byte;
                     self.len = self.len.saturating_add(1);
                 }
-                _ => self.overflowed = true,
+                None => self.overflowed = true,
             }
             return None;
         }

@@ -234,7 +234,7 @@ fn link_connect_twin_shows_a_live_pull() {
     {
         assert!(text.contains(event), "no `{event}` in:\n{text}");
     }
-    assert!(text.contains("event: pull 1 logged: target 22.00 kg"), "{text}");
+    assert_eq!(text.matches("event: pull 1 logged: target 22.00 kg").count(), 1, "{text}");
     // The hold's live samples: the tension shown is the target's to the 0.1 kg.
     let holding: Vec<&str> =
         text.lines().filter(|l| l.contains(" holding ") && l.contains("tension")).collect();

@@ -580,6 +580,16 @@ mod tests {
             assert_eq!(server.respond(&stage, &mut access), Response::Accepted);
         }
         assert_eq!(server.respond(&Request::CommitRecord, &mut access), Response::Accepted);
+        // After a commit the staging starts afresh: every part but one again (the staged bytes
+        // still hold the whole record) is refused.
+        for (part, bytes) in (0..).zip(&parts).skip(1) {
+            let stage = Request::StageRecord { part, bytes: *bytes };
+            assert_eq!(server.respond(&stage, &mut access), Response::Accepted);
+        }
+        assert_eq!(
+            server.respond(&Request::CommitRecord, &mut access),
+            Response::Refused(Refusal::InvalidRecord)
+        );
         assert_eq!(to.record().settings, settings_30kg());
         assert_eq!(to.record().counters.pulls, 0, "the machine's own counters");
         let stage = Request::StageRecord { part: RECORD_PARTS, bytes: parts[0] };

@@ -200,8 +200,7 @@ impl Server {
         machine: &LinkAccess<'_, LOG>,
         sink: &mut impl Sink,
     ) {
-        let figures = machine.figures(inputs, outputs);
-        let state = figures.state;
+        let state = machine.state();
         let pulls = machine.record().counters.pulls;
         let previous_state = self.last_state.replace(state);
         let previous_pulls = self.last_pulls.replace(pulls);
@@ -243,6 +242,8 @@ impl Server {
             .is_none_or(|last| inputs.now_ms.wrapping_sub(last) >= u32::from(self.period_ms));
         if due {
             self.last_sample_ms = Some(inputs.now_ms);
+            // The tick's figures only when a sample is due (not every tick).
+            let figures = machine.figures(inputs, outputs);
             let sample = LiveSample {
                 time_ms: figures.now_ms,
                 state: WireState::from(state),

@@ -41,6 +41,7 @@
 #[cfg(feature = "arbitrary")]
 extern crate std;
 
+pub mod board;
 mod codes;
 pub mod drive;
 pub mod fixed;
@@ -56,6 +57,11 @@ pub mod units;
 /// Helpers for the unit tests.
 #[cfg(test)]
 mod test_support {
+    /// The paper's board ([`crate::board::paper`]).
+    pub fn paper_board() -> crate::board::BoardConfig {
+        valid(crate::board::paper())
+    }
+
     /// The value of a result a test expects to be valid; a failure names the error.
     pub fn valid<T, E: core::fmt::Debug>(result: Result<T, E>) -> T {
         match result {

@@ -234,16 +234,79 @@ fn round_scaled(value: Q16, scale: i32) -> i32 {
     i32::try_from(signed).unwrap_or(if signed < 0 { i32::MIN } else { i32::MAX })
 }
 
-/// Number of bits the ADC converts: the paper runs the dsPIC's converter as 12-bit.
+/// Number of bits the ADC converts: the paper runs the dsPIC's converter as 12-bit, and the
+/// STM32G4's converters are 12-bit too.
 pub const ADC_BITS: u32 = 12;
 /// The largest code the 12-bit converter returns.
 pub const ADC_MAX_CODE: u16 = 4095;
-/// The converter's reference voltage (paper, section 7.4: 5 V reference).
-pub const ADC_REFERENCE: Volts = Volts::from_int(5);
 
-/// One ADC code in Q15.16 volt bits: 5 V / 4096 codes × 65 536 bits/V = 80 bits per code,
-/// an integer, so code → volts conversion is exact.
-const ADC_VOLT_BITS_PER_CODE: i32 = 80;
+/// The range of converter references a board may have, mV: 1.0 V (the lowest a 12-bit
+/// converter is specified down to) to 5.5 V (above any supply a logic part takes).
+pub const ADC_REFERENCE_RANGE_MV: (u16, u16) = (1_000, 5_500);
+
+/// The reference voltage of a board's 12-bit converter: what a code means in volts.
+///
+/// One code is `V_ref / 4096`; in Q15.16 volt bits that is `V_ref[mV] × 65 536 / 4 096 000`
+/// = `V_ref[mV] × 2 / 125`, so a 5 V reference gives exactly 80 bits a code and every
+/// conversion below is exact; any other reference rounds once, to the nearest bit
+/// (1.5 × 10⁻⁵ V, under a hundredth of a code).
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+#[cfg_attr(kani, derive(kani::Arbitrary))]
+pub struct AdcReference {
+    millivolts: u16,
+}
+
+impl AdcReference {
+    /// A converter whose full scale is `millivolts`; `None` outside
+    /// [`ADC_REFERENCE_RANGE_MV`].
+    #[must_use]
+    pub const fn from_millivolts(millivolts: u16) -> Option<Self> {
+        if millivolts < ADC_REFERENCE_RANGE_MV.0 || millivolts > ADC_REFERENCE_RANGE_MV.1 {
+            None
+        } else {
+            Some(Self { millivolts })
+        }
+    }
+
+    /// The reference, mV.
+    #[must_use]
+    pub const fn millivolts(self) -> u16 {
+        self.millivolts
+    }
+
+    /// The input voltage a code stands for: `code × V_ref / 4096`, rounded to Q15.16.
+    #[must_use]
+    pub fn volts(self, code: AdcCode) -> Volts {
+        Self::mean_volts(self, u32::from(code.get()), 1)
+    }
+
+    /// The mean input voltage of `count` conversions whose codes sum to `sum`, rounded to
+    /// Q15.16 (1.5 × 10⁻⁵ V): finer than one code, so an average over many noisy readings
+    /// keeps the fraction a whole-code mean would drop. `count` 0 reads as 1.
+    #[must_use]
+    pub fn mean_volts(self, sum: u32, count: u16) -> Volts {
+        // bits = sum × mV × 2 / (125 × count), rounded half up; ≤ 2³² × 5 500 × 2 fits a u64.
+        let divisor = u64::from(count.max(1)).saturating_mul(125);
+        let bits = u64::from(sum)
+            .saturating_mul(u64::from(self.millivolts))
+            .saturating_mul(2)
+            .saturating_add(divisor / 2)
+            .checked_div(divisor)
+            .unwrap_or(0);
+        Volts::from_bits(i32::try_from(bits).unwrap_or(i32::MAX))
+    }
+
+    /// The code a voltage converts to (rounded to nearest, clamped to 0 ..= 4095): the
+    /// inverse of [`AdcReference::volts`], used by the digital twin and by tests.
+    #[must_use]
+    pub fn code(self, volts: Volts) -> AdcCode {
+        // code = bits × 125 / (2 × mV), rounded half up; negative voltages read 0.
+        let bits = u64::try_from(volts.to_bits().max(0)).unwrap_or(0);
+        let divisor = u64::from(self.millivolts).saturating_mul(2).max(1);
+        let code = bits.saturating_mul(125).saturating_add(divisor / 2) / divisor;
+        AdcCode::new(u16::try_from(code.min(u64::from(ADC_MAX_CODE))).unwrap_or(ADC_MAX_CODE))
+    }
+}
 
 /// A 12-bit analogue-to-digital converter reading, 0 ..= 4095.
 ///
@@ -271,52 +334,25 @@ impl AdcCode {
     pub const fn get(self) -> u16 {
         self.0
     }
-
-    /// The input voltage this code stands for: `code × V_ref / 4096`, exact in Q15.16.
-    #[must_use]
-    pub fn to_volts(self) -> Volts {
-        // code ≤ 4095, so the product ≤ 327 600 fits an i32 and the Q15.16 value is exact.
-        Volts::from_bits(i32::from(self.0).saturating_mul(ADC_VOLT_BITS_PER_CODE))
-    }
-
-    /// The mean input voltage of `count` conversions whose codes sum to `sum`, rounded to
-    /// Q15.16 (1.5 × 10⁻⁵ V): finer than one code (1.22 mV), so an average over many noisy
-    /// readings keeps the fraction a whole-code mean would drop. `count` 0 reads as 1.
-    #[must_use]
-    pub fn mean_volts(sum: u32, count: u16) -> Volts {
-        let count = u64::from(count.max(1));
-        let bits = u64::from(sum)
-            .saturating_mul(ADC_VOLT_BITS_PER_CODE.unsigned_abs().into())
-            .saturating_add(count.checked_div(2).unwrap_or(0))
-            .checked_div(count)
-            .unwrap_or(0);
-        Volts::from_bits(i32::try_from(bits).unwrap_or(i32::MAX))
-    }
-
-    /// The code a voltage would convert to (rounded to nearest, clamped to 0 ..= 4095): the
-    /// inverse of [`AdcCode::to_volts`], used by the digital twin and by tests.
-    #[must_use]
-    pub fn from_volts(volts: Volts) -> Self {
-        // code = V × 4096 / 5, computed in Q15.16 then rounded.
-        let scaled = volts.0.saturating_mul_int(4096).saturating_div_int(5).round();
-        let code = scaled.to_num::<i32>().clamp(0, i32::from(ADC_MAX_CODE));
-        // `code` is in 0..=4095 after the clamp, so the conversion cannot fail.
-        Self::new(u16::try_from(code).unwrap_or(ADC_MAX_CODE))
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    const FIVE_VOLTS: AdcReference = match AdcReference::from_millivolts(5_000) {
+        Some(reference) => reference,
+        None => panic!("5 V is a converter reference"),
+    };
+
     #[test]
     fn mean_volts_keeps_the_fraction_of_a_code() {
         // 100 readings, 37 of 41 and 63 of 42: 41.63 codes, not 41.
-        let mean = AdcCode::mean_volts(37 * 41 + 63 * 42, 100);
+        let mean = FIVE_VOLTS.mean_volts(37 * 41 + 63 * 42, 100);
         assert_eq!(mean.to_bits(), (4_163 * 80 + 50) / 100);
-        assert_eq!(AdcCode::mean_volts(41 * 64, 64), AdcCode::new(41).to_volts());
-        assert_eq!(AdcCode::mean_volts(7, 0), AdcCode::new(7).to_volts());
-        assert_eq!(AdcCode::mean_volts(u32::MAX, 1).to_bits(), i32::MAX);
+        assert_eq!(FIVE_VOLTS.mean_volts(41 * 64, 64), FIVE_VOLTS.volts(AdcCode::new(41)));
+        assert_eq!(FIVE_VOLTS.mean_volts(7, 0), FIVE_VOLTS.volts(AdcCode::new(7)));
+        assert_eq!(FIVE_VOLTS.mean_volts(u32::MAX, 1).to_bits(), i32::MAX);
     }
 
     #[test]
@@ -327,11 +363,34 @@ mod tests {
     }
 
     #[test]
-    fn adc_volts_round_trip_is_exact_for_every_code() {
+    fn a_five_volt_code_is_exactly_eighty_bits() {
         for raw in 0..=ADC_MAX_CODE {
             let code = AdcCode::new(raw);
-            assert_eq!(AdcCode::from_volts(code.to_volts()), code, "code {raw}");
+            assert_eq!(FIVE_VOLTS.volts(code).to_bits(), i32::from(raw) * 80, "code {raw}");
         }
+    }
+
+    #[test]
+    fn adc_volts_round_trip_is_exact_for_every_code_and_reference() {
+        for millivolts in [1_000, 1_800, 2_048, 2_500, 3_000, 3_300, 4_096, 5_000, 5_500] {
+            let reference = AdcReference::from_millivolts(millivolts).expect("in range");
+            for raw in 0..=ADC_MAX_CODE {
+                let code = AdcCode::new(raw);
+                assert_eq!(reference.code(reference.volts(code)), code, "{millivolts} mV {raw}");
+            }
+            let code = reference.code(Volts::from_milli(i32::from(millivolts) / 2));
+            assert_eq!(code, AdcCode::new(2_048), "half the reference is mid-scale");
+        }
+        assert_eq!(FIVE_VOLTS.code(Volts::from_int(-1)), AdcCode::MIN);
+        assert_eq!(FIVE_VOLTS.code(Volts::from_int(6)), AdcCode::MAX);
+    }
+
+    #[test]
+    fn a_reference_outside_the_range_is_refused() {
+        assert_eq!(AdcReference::from_millivolts(999), None);
+        assert_eq!(AdcReference::from_millivolts(5_501), None);
+        assert_eq!(AdcReference::from_millivolts(1_000).map(AdcReference::millivolts), Some(1_000));
+        assert_eq!(AdcReference::from_millivolts(5_500).map(AdcReference::millivolts), Some(5_500));
     }
 
     #[test]

@@ -38,7 +38,7 @@ fn q(value: Q16) -> f64 {
 pub fn adc_volts_exact(raw: u16) {
     let code = AdcCode::new(raw);
     let reference = f64::from(code.get()) * 5.0 / 4096.0;
-    assert_eq!(q(code.to_volts().0), reference, "REQ-FXP-01: code {raw}");
+    assert_eq!(q(crate::FIVE_VOLTS.volts(code).0), reference, "REQ-FXP-01: code {raw}");
     assert!(code.get() <= 4095, "REQ-FXP-01: code above 12 bits");
 }
 
@@ -54,7 +54,7 @@ pub fn current_amps_exact(raw: u16) {
 pub fn load_cell_within_bound(raw: u16, zero_bits: i32, kgf_per_volt_bits: i32) {
     let zero = Volts::from_bits(zero_bits);
     let k = Q16::from_bits(kgf_per_volt_bits);
-    let Ok(scale) = LoadCellScale::new(zero, k) else {
+    let Ok(scale) = LoadCellScale::new(crate::FIVE_VOLTS, zero, k) else {
         return;
     };
     let code = AdcCode::new(raw);

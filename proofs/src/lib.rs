@@ -37,6 +37,23 @@ pub mod tension;
 pub mod tension_reference;
 pub mod thermal;
 
+/// The board every proof and property of a whole machine runs on: the paper's
+/// ([`taut_core::board::paper`]), concrete (its drive's own harnesses take any configuration
+/// within the drive's validated range). `None` only if that board were refused, which core's
+/// tests rule out; a harness then ends at its vacuity guard unreached.
+#[must_use]
+pub fn paper_board() -> Option<taut_core::board::BoardConfig> {
+    taut_core::board::paper().ok()
+}
+
+/// The paper's board's converter: 12 bits, 5 V.
+#[allow(clippy::panic, reason = "evaluated when compiled: a refused reference stops the build")]
+pub const FIVE_VOLTS: taut_core::units::AdcReference =
+    match taut_core::units::AdcReference::from_millivolts(5_000) {
+        Some(reference) => reference,
+        None => panic!("5 V is a converter reference"),
+    };
+
 /// The vacuity guard every Kani harness ends with: a cover property that is satisfiable only
 /// if some input passes all of the harness's assumptions (`kani::assume`, and the `is_valid`
 /// invariants its inputs are built under) and reaches its last line. A harness whose

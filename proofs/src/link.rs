@@ -117,7 +117,8 @@ pub fn serving_never_moves(
     garbage: &[u8],
     ticks: u32,
 ) {
-    let mut served: Machine = Machine::resume(record, checkpoint);
+    let Some(board) = crate::paper_board() else { return };
+    let mut served: Machine = Machine::resume(record, checkpoint, &board);
     let mut unserved = served.clone();
     let before = served.state();
     let mut bytes = [0u8; 4_096];

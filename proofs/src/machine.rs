@@ -428,7 +428,8 @@ pub fn check_tick(record: &TickRecord) {
 #[must_use]
 pub fn resume<const LOG: usize>(input: &CheckpointInput) -> Option<Machine<LOG>> {
     let checkpoint = input.checkpoint();
-    checkpoint.is_valid().then(|| Machine::<LOG>::resume(Record::default(), &checkpoint))
+    let board = crate::paper_board()?;
+    checkpoint.is_valid().then(|| Machine::<LOG>::resume(Record::default(), &checkpoint, &board))
 }
 
 /// REQ-SAFE-01 at the rule the motion superstate applies: for any command and any limit

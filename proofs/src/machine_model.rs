@@ -266,22 +266,25 @@ fn has_long_timer(state: MachineState) -> bool {
 
 /// The load-cell code of a tension on the nominal chain tared at 50 mV.
 fn code_of(tension: Kgf) -> AdcCode {
-    LoadCellScale::NOMINAL.to_code(tension)
+    use taut_core::board::{PAPER_KGF_PER_VOLT, PAPER_LOAD_CELL_ZERO};
+    LoadCellScale::new(crate::FIVE_VOLTS, PAPER_LOAD_CELL_ZERO, PAPER_KGF_PER_VOLT)
+        .map_or(AdcCode::MIN, |scale| scale.to_code(tension))
 }
 
 impl World {
-    /// Power-up in `env`.
+    /// Power-up in `env` on the paper's board (`None` were that board refused).
     #[must_use]
-    pub fn new(env: Env) -> Self {
-        Self {
-            machine: Machine::with_record(taut_core::store::Record::default()),
+    pub fn new(env: Env) -> Option<Self> {
+        let board = crate::paper_board()?;
+        Some(Self {
+            machine: Machine::with_record(taut_core::store::Record::default(), &board),
             env,
             drive_fault: env.injected == Injected::DriveFault,
             now_ms: 0,
             steps: 0,
             quiet_ms: 1_000,
             last: Outputs::default(),
-        }
+        })
     }
 
     /// The tension the machine is pulling to now.
@@ -527,7 +530,7 @@ pub fn explore(starts: &[Env], limit: usize) -> Report {
     // How each state was first reached: (parent, action), for counterexample paths.
     let mut parents: Vec<Option<(usize, Action)>> = Vec::new();
     for &env in starts {
-        let world = World::new(env);
+        let Some(world) = World::new(env) else { continue };
         let key = world.key();
         if let std::collections::hash_map::Entry::Vacant(slot) = seen.entry(key) {
             slot.insert(keys.len());

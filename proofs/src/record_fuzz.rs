@@ -160,7 +160,8 @@ pub fn decoder_is_sound(bytes: &[u8]) {
 /// REQ-UI-08: the machine uses a stored calibration only if it validates, and then it lies in
 /// the validated range; otherwise it shows `n-03`.
 pub fn stored_calibration_is_validated(record: &Record) {
-    let notice = Machine::<1>::with_record(*record).notice();
+    let Some(board) = crate::paper_board() else { return };
+    let notice = Machine::<1>::with_record(*record, &board).notice();
     let Some(stored) = record.calibration else {
         assert_eq!(notice, None, "REQ-UI-08: a notice for a record without calibration");
         return;

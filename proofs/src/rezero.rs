@@ -16,7 +16,7 @@ fn distance(a: Volts, b: Volts) -> u32 {
 pub fn rezero_step_bounded(rule: &mut Rezero, sample: &RestSample, zero: Volts) -> Option<Retare> {
     assert!(rule.is_valid(), "REQ-ID-08: the property starts from a valid state");
     let reference = rule.reference();
-    let verdict = rule.observe(sample, zero);
+    let verdict = rule.observe(sample, zero, crate::FIVE_VOLTS);
     assert!(rule.is_valid(), "REQ-ID-08: the re-zero state stays valid");
     assert_eq!(rule.reference(), reference, "REQ-ID-08: the reference is the self-test's");
     if let Some(Retare::Zero(new)) = verdict {

@@ -293,6 +293,9 @@ pub fn reachable_slip(state: SlipState) -> SlipState {
     }
 }
 
+/// The paper's board's dead-time duty (1 µs of 50 µs), the slip damper's starting point.
+const PAPER_DEAD_TIME_DUTY: taut_core::drive::Duty = taut_core::drive::Duty::from_raw_clamped(1_311);
+
 /// REQ-TEN-15: the slip damper never panics, returns a braking force that is never
 /// negative and is zero outside the hold, while the model is still learning, and whenever
 /// the motion residual does not exceed the dead zone; its model stays non-negative and its
@@ -303,7 +306,7 @@ pub fn slip_damper_bounded(case: &SlipCase) {
         SLIP_DEAD_ZONE,
         SLIP_LEARNING_RATE,
         SLIP_INITIAL_DUTY_PER_AMP,
-        taut_core::tension::controller::TAUT_DEAD_TIME_DUTY,
+        PAPER_DEAD_TIME_DUTY,
     );
     damper.set_state(reachable_slip(case.state));
     let before = damper.state();

@@ -37,7 +37,7 @@ struct Cycle {
 impl Cycle {
     fn step(&mut self, inputs: &Inputs) -> Outputs {
         let t = inputs.now_ms;
-        let tension = LoadCellScale::NOMINAL.to_kgf(inputs.load_cell).0.to_num::<f64>();
+        let tension = taut_sim::bench::board_for(&config).load_cell().to_kgf(inputs.load_cell).0.to_num::<f64>();
         let command = if t >= 25_000 {
             let since = t.saturating_sub(*self.releasing.get_or_insert(t));
             let ramp = (f64::from(since) / 100.0).min(1.0);

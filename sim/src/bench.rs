@@ -37,6 +37,7 @@
 
 use std::fmt;
 
+use taut_core::board::BoardConfig;
 use taut_core::drive::Direction;
 use taut_core::io::{Display, Inputs, Outputs};
 use taut_core::machine::{
@@ -87,14 +88,36 @@ pub fn to_kgf(value: f64) -> Kgf {
 
 // ───────────────────────────── core types, in one place ─────────────────────────────
 
+/// The board of a twin of `config`: its current sensing's drive configuration (the paper's
+/// bus divider, limit, trip and dead time), the paper's 20 kHz, load-cell chain on a 5 V
+/// converter and taut's controller. Every board the twin's family builds is valid (a test
+/// checks each sensing kind); were one ever refused, the paper's board stands in.
+#[must_use]
+pub fn board_for(config: &TwinConfig) -> BoardConfig {
+    let paper = taut_core::board::paper();
+    let built = paper.and_then(|paper| {
+        BoardConfig::new(
+            config.current_sense.drive_config(),
+            paper.pwm_period(),
+            paper.load_cell(),
+            ControllerConfig::TAUT,
+        )
+    });
+    built.or(paper).unwrap_or_else(|_| unreachable_board())
+}
+
+/// Only reachable if the paper's board itself were refused, which core's own tests rule out.
+#[allow(clippy::panic, reason = "the paper's board is a constant checked by core's tests")]
+fn unreachable_board() -> BoardConfig {
+    panic!("the paper's board is valid")
+}
+
 /// The machine for a twin of `config`, powered up with what the store yielded (a record
 /// that failed to load gives defaults and the `n-01` notice). The one place the host builds
-/// a [`Machine`]: board facts the machine is given (current sensing, bus divider, timing)
-/// belong here.
+/// a [`Machine`]: the board it is given is [`board_for`].
 #[must_use]
 pub fn machine_for(config: &TwinConfig, stored: Result<Record, StoreError>) -> Machine {
-    let _board = &config.current_sense;
-    Machine::from_stored(stored)
+    Machine::from_stored(stored, &board_for(config))
 }
 
 /// A short name of a machine state, for progress lines, legends, JSON and the panel: the
@@ -141,7 +164,8 @@ pub fn tare(twin: &mut Twin) -> Option<LoadCellScale> {
             sum = sum.saturating_add(u32::from(row.inputs.load_cell.get()));
         }
     }
-    LoadCellScale::NOMINAL
+    board_for(twin.config())
+        .load_cell()
         .tared_at_mean(sum, SELF_TEST_TICKS.saturating_sub(TARE_SETTLE_TICKS))
         .ok()
 }
@@ -578,7 +602,8 @@ pub struct ControllerBench {
 
 impl ControllerBench {
     /// Powers a twin of `config` up, tares it as the self-test does and builds `controller`
-    /// with the load-cell correction `calibration` (from [`calibration_of`] a commissioned
+    /// on the twin's board (its dead-time duty the board's, [`board_for`]) with the load-cell
+    /// correction `calibration` (from [`calibration_of`] a commissioned
     /// record, or [`Calibration::IDENTITY`] for an uncalibrated machine).
     ///
     /// # Errors
@@ -588,7 +613,9 @@ impl ControllerBench {
         controller: &ControllerConfig,
         calibration: Calibration,
     ) -> Result<Self, BenchError> {
-        let controller = TensionController::new(controller).map_err(BenchError::Controller)?;
+        let on_board =
+            ControllerConfig { dead_time_duty: board_for(config).dead_time_duty(), ..*controller };
+        let controller = TensionController::new(&on_board).map_err(BenchError::Controller)?;
         let mut twin = Twin::new(config);
         let scale = tare(&mut twin).ok_or(BenchError::LoadCellZero)?;
         let started_ms = twin.now_ms();

@@ -795,10 +795,10 @@ impl LoadCellParams {
     /// assumptions of the crate docs for non-linearity, noise and spikes.
     #[must_use]
     pub fn nominal() -> Self {
-        use taut_core::sense::load_cell::{NOMINAL_VOLTS_PER_KGF, NOMINAL_ZERO};
+        use taut_core::board::{PAPER_LOAD_CELL_ZERO, PAPER_VOLTS_PER_KGF};
         Self {
-            volts_per_kgf: NOMINAL_VOLTS_PER_KGF.to_num::<f64>(),
-            zero_volts: NOMINAL_ZERO.0.to_num::<f64>(),
+            volts_per_kgf: PAPER_VOLTS_PER_KGF.to_num::<f64>(),
+            zero_volts: PAPER_LOAD_CELL_ZERO.0.to_num::<f64>(),
             low_load_deficit: 0.3,
             low_load_scale_kgf: 2.5,
             quadratic_at_50_kgf: 0.001,

@@ -45,7 +45,7 @@
 //! to 16 bits.
 
 use taut_core::drive::{LegState, Phase, SwitchPattern};
-use taut_core::units::{AdcCode, Volts};
+use taut_core::units::{AdcCode, AdcReference, Volts};
 
 use crate::motor::PeriodResult;
 use crate::params::{
@@ -60,11 +60,18 @@ pub fn volts(v: f64) -> Volts {
     Volts::from_bits(bits as i32)
 }
 
-/// The ADC code a voltage converts to (`AdcCode::from_volts`, clamped to 0 ..= 4095).
+/// The ADC code a voltage converts to on the paper's 5 V converter (clamped to 0 ..= 4095).
 #[must_use]
 pub fn adc(v: f64) -> AdcCode {
-    AdcCode::from_volts(volts(v))
+    FIVE_VOLTS.code(volts(v))
 }
+
+/// The paper's board's converter: 12 bits, 5 V.
+#[allow(clippy::panic, reason = "evaluated when compiled: a refused reference stops the build")]
+pub const FIVE_VOLTS: AdcReference = match AdcReference::from_millivolts(5_000) {
+    Some(reference) => reference,
+    None => panic!("5 V is a converter reference"),
+};
 
 /// A wiring fault of the load cell.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
@@ -430,7 +437,6 @@ impl BusVoltageSense {
 
 #[cfg(test)]
 mod tests {
-    use taut_core::sense::load_cell::LoadCellScale;
 
     use super::*;
 
@@ -467,7 +473,7 @@ mod tests {
         }
         let mut rng = SimRng::new(1);
         let code = cell.sample(&mut rng, 0.0, false, false, 0.0, None);
-        let kgf = LoadCellScale::NOMINAL.to_kgf(code).0.to_num::<f64>();
+        let kgf = taut_core::board::paper().expect("valid").load_cell().to_kgf(code).0.to_num::<f64>();
         // Nominal scale, uncorrected: within the deficit offset (≈ 0.75 kgf) + noise.
         assert!((kgf - 25.0).abs() < 1.0, "{kgf}");
     }

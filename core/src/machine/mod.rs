@@ -53,6 +53,7 @@ pub mod wear;
 
 use statig::prelude::{InitializedStateMachine, IntoStateMachineExt};
 
+use crate::board::BoardConfig;
 use crate::drive::{Direction, DriveCommand};
 use crate::io::{Inputs, LimitSwitches, Outputs};
 use crate::store::{Record, StoreError};
@@ -278,7 +279,6 @@ impl Checkpoint {
             && self.hold_adjust.unsigned_abs() <= HOLD_ADJUST_MAX
             && (ENTRY_MIN..=ENTRY_MAX).contains(&self.entered_hundredths)
             && self.clearing <= CLEAR_ATTEMPT
-            && crate::sense::load_cell::LoadCellScale::NOMINAL.tared_at(self.tare).is_ok()
             && self.watch.is_valid()
             && self.rail_ticks < safety::RAIL_PERSIST
     }
@@ -315,18 +315,18 @@ pub struct Machine<const LOG: usize = PULL_LOG_CAPACITY> {
 pub const VIEW_WAKE: u32 = 1_500;
 
 impl Machine {
-    /// A machine at power-up with the persisted `record`.
+    /// A machine on `board` at power-up with the persisted `record`.
     #[must_use]
-    pub fn new(record: Record) -> Self {
-        Self::with_record(record)
+    pub fn new(record: Record, board: &BoardConfig) -> Self {
+        Self::with_record(record, board)
     }
 
     /// A machine at power-up with whatever the store yielded: a record that failed to load
     /// is replaced by defaults and its notice (`n-01`) is shown once Ready; the counters of
     /// a newer format's record it could not read are kept ([`StoreError::kept_counters`]).
     #[must_use]
-    pub fn from_stored(stored: Result<Record, StoreError>) -> Self {
-        Self::with_stored(stored)
+    pub fn from_stored(stored: Result<Record, StoreError>, board: &BoardConfig) -> Self {
+        Self::with_stored(stored, board)
     }
 }
 
@@ -334,20 +334,20 @@ impl<const LOG: usize> Machine<LOG> {
     /// A machine with a pull log of capacity `LOG` at power-up with `record` (the boot is
     /// counted in it).
     #[must_use]
-    pub fn with_record(record: Record) -> Self {
-        let mut chart = Chart::new(record);
+    pub fn with_record(record: Record, board: &BoardConfig) -> Self {
+        let mut chart = Chart::new(record, board);
         chart.count_boot();
         Self::build(chart, chart::power_up(), Sample::default(), KeyPad::new())
     }
 
     /// As [`Machine::from_stored`], with a pull log of capacity `LOG`.
     #[must_use]
-    pub fn with_stored(stored: Result<Record, StoreError>) -> Self {
+    pub fn with_stored(stored: Result<Record, StoreError>, board: &BoardConfig) -> Self {
         match stored {
-            Ok(record) => Self::with_record(record),
+            Ok(record) => Self::with_record(record, board),
             Err(error) => {
                 let counters = error.kept_counters().unwrap_or_default();
-                let mut chart = Chart::new(Record { counters, ..Record::default() });
+                let mut chart = Chart::new(Record { counters, ..Record::default() }, board);
                 chart.count_boot();
                 chart.notice = Some(Notice::from_store(error));
                 Self::build(chart, chart::power_up(), Sample::default(), KeyPad::new())
@@ -358,8 +358,8 @@ impl<const LOG: usize> Machine<LOG> {
     /// A machine already at `checkpoint` (see [`Checkpoint`]): the state's entry actions run
     /// as on a real entry, with `record`'s settings.
     #[must_use]
-    pub fn resume(record: Record, checkpoint: &Checkpoint) -> Self {
-        let mut chart = Chart::new(record);
+    pub fn resume(record: Record, checkpoint: &Checkpoint, board: &BoardConfig) -> Self {
+        let mut chart = Chart::new(record, board);
         chart.booting = matches!(
             checkpoint.state,
             MachineState::SelfTest | MachineState::MotorTest | MachineState::Homing
@@ -632,8 +632,12 @@ impl<const LOG: usize> Machine<LOG> {
 mod tests {
     use super::*;
     use crate::io::{Key, Keys};
-    use crate::sense::load_cell::LoadCellScale;
     use crate::settings::Unit;
+
+    /// A code's volts on the paper's board's converter.
+    fn volts(code: AdcCode) -> crate::units::Volts {
+        crate::test_support::paper_board().load_cell().volts(code)
+    }
 
     /// Every kind has its own name, and the payload (point, fault code) never changes it.
     #[test]
@@ -665,12 +669,12 @@ mod tests {
     fn a_newer_records_counters_survive_the_store_notice() {
         let counters =
             crate::store::Counters { pulls: 5_000, string_used_mm: 3_210_000, boots: 77 };
-        let machine: Machine = Machine::with_stored(Err(StoreError::NewerFormat(counters)));
+        let machine: Machine = Machine::with_stored(Err(StoreError::NewerFormat(counters)), &crate::test_support::paper_board());
         let record = machine.record();
         assert_eq!(record.counters, crate::store::Counters { boots: 78, ..counters });
         assert_eq!((record.settings, record.calibration), (Record::default().settings, None));
         assert_eq!(machine.notice(), Some(Notice::StoreInvalid));
-        let machine: Machine = Machine::with_stored(Err(StoreError::CrcMismatch));
+        let machine: Machine = Machine::with_stored(Err(StoreError::CrcMismatch), &crate::test_support::paper_board());
         assert_eq!(machine.record().counters.pulls, 0);
         assert_eq!(machine.record().counters.boots, 1);
         assert_eq!(machine.notice(), Some(Notice::StoreInvalid));
@@ -695,7 +699,7 @@ mod tests {
         for muted in [true, false] {
             record.preferences.beeper = !muted;
             let mut machine: Machine =
-                Machine::resume(record, &Checkpoint::at(MachineState::Ready));
+                Machine::resume(record, &Checkpoint::at(MachineState::Ready), &crate::test_support::paper_board());
             let mut clicked = false;
             for now in 1..=60u32 {
                 let keys = if now <= 40 { Keys::NONE.with(Key::Up) } else { Keys::NONE };
@@ -742,22 +746,22 @@ mod tests {
     #[test]
     fn a_rezero_is_taken_at_rest_and_refused_while_the_gripper_holds_a_string_or_is_pushed() {
         let tare = AdcCode::new(41);
-        let fresh = || Machine::resume(Record::default(), &Checkpoint::at(MachineState::Ready));
+        let fresh = || Machine::resume(Record::default(), &Checkpoint::at(MachineState::Ready), &crate::test_support::paper_board());
         let mut now = 0;
         // Drifted by two codes, unloaded: re-zeroed after 2 s of rest and five windows.
         let mut machine = fresh();
-        assert_eq!(machine.load_cell_zero(), tare.to_volts());
+        assert_eq!(machine.load_cell_zero(), volts(tare));
         at_home(&mut machine, 2_499, &mut now, |_| 43, |_| 0);
-        assert_eq!(machine.load_cell_zero(), tare.to_volts(), "not before five windows");
+        assert_eq!(machine.load_cell_zero(), volts(tare), "not before five windows");
         at_home(&mut machine, 1, &mut now, |_| 43, |_| 0);
-        assert_eq!(machine.load_cell_zero(), AdcCode::new(43).to_volts());
+        assert_eq!(machine.load_cell_zero(), volts(AdcCode::new(43)));
         assert_eq!(machine.rezeros(), 1);
         // A string held in the gripper: 0.1 kgf, steady.
-        let held = LoadCellScale::NOMINAL.tared_at(tare).map(|s| s.to_code(Kgf::from_milli(100)));
+        let held = crate::test_support::paper_board().load_cell().tared_at(tare).map(|s| s.to_code(Kgf::from_milli(100)));
         let Ok(held) = held else { panic!("the nominal scale tares at 41") };
         let mut machine = fresh();
         at_home(&mut machine, 10_000, &mut now, |_| held.get(), |_| 0);
-        assert_eq!(machine.load_cell_zero(), tare.to_volts(), "a held string");
+        assert_eq!(machine.load_cell_zero(), volts(tare), "a held string");
         // A hand pushing the gripper: a few codes that wander from window to window.
         let mut machine = fresh();
         at_home(
@@ -767,15 +771,15 @@ mod tests {
             |t| 41 + [0, 3, 1, 4, 2][(t / 70 % 5) as usize],
             |_| 0,
         );
-        assert_eq!(machine.load_cell_zero(), tare.to_volts(), "a pushed gripper");
+        assert_eq!(machine.load_cell_zero(), volts(tare), "a pushed gripper");
         // A hand pushing hard and steadily: refused as loaded.
         let mut machine = fresh();
         at_home(&mut machine, 10_000, &mut now, |_| 60, |_| 0);
-        assert_eq!(machine.load_cell_zero(), tare.to_volts(), "a steady push");
+        assert_eq!(machine.load_cell_zero(), volts(tare), "a steady push");
         // The carriage nudged every second (a hand on the gripper moves it): never at rest.
         let mut machine = fresh();
         at_home(&mut machine, 10_000, &mut now, |_| 43, |t| (t / 1_000).cast_signed());
-        assert_eq!(machine.load_cell_zero(), tare.to_volts(), "a moving carriage");
+        assert_eq!(machine.load_cell_zero(), volts(tare), "a moving carriage");
         assert_eq!(machine.rezeros(), 0);
         // A tare is not taken away from home either.
         let mut machine = fresh();
@@ -783,25 +787,25 @@ mod tests {
             let inputs = Inputs { now_ms: t, load_cell: AdcCode::new(43), ..Inputs::default() };
             let _ = machine.tick(&inputs);
         }
-        assert_eq!(machine.load_cell_zero(), tare.to_volts(), "away from home");
+        assert_eq!(machine.load_cell_zero(), volts(tare), "away from home");
     }
 
     /// REQ-ID-08: a zero that keeps drifting is followed step by step up to the range from
     /// the self-test's tare, never beyond it.
     #[test]
     fn a_drifting_zero_is_followed_up_to_its_range_from_the_self_tests_tare() {
-        let mut machine = Machine::resume(Record::default(), &Checkpoint::at(MachineState::Ready));
+        let mut machine = Machine::resume(Record::default(), &Checkpoint::at(MachineState::Ready), &crate::test_support::paper_board());
         let mut now = 0;
         // One code (1.22 mV) every 3 s, for 60 codes (73 mV): the range is 50 mV.
         for code in 41..=101u16 {
             at_home(&mut machine, 3_000, &mut now, |_| code, |_| 0);
         }
-        let reference = AdcCode::new(41).to_volts().0;
+        let reference = volts(AdcCode::new(41)).0;
         let moved = machine.load_cell_zero().0.saturating_sub(reference);
         assert!(moved <= crate::sense::rezero::REZERO_RANGE.0, "{moved}");
         assert!(
             moved
-                > crate::sense::rezero::REZERO_RANGE.0.saturating_sub(AdcCode::new(2).to_volts().0)
+                > crate::sense::rezero::REZERO_RANGE.0.saturating_sub(volts(AdcCode::new(2)).0)
         );
     }
 
@@ -809,13 +813,13 @@ mod tests {
     /// recalibration (n-04) once; the service page shows the drift.
     #[test]
     fn a_zero_drifted_past_the_watch_raises_the_recalibration_notice_once() {
-        let mut machine = Machine::resume(Record::default(), &Checkpoint::at(MachineState::Ready));
+        let mut machine = Machine::resume(Record::default(), &Checkpoint::at(MachineState::Ready), &crate::test_support::paper_board());
         let mut now = 0;
         // Up to 20 codes (24.4 mV) above the tare: followed, no notice.
         for code in 41..=61u16 {
             at_home(&mut machine, 3_000, &mut now, |_| code, |_| 0);
         }
-        assert_eq!(machine.load_cell_zero(), AdcCode::new(61).to_volts());
+        assert_eq!(machine.load_cell_zero(), volts(AdcCode::new(61)));
         assert_eq!(machine.notice(), None);
         // 21 codes (25.6 mV): the notice, shown in Ready.
         at_home(&mut machine, 3_000, &mut now, |_| 62, |_| 0);
@@ -844,10 +848,10 @@ mod tests {
     #[test]
     fn a_switching_spike_never_reaches_the_digits() {
         let mut machine =
-            Machine::resume(Record::default(), &Checkpoint::at(MachineState::Holding));
+            Machine::resume(Record::default(), &Checkpoint::at(MachineState::Holding), &crate::test_support::paper_board());
         // A checkpoint's pull has no target, so stay under the 5 kgf overload margin.
-        let steady = LoadCellScale::NOMINAL.to_code(Kgf::from_milli(3_040));
-        let spike = LoadCellScale::NOMINAL.to_code(Kgf::from_milli(3_740));
+        let steady = crate::test_support::paper_board().load_cell().to_code(Kgf::from_milli(3_040));
+        let spike = crate::test_support::paper_board().load_cell().to_code(Kgf::from_milli(3_740));
         let mut now = 0;
         let settled = holding_with(&mut machine, steady, 1_000, &mut now);
         assert_eq!(machine.state(), MachineState::Holding);

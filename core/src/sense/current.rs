@@ -16,14 +16,15 @@ use crate::units::{AdcCode, Amps, Q16};
 /// Current-sense gain: 0.2 V per ampere (e.g. 10 mΩ shunt × 20 amplifier gain).
 pub const VOLTS_PER_AMP: Q16 = Q16::lit("0.2");
 
-/// Amperes per volt at the converter, the reciprocal of [`VOLTS_PER_AMP`].
-const AMPS_PER_VOLT: Q16 = Q16::lit("5");
+/// One code in Q15.16 ampere bits: 5 V / 4 096 codes / 0.2 V/A × 65 536 = 400.
+const AMPS_BITS_PER_CODE: i32 = 400;
 
 /// The current a converter code stands for: `volts / VOLTS_PER_AMP`, exact in Q15.16
 /// (one code is 80 × 5 = 400 bits of an ampere).
 #[must_use]
 pub fn amps(code: AdcCode) -> Amps {
-    Amps(code.to_volts().0.saturating_mul(AMPS_PER_VOLT))
+    // code ≤ 4095, so the product ≤ 1 638 000 fits an i32.
+    Amps(Q16::from_bits(i32::from(code.get()).saturating_mul(AMPS_BITS_PER_CODE)))
 }
 
 /// The lowest converter code that reads as at least `limit`: `⌈limit × VOLTS_PER_AMP × 4096 / 5⌉`,

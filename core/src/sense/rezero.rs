@@ -37,7 +37,7 @@
 //! Cost: one addition and a few comparisons a tick; a pass over five sums and two divisions
 //! every 100 ms at rest.
 
-use crate::units::{AdcCode, Q16, Volts};
+use crate::units::{AdcCode, AdcReference, Q16, Volts};
 
 /// Ticks the carriage must have rested at home, untouched, before readings are averaged.
 pub const REZERO_SETTLE_MS: u16 = 2_000;
@@ -198,9 +198,14 @@ impl Rezero {
     }
 
     /// One tick (REQ-ID-08): `sample` what the machine sees, `zero` the load cell's zero in
-    /// use. A verdict every [`REZERO_WINDOW`] ticks once the rest has settled and one window
+    /// use, `reference` its converter's. A verdict every [`REZERO_WINDOW`] ticks once the rest has settled and one window
     /// is complete; `None` otherwise.
-    pub fn observe(&mut self, sample: &RestSample, zero: Volts) -> Option<Retare> {
+    pub fn observe(
+        &mut self,
+        sample: &RestSample,
+        zero: Volts,
+        reference: AdcReference,
+    ) -> Option<Retare> {
         let code = sample.code.get();
         let at_rest = sample.home
             && !sample.end
@@ -245,14 +250,14 @@ impl Rezero {
             high = high.max(sum);
             total = total.saturating_add(sum);
         }
-        let spread = AdcCode::mean_volts(high, REZERO_WINDOW)
+        let spread = reference.mean_volts(high, REZERO_WINDOW)
             .0
-            .saturating_sub(AdcCode::mean_volts(low, REZERO_WINDOW).0);
+            .saturating_sub(reference.mean_volts(low, REZERO_WINDOW).0);
         if spread > REZERO_AGREE.0 {
             return Some(Retare::Unsteady);
         }
         // 5 × 100 readings.
-        let mean = AdcCode::mean_volts(total, REZERO_WINDOW.saturating_mul(5));
+        let mean = reference.mean_volts(total, REZERO_WINDOW.saturating_mul(5));
         Some(if distance(mean, zero) > REZERO_STEP_MAX.0 {
             Retare::Loaded
         } else if distance(mean, self.reference) > REZERO_RANGE.0 {
@@ -265,6 +270,11 @@ impl Rezero {
 
 #[cfg(test)]
 mod tests {
+    /// The paper's board's 5 V converter.
+    const FIVE_VOLTS: AdcReference = match AdcReference::from_millivolts(5_000) {
+        Some(reference) => reference,
+        None => panic!("5 V is a converter reference"),
+    };
     use super::*;
 
     const ZERO: Volts = Volts(Q16::lit("0.05"));
@@ -298,7 +308,7 @@ mod tests {
     ) -> Tally {
         let mut tally = Tally::default();
         for t in 0..ticks {
-            if let Some(verdict) = rule.observe(&sample(t), zero) {
+            if let Some(verdict) = rule.observe(&sample(t), zero, FIVE_VOLTS) {
                 match verdict {
                     Retare::Zero(_) => tally.zero += 1,
                     Retare::Unsteady => tally.unsteady += 1,
@@ -320,8 +330,8 @@ mod tests {
         let verdicts =
             feed(&mut rule, settle + 5 * window - 1, ZERO, |t| rest(41 + (t % 2) as u16));
         assert_eq!(verdicts.total(), 0, "{verdicts:?}");
-        let last = rule.observe(&rest(42), ZERO);
-        assert_eq!(last, Some(Retare::Zero(AdcCode::mean_volts(41 * 250 + 42 * 250, 500))));
+        let last = rule.observe(&rest(42), ZERO, FIVE_VOLTS);
+        assert_eq!(last, Some(Retare::Zero(FIVE_VOLTS.mean_volts(41 * 250 + 42 * 250, 500))));
         // Every window after that gives a verdict.
         let more = feed(&mut rule, 3 * window, ZERO, |t| rest(41 + (t % 2) as u16));
         assert_eq!(more.zero, 3, "{more:?}");

@@ -232,8 +232,9 @@ pub struct ControllerConfig {
     /// The pull profile.
     pub profile: ProfileConfig,
     /// The duty the bridge's dead time takes from the high side: the dead time over the PWM
-    /// period, both the board's ([`crate::drive::DriveConfig::dead_time`]); at most
-    /// [`DEAD_TIME_DUTY_MAX`]. The slip damper's stall model starts from it.
+    /// period, both the board's; at most [`DEAD_TIME_DUTY_MAX`]. The slip damper's stall model
+    /// starts from it. The built-in configurations assume an ideal bridge (zero); a board
+    /// sets its own ([`crate::board::BoardConfig::new`]).
     pub dead_time_duty: Duty,
 }
 
@@ -241,9 +242,6 @@ pub struct ControllerConfig {
 /// period).
 pub const DEAD_TIME_DUTY_MAX: Duty = Duty::from_raw_clamped(6_554);
 
-/// taut's board's dead-time duty: 1 µs of a 50 µs (20 kHz) period, 0.02 (raw 1 311 of 65 536); the
-/// firmware checks its own timing against it when it is compiled.
-pub const TAUT_DEAD_TIME_DUTY: Duty = Duty::from_raw_clamped(1_311);
 
 /// taut's nominal plant, the voltage-driven machine (see `crate::tension::law`): `M̄` = the
 /// rotor and gearbox inertia reflected to the carriage (1.6 × 10⁻⁵ kg·m² / (0.2021 mm/rad)²
@@ -286,7 +284,7 @@ impl ControllerConfig {
         duty_map: DutyMap::Proportional { current_limit: CURRENT_LIMIT },
         motor: MotorModel::PAPER,
         profile: ProfileConfig::TAUT,
-        dead_time_duty: TAUT_DEAD_TIME_DUTY,
+        dead_time_duty: Duty::ZERO,
     };
 
     /// The paper's RSMC as published (λ = 100, G = 0.2, k_φ = 0.001, `sgn`, unbounded
@@ -298,7 +296,7 @@ impl ControllerConfig {
         duty_map: DutyMap::Proportional { current_limit: CURRENT_LIMIT },
         motor: MotorModel::PAPER,
         profile: ProfileConfig::STEP,
-        dead_time_duty: TAUT_DEAD_TIME_DUTY,
+        dead_time_duty: Duty::ZERO,
     };
 
     /// The paper's PD baseline (`k_p = 100`, `k_d = 20`) through the same force → duty
@@ -309,7 +307,7 @@ impl ControllerConfig {
         duty_map: DutyMap::Proportional { current_limit: CURRENT_LIMIT },
         motor: MotorModel::PAPER,
         profile: ProfileConfig::STEP,
-        dead_time_duty: TAUT_DEAD_TIME_DUTY,
+        dead_time_duty: Duty::ZERO,
     };
 }
 
@@ -525,12 +523,13 @@ impl TensionController {
         // paper's PD (also checked) is a safe, if worse, fallback — never a panic.
         Self::new(&ControllerConfig::TAUT)
             .or_else(|_| Self::new(&ControllerConfig::PD))
-            .unwrap_or(Self::fallback())
+            .unwrap_or(Self::braking())
     }
 
     /// A controller whose every output is zero duty (it can only brake), reachable only if
     /// the built-in configurations were broken — a unit test checks they are not.
-    fn fallback() -> Self {
+    #[must_use]
+    pub fn braking() -> Self {
         Self {
             law: Law::Pd(Pd::ZERO),
             map: ForceToDuty::ZERO,
@@ -914,8 +913,8 @@ mod tests {
             let controller = valid(TensionController::new(&config));
             assert!(controller.is_valid());
         }
-        assert_ne!(TensionController::taut(), TensionController::fallback());
-        assert!(TensionController::fallback().is_valid());
+        assert_ne!(TensionController::taut(), TensionController::braking());
+        assert!(TensionController::braking().is_valid());
     }
 
     #[test]

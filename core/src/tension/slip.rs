@@ -163,7 +163,6 @@ impl SlipDamper {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tension::controller::TAUT_DEAD_TIME_DUTY;
 
     /// A stuck carriage at 2 A and duty 0.02 + 0.046·2 (the twin's stall relation).
     fn stuck(damper: &mut SlipDamper, ticks: u32) {
@@ -183,7 +182,7 @@ mod tests {
             Q16::lit("0.002"),
             Q16::lit("0.005"),
             Q16::lit("0.035"),
-            TAUT_DEAD_TIME_DUTY,
+            crate::test_support::paper_board().dead_time_duty(),
         );
         // Inactive (outside the hold): nothing, and nothing learned.
         assert_eq!(damper.update(Amps::from_int(2), 0, false), Kgf::ZERO);

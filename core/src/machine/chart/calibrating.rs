@@ -137,7 +137,7 @@ mod tests {
     /// last third of the entry moved the reading 0.2 kgf).
     #[test]
     fn a_calibration_point_pairs_the_gauge_with_the_entry_mean() {
-        let mut chart = Chart::new(Record::default());
+        let mut chart = Chart::new(Record::default(), &crate::test_support::paper_board());
         let (mut point, mut entered, mut sum, mut ticks) = (0_u8, 1_077_u16, 0_i64, 0_u32);
         let mut tick = |chart: &mut Chart, raw: Kgf, key: Option<KeyEvent>| {
             let sample = Sample { raw_average: raw, key, ..Sample::default() };
@@ -219,7 +219,7 @@ mod tests {
     /// the merged points are fitted and stored.
     #[test]
     fn a_calibration_takes_two_passes_and_stores_their_means() {
-        let mut chart = Chart::new(Record::default());
+        let mut chart = Chart::new(Record::default(), &crate::test_support::paper_board());
         for reading in 0..8_u8 {
             // Raw 0.50 low in the first pass and 0.46 low in the second; the gauge 0.04
             // above the target in the first pass, 0.02 in the second.
@@ -265,7 +265,7 @@ mod tests {
     /// fourth reading, before a second pass starts.
     #[test]
     fn a_calibration_whose_passes_disagree_or_whose_first_pass_is_wrong_is_refused() {
-        let mut chart = Chart::new(Record::default());
+        let mut chart = Chart::new(Record::default(), &crate::test_support::paper_board());
         for reading in 0..7_u8 {
             let target = target_hundredths(reading);
             let entered = if reading == 6 { target + 30 } else { target };
@@ -281,7 +281,7 @@ mod tests {
         assert_eq!(chart.notice, Some(Notice::CalibrationRejected));
         assert_eq!(chart.record.calibration, None);
         // A first pass keyed 20.00 at every point: refused at its end.
-        let mut chart = Chart::new(Record::default());
+        let mut chart = Chart::new(Record::default(), &crate::test_support::paper_board());
         for reading in 0..4_u8 {
             let (next, _) = confirm(&mut chart, reading, target_hundredths(reading) - 50, 2_000);
             if reading == 3 {

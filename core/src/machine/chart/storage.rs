@@ -90,7 +90,7 @@ impl Chart {
     /// The shared storage for `record`: its calibration rebuilt and validated (an invalid
     /// one is replaced by identity and reported as a notice).
     #[must_use]
-    pub fn new(record: Record) -> Self {
+    pub fn new(record: Record, board: &crate::board::BoardConfig) -> Self {
         let (calibration, notice) = match record.calibration {
             None => (Calibration::IDENTITY, None),
             Some(points) => match Calibration::new(&points) {
@@ -101,11 +101,11 @@ impl Chart {
         Self {
             record,
             calibration,
-            scale: LoadCellScale::NOMINAL,
-            rezero: Rezero::new(LoadCellScale::NOMINAL.zero()),
+            scale: board.load_cell(),
+            rezero: Rezero::new(board.load_cell().zero()),
             rezeros: 0,
             drift_noticed: false,
-            controller: TensionController::taut(),
+            controller: board.controller(),
             notice,
             booting: true,
             dirty: false,
@@ -210,8 +210,9 @@ impl Chart {
             key: sample.key.is_some() || inputs.keys != crate::io::Keys::NONE,
             code: inputs.load_cell,
         };
-        if let Some(Retare::Zero(zero)) = self.rezero.observe(&rest, self.scale.zero()) {
-            if let Ok(scale) = LoadCellScale::new(zero, self.scale.kgf_per_volt()) {
+        if let Some(Retare::Zero(zero)) = self.rezero.observe(&rest, self.scale.zero(), self.scale.reference())
+        {
+            if let Ok(scale) = self.scale.with_zero(zero) {
                 self.scale = scale;
                 self.rezeros = self.rezeros.saturating_add(1);
                 // REQ-UI-12: the drift watch, once a boot, never over another notice.

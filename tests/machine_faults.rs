@@ -20,11 +20,15 @@ use taut_core::drive::{DriveCommand, HallCode, Phase};
 use taut_core::io::{Inputs, Key, Keys, LimitSwitches};
 use taut_core::machine::{FaultCode, Machine, MachineState, panel};
 use taut_core::sense::calibration::{CALIBRATION_POINTS, CalibrationPoint};
-use taut_core::sense::load_cell::LoadCellScale;
 use taut_core::settings::{SetPoint, Settings};
 use taut_core::store::{Record, StoreError};
 use taut_core::units::Kgf;
 use taut_sim::{Fault, LimitSwitch, LoadCellFault, StringKind, TwinConfig};
+
+/// The twin's nominal machine's board: the paper's.
+fn paper_board() -> taut_core::board::BoardConfig {
+    taut_core::board::paper().expect("the paper's board is valid")
+}
 
 /// Runs until a fault latches; asserts it is `code`, that the bridge was off in the
 /// latching tick and that the panel shows it.
@@ -189,7 +193,7 @@ fn machine_fault_e09_stall_scripted() {
     // Scripted inputs: a pull commanding high duty while the Hall count stands still.
     // Speed 9: the take-up drives at high duty.
     let settings = Settings::new(SetPoint::DEFAULT, 9, 0, 0).unwrap();
-    let mut machine = Machine::new(Record { settings, ..Record::default() });
+    let mut machine = Machine::new(Record { settings, ..Record::default() }, &paper_board());
     let mut now = 0u32;
     let mut inputs = boot_inputs();
     run_to_ready(&mut machine, &mut inputs, &mut now);
@@ -303,7 +307,7 @@ fn machine_fault_e16_no_string() {
 
 #[test]
 fn machine_fault_e17_overload_scripted() {
-    let mut machine = Machine::new(Record::default());
+    let mut machine = Machine::new(Record::default(), &paper_board());
     let mut now = 0u32;
     let mut inputs = boot_inputs();
     run_to_ready(&mut machine, &mut inputs, &mut now);
@@ -312,7 +316,7 @@ fn machine_fault_e17_overload_scripted() {
     // A reading far above 25 + 5 kgf: the string jammed in the gripper, a sensor gain
     // fault, a runaway. The tracked tension climbs from 0 at 1 kgf a tick (REQ-SAFE-09), is
     // above 30 at the 31st tick, and three ticks of it latch: the 33rd.
-    inputs.load_cell = LoadCellScale::NOMINAL.to_code(Kgf::from_int(35));
+    inputs.load_cell = paper_board().load_cell().to_code(Kgf::from_int(35));
     inputs.drive.steps = 500;
     let mut latched_after = 0;
     for tick in 1..=50 {
@@ -362,13 +366,13 @@ fn machine_fault_e09_jam_at_low_speed() {
 fn pull_timeout_after(speed: u8) -> u32 {
     let settings = Settings::default().with_speed_stepped(i8::try_from(speed).unwrap() - 5);
     assert_eq!(settings.speed().get(), speed);
-    let mut machine = Machine::new(Record { settings, ..Record::default() });
+    let mut machine = Machine::new(Record { settings, ..Record::default() }, &paper_board());
     let mut now = 0u32;
     let mut inputs = boot_inputs();
     run_to_ready(&mut machine, &mut inputs, &mut now);
     press(&mut machine, &mut inputs, &mut now, Key::Start);
     assert_eq!(machine.state(), MachineState::Pulling);
-    inputs.load_cell = LoadCellScale::NOMINAL.to_code(Kgf::from_int(3));
+    inputs.load_cell = paper_board().load_cell().to_code(Kgf::from_int(3));
     let started = now;
     let mut ticks = 0u32;
     while machine.fault().is_none() && ticks < 70_000 {
@@ -424,7 +428,7 @@ fn machine_fault_e19_release_timeout() {
 #[test]
 fn machine_fault_e19_release_timeout_scripted() {
     // Releasing with the home switch never closing (broken switch) and no current rise.
-    let mut machine = Machine::new(Record::default());
+    let mut machine = Machine::new(Record::default(), &paper_board());
     let mut now = 0u32;
     let mut inputs = boot_inputs();
     run_to_ready(&mut machine, &mut inputs, &mut now);
@@ -459,7 +463,7 @@ fn machine_fault_drive_latches_map_to_their_codes() {
         (DriveFault::BusOvervoltage, FaultCode::BusOvervoltage),
         (DriveFault::CurrentSenseZero, FaultCode::CurrentSenseZero),
     ] {
-        let mut machine = Machine::new(Record::default());
+        let mut machine = Machine::new(Record::default(), &paper_board());
         let mut now = 0u32;
         let mut inputs = boot_inputs();
         run_to_ready(&mut machine, &mut inputs, &mut now);
@@ -494,7 +498,7 @@ fn machine_notice_n01_corrupt_record_uses_defaults() {
     let stored = Record::decode(&bytes);
     assert_eq!(stored, Err(StoreError::CrcMismatch));
     let config = TwinConfig::nominal(StringKind::TennisSynthetic);
-    let mut rig = Rig::with_machine(&config, Machine::from_stored(stored));
+    let mut rig = Rig::with_machine(&config, Machine::from_stored(stored, &paper_board()));
     rig.expect_state(MachineState::Ready, 30_000);
     assert_eq!(rig.outputs().display, panel::notice(1));
     assert_eq!(rig.machine().fault(), None, "a notice, not a fault");
@@ -590,7 +594,7 @@ fn machine_calibration_abort_by_key() {
 
 fn boot_inputs() -> Inputs {
     Inputs {
-        load_cell: LoadCellScale::NOMINAL.to_code(Kgf::ZERO),
+        load_cell: paper_board().load_cell().to_code(Kgf::ZERO),
         limits: LimitSwitches { home: true, end: false },
         ..Inputs::default()
     }

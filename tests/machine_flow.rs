@@ -500,3 +500,81 @@ fn machine_flow_the_logged_peak_is_the_tension_the_string_saw() {
     // gauge's reading error: within 0.1 kgf of the truth, never the noise's excursions.
     assert!((logged - true_peak).abs() <= 0.1, "logged {logged} against {true_peak}");
 }
+
+/// A board unlike the paper's, described to core by its `BoardConfig` alone: a 3.3 V
+/// converter for every analogue input, per-phase low-side shunts with bidirectional
+/// 0.1 V/A amplifiers at mid-rail, a 1 : 20 bus divider, a 0.5 µs dead time; the load-cell
+/// amplifier's gain chosen for the paper's full scale on 3.3 V (60.7 mV/kgf).
+fn second_board() -> (TwinConfig, taut_core::board::BoardConfig) {
+    use taut_core::board::{BoardConfig, PAPER_LOAD_CELL_ZERO};
+    use taut_core::drive::limit::{CurrentLimit, CurrentReading, CurrentSense};
+    use taut_core::drive::{BusSense, DriveConfig, DriveTime};
+    use taut_core::sense::load_cell::LoadCellScale;
+    use taut_core::tension::controller::ControllerConfig;
+    use taut_core::units::{AdcCode, AdcReference, Q16};
+    use taut_sim::params::{BoardDesign, CurrentSenseParams};
+
+    let reference = AdcReference::from_millivolts(3_300).unwrap();
+    let dead_time = DriveTime(5);
+    let mut config = TwinConfig::nominal(StringKind::TennisSynthetic).with_seed(11);
+    config.board = BoardDesign { adc_reference: reference, bus_full_scale_mv: 66_000, dead_time };
+    config.bridge.dead_time_s = 0.5e-6;
+    config.bus_sense.divider_ratio = 20.0;
+    config.current_sense = CurrentSenseParams::per_phase_low_side();
+    config.current_sense.offset_volts = 1.65;
+    config.load_cell.volts_per_kgf = 0.092 * 3.3 / 5.0;
+
+    // The board's own description: 3.3 V / 4 096 / 0.1 V/A = 8.057 mA a code from mid-rail.
+    let sense = CurrentSense {
+        reading: CurrentReading::Winding,
+        design_zero: AdcCode::new(2_048),
+        na_per_code: 8_056_641,
+        zero_tolerance: 63,
+    };
+    let bus =
+        BusSense { full_scale_mv: 66_000, floor_mv: 18_000, regen_mv: 38_000, max_mv: 40_000 };
+    let drive = DriveConfig::new(sense, bus, CurrentLimit::PAPER, 12_000, dead_time).unwrap();
+    let load_cell =
+        LoadCellScale::new(reference, PAPER_LOAD_CELL_ZERO, Q16::from_num(1.0 / 0.060_72)).unwrap();
+    let board =
+        BoardConfig::new(drive, DriveTime::from_micros(50), load_cell, ControllerConfig::TAUT)
+            .unwrap();
+    (config, board)
+}
+
+#[test]
+fn machine_flow_a_second_board_runs_a_cycle_through_its_board_config() {
+    use taut_core::machine::Machine;
+    use taut_core::units::Q16;
+    let (config, board) = second_board();
+    // The twin's electronics are what the board says they are.
+    assert_eq!(board.drive(), config.current_sense.drive_config(&config.board));
+    assert_eq!(board.dead_time_duty().raw(), 655, "0.5 µs of 50 µs");
+    let scale = board.load_cell();
+    let twin_scale = taut_sim::bench::board_for(&config).load_cell();
+    let gain_apart = (scale.kgf_per_volt() - twin_scale.kgf_per_volt()).abs();
+    assert!(gain_apart < Q16::lit("0.01"), "{gain_apart}");
+
+    let machine = Machine::new(Record::default(), &board);
+    let mut rig = Rig::with_machine(&config, machine);
+    rig.expect_state(MachineState::CalibrationWindow, 5_000);
+    rig.press(Key::Function);
+    for point in 0..8u8 {
+        rig.expect_state(MachineState::CalibrationEntry { point }, 30_000);
+        let gauge = rig.twin_mut().reference_gauge();
+        rig.key_in_hundredths((gauge * 100.0).round() as i32);
+        rig.press(Key::Start);
+    }
+    rig.expect_state(MachineState::Ready, 30_000);
+    rig.press(Key::Start);
+    rig.expect_state(MachineState::Holding, 20_000);
+    rig.run(1_500);
+    let truth = rig.twin().truth().tension_kgf;
+    println!("second board: held at {truth:.3} kgf (target 25.0)");
+    assert!((truth - 25.0).abs() < 0.3, "held {truth} kgf");
+    rig.press(Key::Start);
+    rig.expect_state(MachineState::Ready, 20_000);
+    assert!(rig.twin().truth().limits.home);
+    assert_eq!(rig.machine().record().counters.pulls, 1);
+    assert!(rig.machine().fault().is_none());
+}

@@ -31,6 +31,7 @@ use crate::sense::load_cell::LoadCellScale;
 use crate::tension::controller::{
     ConfigError, ControllerConfig, DEAD_TIME_DUTY_MAX, TensionController,
 };
+#[cfg(any(test, feature = "paper-board"))]
 use crate::units::{AdcReference, Q16, Volts};
 
 /// The shortest PWM period a board may have: 20 µs (50 kHz), where a 12-bit duty's resolution
@@ -122,12 +123,15 @@ impl BoardConfig {
     }
 }
 
+#[cfg(any(test, feature = "paper-board"))]
 /// The paper's board: its drive ([`DriveConfig::PAPER`]: one DC-link shunt read mid on-time,
 /// the 1 : 12 bus divider, 8 A limit, 12 A trip, 1 µs dead time) switching at 20 kHz, the
 /// paper's load-cell chain on a 5 V converter (50 mV zero-load output, 92 mV/kgf) and taut's
 /// controller. The digital twin's machines and the proofs run on it; the firmware's board
 /// is its own.
-#[must_use]
+///
+/// # Errors
+/// [`BoardError`] were a part refused (core's tests show none is).
 pub fn paper() -> Result<BoardConfig, BoardError> {
     let reference = AdcReference::from_millivolts(5_000).ok_or(BoardError::LoadCell)?;
     let load_cell = LoadCellScale::new(reference, PAPER_LOAD_CELL_ZERO, PAPER_KGF_PER_VOLT)
@@ -135,17 +139,21 @@ pub fn paper() -> Result<BoardConfig, BoardError> {
     BoardConfig::new(DriveConfig::PAPER, PAPER_PWM_PERIOD, load_cell, ControllerConfig::TAUT)
 }
 
+#[cfg(any(test, feature = "paper-board"))]
 /// The paper's PWM period: 50 µs (20 kHz).
 pub const PAPER_PWM_PERIOD: DriveTime = DriveTime::from_micros(50);
 
+#[cfg(any(test, feature = "paper-board"))]
 /// The paper's load-cell chain's zero-load output: 50 mV (a small positive offset keeps the
 /// zero reading clear of the converter's bottom rail, so a disconnected bridge that pulls the
 /// amplifier to 0 V is told apart from an unloaded one).
 pub const PAPER_LOAD_CELL_ZERO: Volts = Volts(Q16::lit("0.05"));
 
+#[cfg(any(test, feature = "paper-board"))]
 /// The paper's load-cell chain's sensitivity, volts per kgf (≈ 920 mV at 10 kgf).
 pub const PAPER_VOLTS_PER_KGF: Q16 = Q16::lit("0.092");
 
+#[cfg(any(test, feature = "paper-board"))]
 /// The paper's chain's `k`, kgf per volt: 1 / 0.092 = 10.869 565.
 pub const PAPER_KGF_PER_VOLT: Q16 = Q16::lit("10.869565");
 
@@ -168,7 +176,10 @@ mod tests {
     #[test]
     fn the_dead_time_duty_is_the_dead_time_over_the_period() {
         assert_eq!(paper_board().dead_time_duty().raw(), 1_311, "1 µs of 50 µs, rounded");
-        assert_eq!(dead_time_duty(DriveTime::from_micros(1), DriveTime::from_micros(50)).raw(), 1_311);
+        assert_eq!(
+            dead_time_duty(DriveTime::from_micros(1), DriveTime::from_micros(50)).raw(),
+            1_311
+        );
         assert_eq!(dead_time_duty(DriveTime(5), DriveTime::from_micros(50)).raw(), 655);
         assert_eq!(dead_time_duty(DriveTime(1), DriveTime(0)), Duty::from_raw_clamped(u16::MAX));
     }
@@ -179,8 +190,14 @@ mod tests {
         let build = |period, controller| {
             BoardConfig::new(board.drive(), period, board.load_cell(), controller)
         };
-        assert_eq!(build(DriveTime::from_micros(19), ControllerConfig::TAUT), Err(BoardError::PwmPeriod));
-        assert_eq!(build(DriveTime::from_micros(101), ControllerConfig::TAUT), Err(BoardError::PwmPeriod));
+        assert_eq!(
+            build(DriveTime::from_micros(19), ControllerConfig::TAUT),
+            Err(BoardError::PwmPeriod)
+        );
+        assert_eq!(
+            build(DriveTime::from_micros(101), ControllerConfig::TAUT),
+            Err(BoardError::PwmPeriod)
+        );
         assert!(build(DriveTime::from_micros(20), ControllerConfig::TAUT).is_ok());
         assert!(build(DriveTime::from_micros(100), ControllerConfig::TAUT).is_ok());
         let slow = ControllerConfig { period_us: 1, ..ControllerConfig::TAUT };
@@ -196,7 +213,8 @@ mod tests {
             DriveTime::from_micros(5),
         )
         .expect("5 µs is a dead time the drive takes");
-        let at = |period| BoardConfig::new(long_dead, period, board.load_cell(), ControllerConfig::TAUT);
+        let at =
+            |period| BoardConfig::new(long_dead, period, board.load_cell(), ControllerConfig::TAUT);
         assert_eq!(at(DriveTime::from_micros(20)), Err(BoardError::DeadTimeShare), "a quarter");
         assert!(at(DriveTime::from_micros(50)).is_ok(), "a tenth");
     }
@@ -204,7 +222,8 @@ mod tests {
     #[test]
     fn the_board_builds_the_controller_it_was_given_with_its_dead_time() {
         let board = paper_board();
-        let config = ControllerConfig { dead_time_duty: board.dead_time_duty(), ..ControllerConfig::TAUT };
+        let config =
+            ControllerConfig { dead_time_duty: board.dead_time_duty(), ..ControllerConfig::TAUT };
         assert_eq!(board.controller(), TensionController::new(&config).expect("valid"));
         assert_ne!(board.controller(), TensionController::taut(), "the ideal bridge's differs");
         assert_eq!(board.pwm_period(), DriveTime::from_micros(50));

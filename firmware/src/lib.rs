@@ -45,6 +45,7 @@
 #[cfg(test)]
 extern crate std;
 
+pub mod board;
 pub mod bridge;
 pub mod flash_layout;
 pub mod link;

@@ -38,17 +38,17 @@
 //!
 //! Every figure above is derived from the board constants below, and the checks at the end of
 //! this file fail the build if a change (a longer dead time, a higher duty cap, a shorter
-//! period) would put a sample on a switching edge, or would give core a dead time or a
-//! dead-time duty other than the timer's.
+//! period) would put a sample on a switching edge, or would give core a dead time other than
+//! the timer's.
 //!
 //! # Handing the timing to core
 //!
 //! Core's drive counts time in [`DriveTime`] (100 ns) and never sees a clock: the fast loop
 //! converts the cycle counter's counts with [`drive_time`], carrying the remainder so no time
 //! is lost between calls; the dead time goes into the drive's configuration as [`DEAD_TIME`]
-//! (exactly [`DEAD_TIME_TICKS`] of the timer); the controller's dead-time duty
-//! ([`taut_core::tension::controller::TAUT_DEAD_TIME_DUTY`]) is checked against this period
-//! and dead time below. Porting to another MCU or PWM frequency is a change of this file.
+//! (exactly [`DEAD_TIME_TICKS`] of the timer), and the period as [`crate::board::PWM_PERIOD`];
+//! the controller's dead-time duty is derived from the two by the board
+//! ([`crate::board::board`]). Porting to another MCU or PWM frequency is a change of this file.
 
 use taut_core::drive::{DUTY_MAX, DriveTime, TIME_UNITS_PER_SECOND, duty::DUTY_ONE};
 
@@ -74,12 +74,6 @@ pub const TICKS_PER_DRIVE_TIME: u32 = PWM_TIMER_HZ / TIME_UNITS_PER_SECOND;
 
 /// The dead time in core's unit, for the drive's configuration: 10 (1.0 µs).
 pub const DEAD_TIME: DriveTime = DriveTime(DEAD_TIME_TICKS / TICKS_PER_DRIVE_TIME);
-
-/// The dead-time duty the controller's slip damper assumes: the dead time over the period,
-/// Q0.16, rounded (170 / 8 500 × 65 536 = 1 311).
-#[allow(clippy::cast_lossless, reason = "`u32::from` is not callable in a const item")]
-pub const DEAD_TIME_DUTY_RAW: u32 =
-    (DEAD_TIME_TICKS * DUTY_ONE + PWM_PERIOD_TICKS as u32 / 2) / PWM_PERIOD_TICKS as u32;
 
 /// `cycles` of the 170 MHz cycle counter as drive time, and the cycles left over (under one
 /// unit), which the caller counts into the next call so no time is lost.
@@ -158,10 +152,6 @@ const _: () = {
         "the dead time must be one the drive's configuration accepts"
     );
     assert!(
-        DEAD_TIME_DUTY_RAW == taut_core::tension::controller::TAUT_DEAD_TIME_DUTY.raw() as u32,
-        "the controller's dead-time duty must be this board's dead time over its period"
-    );
-    assert!(
         LAST_EDGE_TICKS + SETTLE_TICKS + CONVERSION_TICKS <= period,
         "the load cell and bus voltage must be sampled and converted in the quiet window, \
          before the next period's first edge"
@@ -207,7 +197,6 @@ mod tests {
         assert_eq!(CONVERSION_TICKS, 164);
         assert_eq!(MAX_COMPARE_TICKS, u32::from(DUTY_MAX.compare_ticks(PWM_PERIOD_TICKS)));
         assert_eq!(DEAD_TIME, DriveTime::from_micros(1));
-        assert_eq!(DEAD_TIME_DUTY_RAW, 1_311);
     }
 
     /// The cycle counter's counts become drive time with nothing lost: summed over calls of

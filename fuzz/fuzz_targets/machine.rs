@@ -17,7 +17,10 @@ fuzz_target!(|input: (Option<CheckpointInput>, Vec<TickInput>, Vec<u8>)| {
             Some(machine) => machine,
             None => return,
         },
-        None => Machine::<4>::with_stored(Record::decode(&record_bytes)),
+        None => match taut_proofs::paper_board() {
+            Some(board) => Machine::<4>::with_stored(Record::decode(&record_bytes), &board),
+            None => return,
+        },
     };
     // Bound the work per input; libFuzzer finds long sequences by splicing short ones.
     for tick in ticks.iter().take(4_096) {

@@ -380,7 +380,11 @@ mod tests {
     }
 
     fn ready() -> Machine {
-        Machine::resume(Record::default(), &Checkpoint::at(MachineState::Ready))
+        Machine::resume(
+            Record::default(),
+            &Checkpoint::at(MachineState::Ready),
+            &taut_core::board::paper().expect("the paper's board"),
+        )
     }
 
     fn settings_30kg() -> Settings {
@@ -488,6 +492,7 @@ mod tests {
         let mut faulted: Machine = Machine::resume(
             Record::default(),
             &Checkpoint::at(MachineState::Fault(FaultCode::LimitsBoth)),
+            &taut_core::board::paper().expect("the paper's board"),
         );
         let mut server = Server::new([0; 12], [0, 1, 0]);
         let Response::Faults(faults) =
@@ -545,7 +550,11 @@ mod tests {
     fn a_record_is_committed_only_whole() {
         let mut source = Record { settings: settings_30kg(), ..Record::default() };
         source.counters.pulls = 5;
-        let mut from: Machine = Machine::resume(source, &Checkpoint::at(MachineState::Ready));
+        let mut from: Machine = Machine::resume(
+            source,
+            &Checkpoint::at(MachineState::Ready),
+            &taut_core::board::paper().expect("the paper's board"),
+        );
         let mut server = Server::new([0; 12], [0, 1, 0]);
         let mut parts = std::vec::Vec::new();
         for part in 0..RECORD_PARTS {

@@ -294,7 +294,8 @@ pub fn reachable_slip(state: SlipState) -> SlipState {
 }
 
 /// The paper's board's dead-time duty (1 µs of 50 µs), the slip damper's starting point.
-const PAPER_DEAD_TIME_DUTY: taut_core::drive::Duty = taut_core::drive::Duty::from_raw_clamped(1_311);
+const PAPER_DEAD_TIME_DUTY: taut_core::drive::Duty =
+    taut_core::drive::Duty::from_raw_clamped(1_311);
 
 /// REQ-TEN-15: the slip damper never panics, returns a braking force that is never
 /// negative and is zero outside the hold, while the model is still learning, and whenever

@@ -65,7 +65,7 @@ proptest! {
         tare in 20u16..120,
         seed in any::<u64>(),
     ) {
-        let reference = AdcCode::new(tare).to_volts();
+        let reference = taut_proofs::FIVE_VOLTS.volts(AdcCode::new(tare));
         let mut rule = Rezero::new(reference);
         let mut zero = reference;
         let mut rng = seed | 1;
@@ -113,7 +113,7 @@ proptest! {
 /// A steady unloaded cell drifting slowly is followed to within a code.
 #[test]
 fn rezero_follows_a_slow_drift() {
-    let reference: Volts = AdcCode::new(41).to_volts();
+    let reference: Volts = taut_proofs::FIVE_VOLTS.volts(AdcCode::new(41));
     let mut rule = Rezero::new(reference);
     let mut zero = reference;
     // 20 codes over 100 s at rest.
@@ -124,6 +124,9 @@ fn rezero_follows_a_slow_drift() {
             zero = new;
         }
     }
-    let last = AdcCode::new(60).to_volts();
-    assert!((zero.to_bits() - last.to_bits()).abs() <= AdcCode::new(1).to_volts().to_bits());
+    let last = taut_proofs::FIVE_VOLTS.volts(AdcCode::new(60));
+    assert!(
+        (zero.to_bits() - last.to_bits()).abs()
+            <= taut_proofs::FIVE_VOLTS.volts(AdcCode::new(1)).to_bits()
+    );
 }

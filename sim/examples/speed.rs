@@ -23,11 +23,13 @@ use std::time::Instant;
 
 use taut_core::drive::Direction;
 use taut_core::io::{Inputs, Outputs};
-use taut_core::sense::load_cell::LoadCellScale;
+
 use taut_sim::{CurrentSenseParams, StringKind, Twin, TwinConfig, drive_at, run};
 
 /// The benchmark's simple controller: state and one step per tick.
 struct Cycle {
+    /// The paper's load-cell chain, untared.
+    scale: taut_core::sense::load_cell::LoadCellScale,
     target_kgf: f64,
     integral: f64,
     held_since: Option<u32>,
@@ -37,7 +39,7 @@ struct Cycle {
 impl Cycle {
     fn step(&mut self, inputs: &Inputs) -> Outputs {
         let t = inputs.now_ms;
-        let tension = taut_sim::bench::board_for(&config).load_cell().to_kgf(inputs.load_cell).0.to_num::<f64>();
+        let tension = self.scale.to_kgf(inputs.load_cell).0.to_num::<f64>();
         let command = if t >= 25_000 {
             let since = t.saturating_sub(*self.releasing.get_or_insert(t));
             let ramp = (f64::from(since) / 100.0).min(1.0);
@@ -79,8 +81,9 @@ fn main() {
             TwinConfig::sample_kind(StringKind::TennisSynthetic, u64::from(cycle))
         };
         let mut twin = Twin::new(&config);
+        let scale = taut_sim::bench::board_for(&config).load_cell();
         let mut controller =
-            Cycle { target_kgf: 25.0, integral: 0.0, held_since: None, releasing: None };
+            Cycle { scale, target_kgf: 25.0, integral: 0.0, held_since: None, releasing: None };
         let start = Instant::now();
         let trace = run(&mut twin, 30_000, |inputs| controller.step(inputs));
         let elapsed = start.elapsed().as_secs_f64();

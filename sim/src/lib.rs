@@ -147,7 +147,7 @@
 //!   ±0.1 % quadratic term at 50 kgf; 500 Hz amplifier bandwidth; 1.5 mV rms noise
 //!   (≈ 0.016 kgf, 1.2 LSB); spikes of 40 mV + 15 mV/A with probability 5 % per sample
 //!   while the PWM switches and 50 % after a commutation (paper figure 22); 12-bit ADC
-//!   at 5 V through `AdcCode::from_volts`.
+//!   on the board's converter (`BoardDesign::adc_reference`: 5 V on the paper's board).
 //! - **Current**: bus shunt sampled each on-time, taut-core's 0.2 V/A, 30 mA noise (the
 //!   family adds per-phase low-side shunts, an RC-filtered DC link and bidirectional
 //!   amplifiers: [`params::CurrentSensing`]).

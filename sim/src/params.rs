@@ -16,10 +16,43 @@ use core::str::FromStr;
 
 use crate::rng::SimRng;
 use taut_core::drive::{DriveTime, TIME_UNITS_PER_SECOND};
+use taut_core::units::AdcReference;
 
 /// The twin's board's dead time: 1 µs, as taut's (`firmware/src/timing.rs`). The bridge's
 /// physics ([`BridgeParams::dead_time_s`]) and the drive's configuration both take it.
 pub const BOARD_DEAD_TIME: DriveTime = DriveTime::from_micros(1);
+
+/// The design of the electronics a twin's machine is built on — what its converter's codes
+/// and its bridge's timing mean — as opposed to the sampled errors of each part around it.
+/// The machine's core is given the board these make ([`crate::bench::board_for`]).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct BoardDesign {
+    /// The converter's reference (every analogue input: load cell, current, bus).
+    pub adc_reference: AdcReference,
+    /// The bus voltage at converter full scale by design (reference × divider), mV.
+    pub bus_full_scale_mv: u32,
+    /// The bridge's dead time (the physics' [`BridgeParams::dead_time_s`] is this at nominal).
+    pub dead_time: DriveTime,
+}
+
+impl BoardDesign {
+    /// The paper's board: a 5 V converter, a 1 : 12 bus divider (60 V full scale), 1 µs.
+    #[allow(clippy::panic, reason = "evaluated when compiled: a refused reference stops the build")]
+    pub const PAPER: Self = Self {
+        adc_reference: match AdcReference::from_millivolts(5_000) {
+            Some(reference) => reference,
+            None => panic!("5 V is a converter reference"),
+        },
+        bus_full_scale_mv: 60_000,
+        dead_time: BOARD_DEAD_TIME,
+    };
+
+    /// The converter's reference, volts.
+    #[must_use]
+    pub fn reference_volts(&self) -> f64 {
+        f64::from(self.adc_reference.millivolts()) / 1_000.0
+    }
+}
 
 /// Standard gravity, N per kgf.
 pub const NEWTONS_PER_KGF: f64 = 9.806_65;
@@ -520,7 +553,7 @@ pub enum DcLinkSampling {
 ///
 /// ```text
 /// V    = clamp(offset_volts + volts_per_amp · ((1 + gain_error)·i_s + offset_amps + noise), 0, 5 V)
-/// code = AdcCode::from_volts(V)          (12 bit, 5 V reference: round(V · 4096 / 5), ≤ 4095)
+/// code = AdcReference::code(V)           (12 bit; the paper's 5 V: round(V · 4096 / 5), ≤ 4095)
 /// ```
 ///
 /// `offset_volts` is 0 for a unidirectional amplifier (negative currents read 0 V: code 0)
@@ -545,7 +578,7 @@ pub struct CurrentSenseParams {
 
 /// The DC bus voltage divider feeding the ADC (`Inputs::bus_voltage`, `DriveSample::bus_voltage`).
 ///
-/// The code is `AdcCode::from_volts(V_bus / divider_ratio + noise)` per conversion, one
+/// The code is `AdcReference::code(V_bus / divider_ratio + noise)` per conversion, one
 /// conversion per PWM period at the period's quiet end, averaged by the ADC's hardware
 /// oversampler over [`BusSenseParams::OVERSAMPLING`] periods exactly as the firmware sets it
 /// up: the result register — what the drive and the tick read — holds the rounded mean of the
@@ -624,6 +657,8 @@ pub struct TwinConfig {
     pub encoder: EncoderParams,
     /// Standard deviation of the reference gauge used for calibration, kgf.
     pub reference_gauge_sigma_kgf: f64,
+    /// The electronics' design (converter reference, bus divider, dead time).
+    pub board: BoardDesign,
 }
 
 /// Why a configuration was rejected by [`TwinConfig::check`].
@@ -892,12 +927,13 @@ impl CurrentSenseParams {
         format!("{kind}/{amplifier}")
     }
 
-    /// The drive configuration a core on this board is given: what the code stands for
-    /// (winding current, or the link average of an RC-filtered DC-link shunt), the design
-    /// zero and gain, taut's bus divider and current limit, the 12 A trip. (Design values:
-    /// the board's errors are the twin's hidden parameters, and the drive tares the zero.)
+    /// The drive configuration a core on `board` with this sensing is given: what the code
+    /// stands for (winding current, or the link average of an RC-filtered DC-link shunt), the
+    /// design zero and gain on the board's converter, the board's bus divider and dead time,
+    /// taut's current limit, the 12 A trip. (Design values: the board's errors are the twin's
+    /// hidden parameters, and the drive tares the zero.)
     #[must_use]
-    pub fn drive_config(&self) -> taut_core::drive::DriveConfig {
+    pub fn drive_config(&self, board: &BoardDesign) -> taut_core::drive::DriveConfig {
         use taut_core::drive::limit::{BusSense, CurrentLimit, CurrentReading, CurrentSense};
         let reading = match self.sensing {
             CurrentSensing::PerPhaseLowSide | CurrentSensing::DcLink(DcLinkSampling::MidOnTime) => {
@@ -905,7 +941,7 @@ impl CurrentSenseParams {
             }
             CurrentSensing::DcLink(DcLinkSampling::Filtered { .. }) => CurrentReading::LinkAverage,
         };
-        let volts_per_code = 5.0 / 4096.0;
+        let volts_per_code = board.reference_volts() / 4096.0;
         let na_per_code = (volts_per_code / self.volts_per_amp * 1e9).round() as u32;
         let design_zero = (self.offset_volts / volts_per_code).round().clamp(0.0, 4095.0) as u16;
         // ± 0.5 A of amplifier offset is plausible; more is a fault.
@@ -916,14 +952,9 @@ impl CurrentSenseParams {
             na_per_code,
             zero_tolerance,
         };
-        taut_core::drive::DriveConfig::new(
-            sense,
-            BusSense::PAPER,
-            CurrentLimit::PAPER,
-            12_000,
-            BOARD_DEAD_TIME,
-        )
-        .unwrap_or(taut_core::drive::DriveConfig::PAPER)
+        let bus = BusSense { full_scale_mv: board.bus_full_scale_mv, ..BusSense::PAPER };
+        taut_core::drive::DriveConfig::new(sense, bus, CurrentLimit::PAPER, 12_000, board.dead_time)
+            .unwrap_or(taut_core::drive::DriveConfig::PAPER)
     }
 
     /// Whether the amplifier is biased at mid-rail (reads negative currents).
@@ -977,6 +1008,7 @@ impl TwinConfig {
             hall: HallParams::nominal(),
             encoder: EncoderParams::nominal(),
             reference_gauge_sigma_kgf: REFERENCE_GAUGE_SIGMA_KGF,
+            board: BoardDesign::PAPER,
         }
     }
 

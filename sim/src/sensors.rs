@@ -21,7 +21,7 @@
 //! consecutive samples (uniform) each carries a spike of the same sign (a gate driver
 //! ringing across several conversions), which a median of five passes from three on. The
 //! voltage is
-//! converted by the 12-bit, 5 V converter (`AdcCode::from_volts`).
+//! converted by the board's 12-bit converter (`AdcReference::code`; 5 V on the paper's board).
 //!
 //! Mains hum (`volts · sin(2π·f·t + φ)`, referred to the amplifier output) is added at
 //! the sample with the noise.
@@ -88,6 +88,8 @@ pub enum LoadCellFault {
 #[derive(Clone, Debug)]
 pub struct LoadCell {
     params: LoadCellParams,
+    /// The converter the chain feeds.
+    reference: AdcReference,
     filtered: f64,
     /// Samples of the present burst still to come.
     burst_left: u32,
@@ -100,11 +102,12 @@ pub struct LoadCell {
 }
 
 impl LoadCell {
-    /// A chain at rest with no load.
+    /// A chain at rest with no load, into a converter of `reference`.
     #[must_use]
-    pub fn new(params: &LoadCellParams) -> Self {
+    pub fn new(params: &LoadCellParams, reference: AdcReference) -> Self {
         let mut cell = Self {
             params: *params,
+            reference,
             filtered: 0.0,
             burst_left: 0,
             burst_sign: 1.0,
@@ -208,6 +211,7 @@ impl LoadCell {
             self.injected.0 = self.injected.0.saturating_sub(1);
             v += self.injected.1;
         }
+        let adc = |v: f64| self.reference.code(volts(v));
         match fault {
             None => adc(v),
             Some(LoadCellFault::Open) => adc(rng.gaussian(p.noise_volts).abs()),
@@ -225,10 +229,12 @@ impl LoadCell {
 #[derive(Clone, Copy, Debug)]
 pub struct CurrentSense {
     params: CurrentSenseParams,
+    /// The converter the amplifier feeds.
+    reference: AdcReference,
     volts_per_amp: f64,
     /// The design offset in output amperes (0, or mid-rail / gain).
     offset_amps: f64,
-    /// The rails in output amperes: 5 V / gain.
+    /// The rails in output amperes: the converter's reference / gain.
     full_scale_amps: f64,
     /// The RC filter's output, output amperes (filtered DC link only).
     filtered: f64,
@@ -238,16 +244,18 @@ pub struct CurrentSense {
 
 impl CurrentSense {
     /// The sensor with its design gain and offset, perturbed by the configured errors, its
-    /// filter (if any) settled at zero current.
+    /// filter (if any) settled at zero current, into a converter of `reference`.
     #[must_use]
-    pub fn new(params: &CurrentSenseParams) -> Self {
+    pub fn new(params: &CurrentSenseParams, reference: AdcReference) -> Self {
         let volts_per_amp = params.volts_per_amp;
         let offset_amps = params.offset_volts / volts_per_amp;
+        let full_scale = f64::from(reference.millivolts()) / 1_000.0;
         let mut sense = Self {
             params: *params,
+            reference,
             volts_per_amp,
             offset_amps,
-            full_scale_amps: 5.0 / volts_per_amp,
+            full_scale_amps: full_scale / volts_per_amp,
             filtered: 0.0,
             last_filtered_sample: 0.0,
         };
@@ -377,7 +385,7 @@ impl CurrentSense {
     /// The converter code for an amplifier output in output amperes.
     #[must_use]
     pub fn code(&self, measured_amps: f64) -> AdcCode {
-        adc(measured_amps * self.volts_per_amp)
+        self.reference.code(volts(measured_amps * self.volts_per_amp))
     }
 
     /// The current a code stands for with this board's design gain and offset, A (what a
@@ -385,7 +393,8 @@ impl CurrentSense {
     /// the converter's resolution and the sensor's errors).
     #[must_use]
     pub fn amps_of(&self, code: AdcCode) -> f64 {
-        f64::from(code.get()) * 5.0 / 4096.0 / self.volts_per_amp - self.offset_amps
+        let reference = f64::from(self.reference.millivolts()) / 1_000.0;
+        f64::from(code.get()) * reference / 4096.0 / self.volts_per_amp - self.offset_amps
     }
 }
 
@@ -393,16 +402,20 @@ impl CurrentSense {
 #[derive(Clone, Copy, Debug)]
 pub struct BusVoltageSense {
     params: BusSenseParams,
+    /// The converter the divider feeds.
+    reference: AdcReference,
     sum: u32,
     count: u32,
     register: AdcCode,
 }
 
 impl BusVoltageSense {
-    /// The divider, its oversampler's result register holding the code of `bus_volts`.
+    /// The divider into a converter of `reference`, its oversampler's result register
+    /// holding the code of `bus_volts`.
     #[must_use]
-    pub fn new(params: &BusSenseParams, bus_volts: f64) -> Self {
-        Self { params: *params, sum: 0, count: 0, register: adc(bus_volts / params.divider_ratio) }
+    pub fn new(params: &BusSenseParams, bus_volts: f64, reference: AdcReference) -> Self {
+        let register = reference.code(volts(bus_volts / params.divider_ratio));
+        Self { params: *params, reference, sum: 0, count: 0, register }
     }
 
     /// One conversion of the bus at `bus_volts` (the period's quiet end); every
@@ -410,7 +423,8 @@ impl BusVoltageSense {
     /// rounded mean.
     pub fn convert(&mut self, rng: &mut SimRng, bus_volts: f64) {
         let p = &self.params;
-        let code = adc(bus_volts / p.divider_ratio + rng.gaussian(p.noise_volts));
+        let code =
+            self.reference.code(volts(bus_volts / p.divider_ratio + rng.gaussian(p.noise_volts)));
         self.sum = self.sum.saturating_add(u32::from(code.get()));
         self.count = self.count.saturating_add(1);
         if self.count >= BusSenseParams::OVERSAMPLING {
@@ -431,7 +445,8 @@ impl BusVoltageSense {
     /// The bus voltage a code stands for with this divider, V.
     #[must_use]
     pub fn volts_of(&self, code: AdcCode) -> f64 {
-        f64::from(code.get()) * 5.0 / 4096.0 * self.params.divider_ratio
+        let reference = f64::from(self.reference.millivolts()) / 1_000.0;
+        f64::from(code.get()) * reference / 4096.0 * self.params.divider_ratio
     }
 }
 
@@ -443,7 +458,7 @@ mod tests {
     #[test]
     fn ten_kgf_reads_about_920_mv_above_zero() {
         let p = LoadCellParams::nominal();
-        let cell = LoadCell::new(&p);
+        let cell = LoadCell::new(&p, FIVE_VOLTS);
         let above_zero = cell.static_volts(10.0) - p.zero_volts;
         // 920 mV nominal, less the seated-deficit offset (c·F_k·92 mV ≈ 69 mV).
         assert!((above_zero - 0.92).abs() < 0.08, "{above_zero}");
@@ -454,7 +469,7 @@ mod tests {
 
     #[test]
     fn low_loads_are_non_linear_high_loads_are_not() {
-        let cell = LoadCell::new(&LoadCellParams::nominal());
+        let cell = LoadCell::new(&LoadCellParams::nominal(), FIVE_VOLTS);
         let line = |t: f64| {
             let a = cell.static_volts(20.0);
             let b = cell.static_volts(30.0);
@@ -467,20 +482,21 @@ mod tests {
 
     #[test]
     fn core_scale_reads_the_twin_code_back() {
-        let mut cell = LoadCell::new(&LoadCellParams::nominal());
+        let mut cell = LoadCell::new(&LoadCellParams::nominal(), FIVE_VOLTS);
         for _ in 0..100 {
             cell.update(25.0, 1e-3);
         }
         let mut rng = SimRng::new(1);
         let code = cell.sample(&mut rng, 0.0, false, false, 0.0, None);
-        let kgf = taut_core::board::paper().expect("valid").load_cell().to_kgf(code).0.to_num::<f64>();
+        let kgf =
+            taut_core::board::paper().expect("valid").load_cell().to_kgf(code).0.to_num::<f64>();
         // Nominal scale, uncorrected: within the deficit offset (≈ 0.75 kgf) + noise.
         assert!((kgf - 25.0).abs() < 1.0, "{kgf}");
     }
 
     #[test]
     fn faults_read_as_wired() {
-        let mut cell = LoadCell::new(&LoadCellParams::nominal());
+        let mut cell = LoadCell::new(&LoadCellParams::nominal(), FIVE_VOLTS);
         let mut rng = SimRng::new(2);
         assert!(
             cell.sample(&mut rng, 0.0, false, false, 0.0, Some(LoadCellFault::Open)).get() < 10
@@ -493,7 +509,7 @@ mod tests {
 
     #[test]
     fn current_code_uses_the_core_gain() {
-        let sense = CurrentSense::new(&CurrentSenseParams::nominal());
+        let sense = CurrentSense::new(&CurrentSenseParams::nominal(), FIVE_VOLTS);
         let code = sense.code(5.0);
         let amps = taut_core::sense::current::amps(code).0.to_num::<f64>();
         assert!((amps - 5.0).abs() < 0.01, "{amps}");

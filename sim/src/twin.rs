@@ -107,7 +107,7 @@ use taut_core::units::AdcCode;
 
 use crate::drift::{Drift, DriftParams};
 use crate::motor::{Circuit, emf_shape, hall_code_placed, sector_shape_factor};
-use crate::params::{BOARD_DEAD_TIME, NEWTONS_PER_KGF, StringParams, TwinConfig};
+use crate::params::{NEWTONS_PER_KGF, StringParams, TwinConfig};
 use crate::rng::SimRng;
 use crate::sensors::{BusVoltageSense, CurrentSense, LoadCell, LoadCellFault};
 use crate::string::{StringModel, StringState};
@@ -447,7 +447,7 @@ impl Twin {
     #[must_use]
     pub fn with_voltage_mode_drive(mut self) -> Self {
         use taut_core::drive::limit::{BusSense, CurrentLimit};
-        let sense = self.config.current_sense.drive_config().sense();
+        let sense = self.config.current_sense.drive_config(&self.config.board).sense();
         let open = CurrentLimit {
             limit_ma: 11_000,
             resistance_mohm: 5_000,
@@ -457,9 +457,13 @@ impl Twin {
         // No bus rule and no zero check either: the physics under test must not be cut short.
         let bus = BusSense { regen_mv: 59_000, max_mv: 59_900, ..BusSense::PAPER };
         let sense = taut_core::drive::limit::CurrentSense { zero_tolerance: 4_095, ..sense };
-        if let Ok(config) =
-            taut_core::drive::DriveConfig::new(sense, bus, open, 12_000, BOARD_DEAD_TIME)
-        {
+        if let Ok(config) = taut_core::drive::DriveConfig::new(
+            sense,
+            bus,
+            open,
+            12_000,
+            self.config.board.dead_time,
+        ) {
             self.drive = Drive::with_config(config);
         }
         self
@@ -505,7 +509,7 @@ impl Twin {
         });
         let mut twin = Self {
             config: c,
-            drive: Drive::with_config(c.current_sense.drive_config()),
+            drive: Drive::with_config(c.current_sense.drive_config(&c.board)),
             circuit: Circuit {
                 resistance: m.phase_resistance_ohm,
                 inductance: m.phase_inductance_h,
@@ -515,9 +519,9 @@ impl Twin {
                 dead_time: c.bridge.dead_time_s,
                 phase_scale: Circuit::HEALTHY,
             },
-            current_sense: CurrentSense::new(&c.current_sense),
-            bus_sense: BusVoltageSense::new(&c.bus_sense, bus_volts),
-            load_cell: LoadCell::new(&c.load_cell),
+            current_sense: CurrentSense::new(&c.current_sense, c.board.adc_reference),
+            bus_sense: BusVoltageSense::new(&c.bus_sense, bus_volts, c.board.adc_reference),
+            load_cell: LoadCell::new(&c.load_cell, c.board.adc_reference),
             // The carriage rests on the release flank: homing drove it there.
             string: StringModel::new(&c.string, start_m),
             gripper,
@@ -552,7 +556,7 @@ impl Twin {
             string_travel_m: 0.0,
             // The converter holds the amplifier's rest output before the first period (not
             // code 0, which a mid-rail board reads as −25 A).
-            current_code: CurrentSense::new(&c.current_sense).rest_code(),
+            current_code: CurrentSense::new(&c.current_sense, c.board.adc_reference).rest_code(),
             comparator_flag: false,
             last_pattern: SwitchPattern::ALL_OFF,
             last_duty: 0.0,

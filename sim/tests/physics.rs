@@ -276,7 +276,7 @@ fn load_cell_reads_about_920_mv_at_10_kgf() {
     run(&mut twin, 5, coast());
     let truth = twin.truth();
     let code = twin.inputs().load_cell;
-    let volts = code.to_volts().0.to_num::<f64>();
+    let volts = taut_sim::sensors::FIVE_VOLTS.volts(code).0.to_num::<f64>();
     // Scale to exactly 10 kgf with the chain's local slope (the string relaxes a little).
     let per_kgf = config.load_cell.volts_per_kgf;
     let at_ten = volts + (10.0 - truth.tension_kgf) * per_kgf;
@@ -371,7 +371,8 @@ fn string_break_drops_the_tension_and_stops_the_encoder() {
     let counter = trace.rows[broke + 5].inputs.string_counter;
     assert_eq!(trace.last().expect("ran").inputs.string_counter, counter, "wheel stops");
     // The load cell falls back to its zero.
-    let code = trace.last().expect("ran").inputs.load_cell.to_volts().0.to_num::<f64>();
+    let code = trace.last().expect("ran").inputs.load_cell;
+    let code = taut_sim::sensors::FIVE_VOLTS.volts(code).0.to_num::<f64>();
     assert!((code - config.load_cell.zero_volts).abs() < 0.005);
 
     // And on request.

@@ -125,6 +125,7 @@ pub struct CurrentSense {
 }
 
 impl CurrentSense {
+    #[cfg(any(test, feature = "paper-board"))]
     /// taut's own board: one DC-link shunt converted mid on-time (it reads the winding
     /// current) through a unidirectional 0.2 V/A amplifier.
     pub const PAPER: Self = Self {
@@ -134,6 +135,7 @@ impl CurrentSense {
         zero_tolerance: 82,
     };
 
+    #[cfg(any(test, feature = "paper-board"))]
     /// Per-phase low-side shunts with bidirectional 0.1 V/A amplifiers (zero at mid-rail).
     pub const PER_PHASE_BIDIRECTIONAL: Self = Self {
         reading: CurrentReading::Winding,
@@ -142,6 +144,7 @@ impl CurrentSense {
         zero_tolerance: 41,
     };
 
+    #[cfg(any(test, feature = "paper-board"))]
     /// An RC-filtered DC-link shunt with a bidirectional 0.1 V/A amplifier.
     pub const LINK_AVERAGE_BIDIRECTIONAL: Self =
         Self { reading: CurrentReading::LinkAverage, ..Self::PER_PHASE_BIDIRECTIONAL };
@@ -180,6 +183,7 @@ pub struct BusSense {
 }
 
 impl BusSense {
+    #[cfg(any(test, feature = "paper-board"))]
     /// The paper's 24 V machine (supply 20–30 V): 1:12 divider, lockout at 18 V, no
     /// regeneration above 38 V, fault at 40 V. The board's clamp (a TVS, 28–36 V across the
     /// twin's family) absorbs ordinary braking energy — a limit below it would forbid the
@@ -231,6 +235,7 @@ pub struct CurrentLimit {
 }
 
 impl CurrentLimit {
+    #[cfg(any(test, feature = "paper-board"))]
     /// The paper's motor (`crate::tension::motor::MotorModel::PAPER`) with taut's limits.
     pub const PAPER: Self = Self {
         limit_ma: 8_000,
@@ -494,6 +499,7 @@ pub const EMF_MAX_MV: u32 = 60_000;
 pub const TURN_LAG: DriveTime = DriveTime::from_micros(100);
 
 impl DriveConfig {
+    #[cfg(any(test, feature = "paper-board"))]
     /// taut's own board and the paper's motor.
     pub const PAPER: Self = Self {
         sense: CurrentSense::PAPER,

@@ -411,6 +411,7 @@ fn slew_for(elapsed: DriveTime) -> u16 {
     rate_for(elapsed, DUTY_SLEW_PER_MS)
 }
 
+#[cfg(any(test, feature = "paper-board"))]
 impl Default for Drive {
     fn default() -> Self {
         Self::new()
@@ -418,6 +419,7 @@ impl Default for Drive {
 }
 
 impl Drive {
+    #[cfg(any(test, feature = "paper-board"))]
     /// A drive at power-up on taut's own board ([`DriveConfig::PAPER`]).
     #[must_use]
     pub fn new() -> Self {

@@ -171,7 +171,11 @@ mod tests {
     fn a_record_is_accepted_in_ready_and_keeps_the_counters() {
         let mut record = Record::default();
         record.counters.pulls = 12;
-        let mut machine: Machine = Machine::resume(record, &Checkpoint::at(MachineState::Ready), &crate::test_support::paper_board());
+        let mut machine: Machine = Machine::resume(
+            record,
+            &Checkpoint::at(MachineState::Ready),
+            &crate::test_support::paper_board(),
+        );
         let mut proposed = Record { settings: settings_30kg(), ..Record::default() };
         proposed.counters.pulls = 999;
         assert_eq!(LinkAccess::new(&mut machine).propose_record(&proposed), Ok(()));
@@ -200,7 +204,11 @@ mod tests {
         };
         let mut own = Record::default();
         own.push_fault(FaultSnapshot::capture(&latch(FaultCode::StringBreak)));
-        let mut machine: Machine = Machine::resume(own, &Checkpoint::at(MachineState::Ready), &crate::test_support::paper_board());
+        let mut machine: Machine = Machine::resume(
+            own,
+            &Checkpoint::at(MachineState::Ready),
+            &crate::test_support::paper_board(),
+        );
         let mut proposed = Record { settings: settings_30kg(), ..Record::default() };
         proposed.push_fault(FaultSnapshot::capture(&latch(FaultCode::LimitsBoth)));
         assert_eq!(LinkAccess::new(&mut machine).propose_record(&proposed), Ok(()));
@@ -216,7 +224,11 @@ mod tests {
             if state == MachineState::Ready {
                 continue;
             }
-            let mut machine: Machine = Machine::resume(Record::default(), &Checkpoint::at(state), &crate::test_support::paper_board());
+            let mut machine: Machine = Machine::resume(
+                Record::default(),
+                &Checkpoint::at(state),
+                &crate::test_support::paper_board(),
+            );
             let before = *machine.record();
             let result = LinkAccess::new(&mut machine).propose_record(&proposed);
             assert_eq!(result, Err(WriteRefused::NotIdle), "{state:?}");
@@ -231,7 +243,11 @@ mod tests {
         use crate::drive::{Direction, DriveCommand, Duty};
         use crate::io::LimitSwitches;
         let record = Record { settings: settings_30kg(), ..Record::default() };
-        let mut machine: Machine = Machine::resume(record, &Checkpoint::at(MachineState::Ready), &crate::test_support::paper_board());
+        let mut machine: Machine = Machine::resume(
+            record,
+            &Checkpoint::at(MachineState::Ready),
+            &crate::test_support::paper_board(),
+        );
         let inputs = Inputs {
             now_ms: 7,
             drive: crate::drive::DriveStatus { steps: 17, ..Default::default() },

@@ -263,8 +263,9 @@ impl Checkpoint {
     /// The invariant of everything but the key pad (whose own is [`KeyPad::is_valid`]):
     /// calibration readings 0–7 (the four points in two passes), entered value 50–550, a page's indices within their lists
     /// ([`View::is_valid`]), a hold adjustment
-    /// within ±[`HOLD_ADJUST_MAX`], clear attempt within its length, a tare inside the load
-    /// cell's zero band, a valid tension watch.
+    /// within ±[`HOLD_ADJUST_MAX`], clear attempt within its length, a valid tension watch.
+    /// (Any tare code: one outside the board's zero band leaves the board's nominal zero in
+    /// use, as [`Machine::resume`] says.)
     #[must_use]
     pub fn chart_is_valid(&self) -> bool {
         let point_ok = match self.state {
@@ -355,8 +356,9 @@ impl<const LOG: usize> Machine<LOG> {
         }
     }
 
-    /// A machine already at `checkpoint` (see [`Checkpoint`]): the state's entry actions run
-    /// as on a real entry, with `record`'s settings.
+    /// A machine on `board` already at `checkpoint` (see [`Checkpoint`]): the state's entry
+    /// actions run as on a real entry, with `record`'s settings; the load cell tared at the
+    /// checkpoint's tare, or at the board's nominal zero if that tare is outside the zero band.
     #[must_use]
     pub fn resume(record: Record, checkpoint: &Checkpoint, board: &BoardConfig) -> Self {
         let mut chart = Chart::new(record, board);
@@ -669,12 +671,16 @@ mod tests {
     fn a_newer_records_counters_survive_the_store_notice() {
         let counters =
             crate::store::Counters { pulls: 5_000, string_used_mm: 3_210_000, boots: 77 };
-        let machine: Machine = Machine::with_stored(Err(StoreError::NewerFormat(counters)), &crate::test_support::paper_board());
+        let machine: Machine = Machine::with_stored(
+            Err(StoreError::NewerFormat(counters)),
+            &crate::test_support::paper_board(),
+        );
         let record = machine.record();
         assert_eq!(record.counters, crate::store::Counters { boots: 78, ..counters });
         assert_eq!((record.settings, record.calibration), (Record::default().settings, None));
         assert_eq!(machine.notice(), Some(Notice::StoreInvalid));
-        let machine: Machine = Machine::with_stored(Err(StoreError::CrcMismatch), &crate::test_support::paper_board());
+        let machine: Machine =
+            Machine::with_stored(Err(StoreError::CrcMismatch), &crate::test_support::paper_board());
         assert_eq!(machine.record().counters.pulls, 0);
         assert_eq!(machine.record().counters.boots, 1);
         assert_eq!(machine.notice(), Some(Notice::StoreInvalid));
@@ -698,8 +704,11 @@ mod tests {
         record.preferences.beeper = false;
         for muted in [true, false] {
             record.preferences.beeper = !muted;
-            let mut machine: Machine =
-                Machine::resume(record, &Checkpoint::at(MachineState::Ready), &crate::test_support::paper_board());
+            let mut machine: Machine = Machine::resume(
+                record,
+                &Checkpoint::at(MachineState::Ready),
+                &crate::test_support::paper_board(),
+            );
             let mut clicked = false;
             for now in 1..=60u32 {
                 let keys = if now <= 40 { Keys::NONE.with(Key::Up) } else { Keys::NONE };
@@ -746,7 +755,13 @@ mod tests {
     #[test]
     fn a_rezero_is_taken_at_rest_and_refused_while_the_gripper_holds_a_string_or_is_pushed() {
         let tare = AdcCode::new(41);
-        let fresh = || Machine::resume(Record::default(), &Checkpoint::at(MachineState::Ready), &crate::test_support::paper_board());
+        let fresh = || {
+            Machine::resume(
+                Record::default(),
+                &Checkpoint::at(MachineState::Ready),
+                &crate::test_support::paper_board(),
+            )
+        };
         let mut now = 0;
         // Drifted by two codes, unloaded: re-zeroed after 2 s of rest and five windows.
         let mut machine = fresh();
@@ -757,7 +772,10 @@ mod tests {
         assert_eq!(machine.load_cell_zero(), volts(AdcCode::new(43)));
         assert_eq!(machine.rezeros(), 1);
         // A string held in the gripper: 0.1 kgf, steady.
-        let held = crate::test_support::paper_board().load_cell().tared_at(tare).map(|s| s.to_code(Kgf::from_milli(100)));
+        let held = crate::test_support::paper_board()
+            .load_cell()
+            .tared_at(tare)
+            .map(|s| s.to_code(Kgf::from_milli(100)));
         let Ok(held) = held else { panic!("the nominal scale tares at 41") };
         let mut machine = fresh();
         at_home(&mut machine, 10_000, &mut now, |_| held.get(), |_| 0);
@@ -794,7 +812,11 @@ mod tests {
     /// the self-test's tare, never beyond it.
     #[test]
     fn a_drifting_zero_is_followed_up_to_its_range_from_the_self_tests_tare() {
-        let mut machine = Machine::resume(Record::default(), &Checkpoint::at(MachineState::Ready), &crate::test_support::paper_board());
+        let mut machine = Machine::resume(
+            Record::default(),
+            &Checkpoint::at(MachineState::Ready),
+            &crate::test_support::paper_board(),
+        );
         let mut now = 0;
         // One code (1.22 mV) every 3 s, for 60 codes (73 mV): the range is 50 mV.
         for code in 41..=101u16 {
@@ -804,8 +826,7 @@ mod tests {
         let moved = machine.load_cell_zero().0.saturating_sub(reference);
         assert!(moved <= crate::sense::rezero::REZERO_RANGE.0, "{moved}");
         assert!(
-            moved
-                > crate::sense::rezero::REZERO_RANGE.0.saturating_sub(volts(AdcCode::new(2)).0)
+            moved > crate::sense::rezero::REZERO_RANGE.0.saturating_sub(volts(AdcCode::new(2)).0)
         );
     }
 
@@ -813,7 +834,11 @@ mod tests {
     /// recalibration (n-04) once; the service page shows the drift.
     #[test]
     fn a_zero_drifted_past_the_watch_raises_the_recalibration_notice_once() {
-        let mut machine = Machine::resume(Record::default(), &Checkpoint::at(MachineState::Ready), &crate::test_support::paper_board());
+        let mut machine = Machine::resume(
+            Record::default(),
+            &Checkpoint::at(MachineState::Ready),
+            &crate::test_support::paper_board(),
+        );
         let mut now = 0;
         // Up to 20 codes (24.4 mV) above the tare: followed, no notice.
         for code in 41..=61u16 {
@@ -847,8 +872,11 @@ mod tests {
 
     #[test]
     fn a_switching_spike_never_reaches_the_digits() {
-        let mut machine =
-            Machine::resume(Record::default(), &Checkpoint::at(MachineState::Holding), &crate::test_support::paper_board());
+        let mut machine = Machine::resume(
+            Record::default(),
+            &Checkpoint::at(MachineState::Holding),
+            &crate::test_support::paper_board(),
+        );
         // A checkpoint's pull has no target, so stay under the 5 kgf overload margin.
         let steady = crate::test_support::paper_board().load_cell().to_code(Kgf::from_milli(3_040));
         let spike = crate::test_support::paper_board().load_cell().to_code(Kgf::from_milli(3_740));

@@ -64,7 +64,11 @@ impl LoadCellScale {
     ///
     /// # Errors
     /// [`ScaleError`] when either parameter is outside its plausible range.
-    pub fn new(reference: AdcReference, zero: Volts, kgf_per_volt: Q16) -> Result<Self, ScaleError> {
+    pub fn new(
+        reference: AdcReference,
+        zero: Volts,
+        kgf_per_volt: Q16,
+    ) -> Result<Self, ScaleError> {
         let (low, high) = Self::gain_range(reference);
         if kgf_per_volt < low || kgf_per_volt > high {
             return Err(ScaleError::GainOutOfRange);
@@ -80,8 +84,10 @@ impl LoadCellScale {
     #[must_use]
     pub fn gain_range(reference: AdcReference) -> (Q16, Q16) {
         let scale = |gain: Q16| {
-            let bits = i64::from(gain.to_bits()).saturating_mul(GAIN_RANGE_REFERENCE_MV)
-                / i64::from(reference.millivolts()).max(1);
+            let bits = i64::from(gain.to_bits())
+                .saturating_mul(GAIN_RANGE_REFERENCE_MV)
+                .checked_div(i64::from(reference.millivolts()))
+                .unwrap_or(i64::MAX);
             Q16::from_bits(i32::try_from(bits).unwrap_or(i32::MAX))
         };
         (scale(KGF_PER_VOLT_RANGE.0), scale(KGF_PER_VOLT_RANGE.1))
@@ -140,7 +146,12 @@ impl LoadCellScale {
     /// The tension a converter code stands for, before calibration correction.
     #[must_use]
     pub fn to_kgf(&self, code: AdcCode) -> Kgf {
-        Kgf(self.reference.volts(code).0.saturating_sub(self.zero.0).saturating_mul(self.kgf_per_volt))
+        Kgf(self
+            .reference
+            .volts(code)
+            .0
+            .saturating_sub(self.zero.0)
+            .saturating_mul(self.kgf_per_volt))
     }
 
     /// The code a tension would read as (rounded, clamped to the converter's range); the

@@ -5,6 +5,7 @@
 //! twin, the tests and the board all read the same numbers the same way.
 
 pub mod calibration;
+#[cfg(any(test, feature = "paper-board"))]
 pub mod current;
 pub mod load_cell;
 pub mod rezero;

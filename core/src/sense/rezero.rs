@@ -250,7 +250,8 @@ impl Rezero {
             high = high.max(sum);
             total = total.saturating_add(sum);
         }
-        let spread = reference.mean_volts(high, REZERO_WINDOW)
+        let spread = reference
+            .mean_volts(high, REZERO_WINDOW)
             .0
             .saturating_sub(reference.mean_volts(low, REZERO_WINDOW).0);
         if spread > REZERO_AGREE.0 {

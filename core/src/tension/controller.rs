@@ -242,7 +242,6 @@ pub struct ControllerConfig {
 /// period).
 pub const DEAD_TIME_DUTY_MAX: Duty = Duty::from_raw_clamped(6_554);
 
-
 /// taut's nominal plant, the voltage-driven machine (see `crate::tension::law`): `M̄` = the
 /// rotor and gearbox inertia reflected to the carriage (1.6 × 10⁻⁵ kg·m² / (0.2021 mm/rad)²
 /// ≈ 392 kg, plus the 2 kg carriage: 394 kg = 40.2 kgf·s²/m); `B̄` = the back-EMF damping

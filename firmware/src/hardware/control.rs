@@ -24,6 +24,7 @@ use embassy_stm32::peripherals::{
 use embassy_stm32::timer::low_level::Timer;
 use embassy_stm32::timer::qei::{Config as QeiConfig, Qei};
 use static_cell::StaticCell;
+use taut_core::board::BoardConfig;
 use taut_core::io::{Inputs, Keys};
 use taut_core::machine::Machine;
 use taut_core::store::{Record, StoreError};
@@ -238,14 +239,17 @@ impl Tick {
 /// on its first run.
 static TICK: Mutex<RefCell<Option<&'static mut Tick>>> = Mutex::new(RefCell::new(None));
 
-/// The machine, built from the stored record into its static. Not inlined, so the
+/// The machine on `board`, built from the stored record into its static. Not inlined, so the
 /// construction's temporaries (`taut-core` builds the chart and the machine on the stack and
 /// then moves them: ≈ 3.7 KB, the deepest start-up path of `scripts/firmware-size`) are below
 /// the start-up function's small frame, not in it.
 #[inline(never)]
-pub fn build_machine(record: Result<Record, StoreError>) -> &'static mut Machine {
+pub fn build_machine(
+    record: Result<Record, StoreError>,
+    board: &BoardConfig,
+) -> &'static mut Machine {
     static MACHINE: StaticCell<Machine> = StaticCell::new();
-    MACHINE.init_with(|| Machine::from_stored(record))
+    MACHINE.init_with(|| Machine::from_stored(record, board))
 }
 
 /// Claims the tick's peripherals, takes the machine and programs TIM6 for 1 kHz. The

@@ -21,38 +21,18 @@ use embassy_stm32::peripherals::{PA15, PB3, PB10, TIM2};
 use embassy_stm32::timer::low_level::Timer;
 use embassy_stm32::timer::{Ch1, Ch2, Ch3, TimerPin};
 use taut_core::drive::hall::{HALL_VOTES, vote};
-use taut_core::drive::limit::{CurrentLimit, CurrentSense};
-use taut_core::drive::{
-    BusSense, Drive, DriveConfig, DriveOutput, DriveSample, DriveStatus, HallCode,
-};
+use taut_core::drive::{Drive, DriveConfig, DriveOutput, DriveSample, DriveStatus, HallCode};
 use taut_core::io::LimitSwitches;
 use taut_core::units::AdcCode;
 use taut_firmware::bridge::{BridgeImage, main_output_enabled};
 use taut_firmware::pins::{self, Pin, Port};
-use taut_firmware::timing::{DEAD_TIME, drive_time};
+use taut_firmware::timing::drive_time;
 
 use super::{bridge, store};
 
 /// The drive, shared by the fast loop (which steps it) and the control tick (which commands
 /// it and reads its status). Every access is a short critical section.
 static DRIVE: Mutex<RefCell<Option<Drive>>> = Mutex::new(RefCell::new(None));
-
-/// The X-NUCLEO-IHM08M1's bus divider (gain 0.0522) on the 3.3 V converter: full scale
-/// 3.3 V / 0.0522 = 63.2 V (the core's `BusSense::PAPER` is the paper's 1 : 12 on 5 V, 60 V:
-/// with it the drive and the controller read this board's bus 5 % low). The bus limits —
-/// lockout, regeneration, overvoltage — are the paper board's.
-const BOARD_BUS: BusSense = BusSense { full_scale_mv: 63_218, ..BusSense::PAPER };
-
-/// The drive for this board: the paper's current sense and limit, this board's bus divider
-/// (the paper's configuration if that were ever rejected; it is not: core's
-/// `a_three_volt_three_referred_bus_divider_is_accepted` builds the same configuration).
-fn board_drive() -> Drive {
-    DriveConfig::new(CurrentSense::PAPER, BOARD_BUS, CurrentLimit::PAPER, OVERCURRENT_MA, DEAD_TIME)
-        .map_or_else(|_| Drive::new(), Drive::with_config)
-}
-
-/// The overcurrent trip, mA: the drive's 12 A.
-const OVERCURRENT_MA: u32 = 12_000;
 
 /// DWT cycle count at the previous fast-loop call, less the cycles not yet counted into a
 /// [`DriveTime`](taut_core::drive::DriveTime) unit (under one).
@@ -97,17 +77,18 @@ fn hall() -> HallCode {
     vote(&reads)
 }
 
-/// Installs the drive, claims the Hall pins for TIM2 and sets TIM2 up as the Hall-edge
+/// Installs the drive of the board's `drive` configuration, claims the Hall pins for TIM2 and sets TIM2 up as the Hall-edge
 /// interrupt source; starts the cycle counter. Interrupts stay masked until [`start`].
 /// Not inlined, so its frame is not part of the start-up's.
 #[inline(never)]
 pub fn init(
+    drive: DriveConfig,
     timer: Peri<'static, TIM2>,
     hall_a: Peri<'static, PA15>,
     hall_b: Peri<'static, PB3>,
     hall_c: Peri<'static, PB10>,
 ) {
-    critical_section::with(|cs| DRIVE.borrow_ref_mut(cs).replace(board_drive()));
+    critical_section::with(|cs| DRIVE.borrow_ref_mut(cs).replace(Drive::with_config(drive)));
 
     let af_a = TimerPin::<TIM2, Ch1>::af_num(&*hall_a);
     let af_b = TimerPin::<TIM2, Ch2>::af_num(&*hall_b);

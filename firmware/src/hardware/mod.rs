@@ -139,10 +139,13 @@ fn start_up() -> Loops {
     // The record comes back from flash, and the machine is built from it, first: the
     // machine's construction is the deepest stack of the start-up (see `control::build_machine`).
     let (settings, record) = store::read(p.FLASH);
-    let machine = control::build_machine(record);
+    // A refused board never reaches an image (`the_board_is_valid`); were it to, the bridge
+    // stays off as `bridge::init` left it and the part waits for a reset.
+    let Ok(board) = taut_firmware::board::board() else { refused_board() };
+    let machine = control::build_machine(record, &board);
 
     let analog = control::Analog::new(p.ADC1, p.ADC2, p.PA0, p.PA1, p.PB15);
-    fast_loop::init(p.TIM2, p.PA15, p.PB3, p.PB10);
+    fast_loop::init(board.drive(), p.TIM2, p.PA15, p.PB3, p.PB10);
     control::init(control::Resources {
         analog,
         encoder: (p.TIM4, p.PB6, p.PB7),
@@ -188,6 +191,16 @@ fn panic(_info: &core::panic::PanicInfo<'_>) -> ! {
     cortex_m::interrupt::disable();
     bridge::emergency_off();
     defmt::error!("panic; bridge off");
+    loop {
+        cortex_m::asm::wfe();
+    }
+}
+
+/// A board the firmware refuses to run: bridge off, then stop (no interrupt is unmasked yet).
+#[inline(never)]
+fn refused_board() -> ! {
+    bridge::emergency_off();
+    defmt::error!("board refused; bridge off");
     loop {
         cortex_m::asm::wfe();
     }

@@ -210,7 +210,8 @@ impl Chart {
             key: sample.key.is_some() || inputs.keys != crate::io::Keys::NONE,
             code: inputs.load_cell,
         };
-        if let Some(Retare::Zero(zero)) = self.rezero.observe(&rest, self.scale.zero(), self.scale.reference())
+        if let Some(Retare::Zero(zero)) =
+            self.rezero.observe(&rest, self.scale.zero(), self.scale.reference())
         {
             if let Ok(scale) = self.scale.with_zero(zero) {
                 self.scale = scale;

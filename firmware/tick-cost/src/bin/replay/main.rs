@@ -96,7 +96,11 @@ mod host {
                 return std::process::ExitCode::from(2);
             }
         };
-        let mut machine = Machine::from_stored(Record::decode(&session.header.boot_record));
+        let Ok(board) = taut_core::board::paper() else {
+            eprintln!("the paper's board was refused");
+            return std::process::ExitCode::from(2);
+        };
+        let mut machine = Machine::from_stored(Record::decode(&session.header.boot_record), &board);
         let replayed = replay(&session, &mut machine, &mut Profiled);
         for kind in StateKind::ALL {
             let ticks = replayed.state_ticks.get(kind.index()).copied().unwrap_or(0);

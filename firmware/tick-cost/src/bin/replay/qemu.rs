@@ -357,7 +357,12 @@ fn main() -> ! {
             stores: 0,
         },
     };
-    let mut machine = Machine::from_stored(Record::decode(&session.header.boot_record));
+    let Ok(board) = taut_core::board::paper() else {
+        hprintln!("tick-cost: the paper's board was refused");
+        debug::exit(debug::EXIT_FAILURE);
+        stop()
+    };
+    let mut machine = Machine::from_stored(Record::decode(&session.header.boot_record), &board);
     paint_below_here();
     let replayed = replay(&session, &mut machine, &mut meter);
 

@@ -264,7 +264,9 @@ mod verification {
     /// core's own tests'), which makes the proof hold for any record they could produce.
     fn serving_any_request_never_moves(state: MachineState) {
         let checkpoint = checkpoint_in(state);
-        let mut machine = Machine::<1>::resume(Record::default(), &checkpoint);
+        // The paper's board; that it builds is checked here too (a panic fails the harness).
+        let board = crate::paper_board().expect("the paper's board builds");
+        let mut machine = Machine::<1>::resume(Record::default(), &checkpoint, &board);
         let (state_before, record_before) = (machine.state(), *machine.record());
         let mut server = Server::new([0; 12], [0, 1, 0]);
         let request = any_request();

@@ -697,7 +697,9 @@ pub(crate) mod verification {
     fn one_tick_on(state: MachineState, pages: fn(View) -> bool) -> TickRecord {
         let checkpoint = checkpoint_in(state);
         kani::assume(pages(checkpoint.view));
-        let mut machine = Machine::<1>::resume(Record::default(), &checkpoint);
+        // The paper's board; that it builds is checked here too (a panic fails the harness).
+        let board = crate::paper_board().expect("the paper's board builds");
+        let mut machine = Machine::<1>::resume(Record::default(), &checkpoint, &board);
         let tick: TickInput = kani::any();
         apply(&mut machine, &tick.inputs())
     }

@@ -280,6 +280,9 @@ pub struct SlipCase {
     pub moved: i32,
     /// Input: the hold is on.
     pub active: bool,
+    /// The board's dead-time duty, raw (any board's: clamped to
+    /// [`taut_core::tension::controller::DEAD_TIME_DUTY_MAX`], what a board may give).
+    pub dead_time_raw: u16,
 }
 
 /// `state` moved into the damper's reachable states: a non-negative stall relation, a learning
@@ -293,21 +296,19 @@ pub fn reachable_slip(state: SlipState) -> SlipState {
     }
 }
 
-/// The paper's board's dead-time duty (1 µs of 50 µs), the slip damper's starting point.
-const PAPER_DEAD_TIME_DUTY: taut_core::drive::Duty =
-    taut_core::drive::Duty::from_raw_clamped(1_311);
-
 /// REQ-TEN-15: the slip damper never panics, returns a braking force that is never
 /// negative and is zero outside the hold, while the model is still learning, and whenever
 /// the motion residual does not exceed the dead zone; its model stays non-negative and its
-/// learning count within [`LEARN_TICKS`].
+/// learning count within [`LEARN_TICKS`] — on every board (any dead-time duty a board may give).
 pub fn slip_damper_bounded(case: &SlipCase) {
+    let max = taut_core::tension::controller::DEAD_TIME_DUTY_MAX.raw();
+    let dead_time_duty = taut_core::drive::Duty::from_raw_clamped(case.dead_time_raw.min(max));
     let mut damper = SlipDamper::new(
         Q16::const_from_int(550),
         SLIP_DEAD_ZONE,
         SLIP_LEARNING_RATE,
         SLIP_INITIAL_DUTY_PER_AMP,
-        PAPER_DEAD_TIME_DUTY,
+        dead_time_duty,
     );
     damper.set_state(reachable_slip(case.state));
     let before = damper.state();

@@ -112,8 +112,15 @@ fn slip_state() -> impl Strategy<Value = SlipState> {
 }
 
 fn slip_case() -> impl Strategy<Value = SlipCase> {
-    (slip_state(), any::<i32>(), any::<i32>(), any::<bool>())
-        .prop_map(|(state, current, moved, active)| SlipCase { state, current, moved, active })
+    (slip_state(), any::<i32>(), any::<i32>(), any::<bool>(), any::<u16>()).prop_map(
+        |(state, current, moved, active, dead_time_raw)| SlipCase {
+            state,
+            current,
+            moved,
+            active,
+            dead_time_raw,
+        },
+    )
 }
 
 /// A profile state in the valid domain's neighbourhood: tensions within the range, the peak

@@ -65,12 +65,12 @@ fn law_case() -> impl Strategy<Value = LawCase> {
 fn estimator_state() -> impl Strategy<Value = EstimatorState> {
     (
         (any::<[i32; 15]>(), any::<[i32; 15]>(), any::<i32>(), any::<i64>(), any::<i32>()),
-        (any::<i32>(), any::<i32>(), any::<bool>(), 0..=4 * KGF, any::<[i32; 4]>()),
+        (any::<i32>(), any::<i32>(), any::<bool>(), 0..=4 * KGF, any::<[i32; 4]>(), any::<u8>()),
     )
         .prop_map(
             |(
                 (window, window_steps, filtered, fused, rate),
-                (speed, last_steps, primed, stiffness, recent),
+                (speed, last_steps, primed, stiffness, recent, bridged),
             )| {
                 EstimatorState {
                     window,
@@ -83,6 +83,7 @@ fn estimator_state() -> impl Strategy<Value = EstimatorState> {
                     primed,
                     stiffness,
                     recent,
+                    bridged,
                 }
             },
         )

@@ -699,6 +699,9 @@ impl TensionController {
         // While the carriage brakes, the gripper outboard of the load cell takes its inertial
         // force off the reading (REQ-ID-07): the observer is given the string's pull.
         let sample = m.tension.saturating_add(self.profile.gripper_bias());
+        // In the take-up a burst of spikes that passes the median of five is bridged at the
+        // string's own rate: it would time the braking and identify the stiffness.
+        self.estimator.set_burst_bridge(self.profile.phase() == PullPhase::TakeUp);
         let est = self.estimator.update(sample, m.drive.steps);
         self.shown = est.tension;
         let holding = self.profile.phase() == PullPhase::Hold;

@@ -33,6 +33,17 @@
 //!    string cannot change its tension faster than the stiffest string (2 kgf/mm) times the
 //!    carriage's travel this tick, plus 0.1 kgf for noise and relaxation — so the filtered
 //!    sample `y_f` moves toward the median by at most that much per tick.
+//!    **Burst bridge** (the take-up, [`TensionEstimator::set_burst_bridge`]): before the
+//!    stiffness is known the median is of five, and a burst of three or more spikes passes
+//!    it: the median jumps by tenths of a kgf or more, further than the clip's limit, which
+//!    the string cannot do. Slewing toward it at the limit would take the burst in at
+//!    ≈ 0.2 kgf a tick, and its rate with it — and the take-up times the braking by `ẏ·v`
+//!    and identifies the string's stiffness as `ẏ/v`: a burst a few ticks before the braking
+//!    point doubled or tripled the rate, braked early and identified the string two or three
+//!    times stiffer than it is. With the bridge on, a median beyond the clip's limit is
+//!    bridged: `y_f` goes on at its own rate (`ẏ·dt`, within the limit — in the take-up the
+//!    string's `K·v`) for up to [`BURST_MAX`] consecutive ticks, as long as a burst lasts; a
+//!    change that lasts longer is the string's, and `y_f` slews toward it at the limit.
 //! 3. **Observer** (switchable): once the string's stiffness `K̂` is known (the controller
 //!    identifies it during the take-up, [`TensionEstimator::set_stiffness`]), the estimate
 //!    moves with the carriage at once, `ŷ ← ŷ + K̂·Δx`, and is pulled toward the measurement
@@ -53,7 +64,8 @@
 //!
 //! Tensions, rates and speeds are Q15.16 bits; the observer state is Q31.32 (`i64`) so a
 //! gain of 0.05 keeps moving it below Q15.16's resolution. Per tick: five comparisons'
-//! worth of median, at most seven 32 × 32 → 64-bit products, no division.
+//! worth of median, at most seven 32 × 32 → 64-bit products (and, bridging a burst, the rate
+//! times the Q0.32 period), no division.
 //!
 //! The hold's other estimate, the carriage's motion seen in the motor current, is
 //! [`crate::tension::slip`]'s.
@@ -150,6 +162,9 @@ pub struct EstimatorState {
     pub stiffness: i32,
     /// Hall steps moved in each of the last [`LAG_TICKS_MAX`] ticks, newest last.
     pub recent: [i32; LAG_TICKS_MAX],
+    /// Consecutive ticks the filtered sample has bridged a median beyond the clip's limit
+    /// (see the module docs; at most [`BURST_MAX`] count).
+    pub bridged: u8,
 }
 
 /// An unprimed, zero state.
@@ -164,6 +179,7 @@ const STATE_ZERO: EstimatorState = EstimatorState {
     primed: false,
     stiffness: 0,
     recent: [0; LAG_TICKS_MAX],
+    bridged: 0,
 };
 
 /// The estimator: validated gains plus state. See the module docs.
@@ -178,6 +194,10 @@ pub struct TensionEstimator {
     beta: Coef,
     /// `1/dt`, Hz.
     inv_dt: i32,
+    /// `dt`, s, Q0.32 (the burst bridge's `ẏ·dt`).
+    dt_q32: i64,
+    /// Bridge a median beyond the clip's limit (see the module docs).
+    bridge: bool,
     /// The sensing lag, ticks (≤ [`LAG_TICKS_MAX`]).
     lag: u8,
     state: EstimatorState,
@@ -254,6 +274,8 @@ impl TensionEstimator {
         alpha_config: None,
         beta: 1 << 12,
         inv_dt: 1_000,
+        dt_q32: 4_294_967,
+        bridge: false,
         lag: 0,
         state: STATE_ZERO,
     };
@@ -287,6 +309,8 @@ impl TensionEstimator {
             alpha_config: alpha,
             beta,
             inv_dt,
+            dt_q32: (i64::from(period_us) << 32).checked_div(1_000_000).unwrap_or(0),
+            bridge: false,
             lag: config.lag_ticks,
             state: EstimatorState::default(),
         })
@@ -298,6 +322,13 @@ impl TensionEstimator {
         self.state.primed = false;
         self.state.stiffness = 0;
         self.alpha = self.alpha_config;
+    }
+
+    /// Switches the burst bridge (see the module docs) on or off: on while the carriage runs
+    /// into the string at its take-up speed, where the filtered sample's rate is the
+    /// string's; off (the default) for a still carriage, whose clip alone bounds a burst.
+    pub fn set_burst_bridge(&mut self, on: bool) {
+        self.bridge = on;
     }
 
     /// Sets the observer's stiffness `K̂` (kgf/mm), clamped to `[0, STIFFNESS_MAX]`.
@@ -365,6 +396,7 @@ impl TensionEstimator {
                 primed: true,
                 stiffness: s.stiffness,
                 recent: [0; LAG_TICKS_MAX],
+                bridged: 0,
             };
         }
         let moved = steps
@@ -382,14 +414,31 @@ impl TensionEstimator {
             median5(w1, w2, w3, w4, w5)
         };
 
-        // Spike clip: |Δy_f| ≤ 2 kgf/mm · |Δx| + 0.1 kgf.
+        // Spike clip: |Δy_f| ≤ 2 kgf/mm · |Δx| + 0.1 kgf; with the bridge on, a median beyond
+        // that is a burst, bridged at the filtered rate for up to BURST_MAX ticks.
         let previous = s.filtered;
         let travel = moved.saturating_abs().saturating_mul(STEP_MM_BITS);
         s.filtered = if self.clip {
             let limit = narrow(mul_wide(CLIP_STIFFNESS.to_bits(), travel))
                 .saturating_add(CLIP_ALLOWANCE.to_bits());
-            let change = median.saturating_sub(previous).clamp(limit.saturating_neg(), limit);
-            previous.saturating_add(change)
+            let jump = median.saturating_sub(previous);
+            let beyond = jump < limit.saturating_neg() || jump > limit;
+            let burst_max = u8::try_from(BURST_MAX).unwrap_or(u8::MAX);
+            let bridging = self.bridge && beyond && s.bridged < burst_max;
+            // The count restarts only once the median is back within the limit: a change
+            // that outlasts the bridge is slewed toward to the end.
+            s.bridged = if self.bridge && beyond {
+                s.bridged.saturating_add(1).min(burst_max)
+            } else {
+                0
+            };
+            let change = if bridging {
+                // ẏ·dt: the rate (kgf/s bits) times the period (Q0.32 s).
+                narrow(i64::from(s.rate).saturating_mul(self.dt_q32) >> 16)
+            } else {
+                jump
+            };
+            previous.saturating_add(change.clamp(limit.saturating_neg(), limit))
         } else {
             median
         };
@@ -622,6 +671,61 @@ mod tests {
         let rate = out.rate.0.to_num::<i32>();
         assert!((speed - 53).abs() <= 1, "{speed}");
         assert!((rate - 37).abs() <= 1, "{rate}");
+    }
+
+    /// A 0.3 kgf/mm string pulled at one Hall step per tick (16 kgf/s, the take-up), with a
+    /// burst of `len` spikes of `spike` kgf from tick 150: the filtered sample and its rate
+    /// at their worst against the ramp's, over the 30 ticks from the burst on, with the
+    /// burst bridge `on` or off.
+    fn burst_on_a_ramp(on: bool, len: i32, spike: i16) -> (i32, i32) {
+        let mut est = estimator(true, false);
+        est.set_burst_bridge(on);
+        let ramp = |tick: i32| {
+            let mm_q16 = i64::from(tick) * i64::from(STEP_MM_BITS);
+            Kgf::from_bits(valid(i32::try_from(mm_q16 * 3 / 10)))
+        };
+        let (mut worst_sample, mut worst_rate) = (0, 0);
+        for tick in 0..180_i32 {
+            let burst = (150..150 + len).contains(&tick);
+            let extra = if burst { Kgf::from_int(spike) } else { Kgf::ZERO };
+            let out = est.update(ramp(tick).saturating_add(extra), tick);
+            if tick >= 150 {
+                // The filtered sample is the median's: two ticks old on the ramp.
+                let error = out.sample.saturating_sub(ramp(tick - 2)).to_bits().abs();
+                worst_sample = worst_sample.max(error);
+                let rate = (out.rate.to_bits() - Kgf::from_int(16).to_bits()).abs();
+                worst_rate = worst_rate.max(rate);
+            }
+        }
+        (worst_sample, worst_rate)
+    }
+
+    #[test]
+    fn the_take_up_bridges_a_burst_that_passes_the_median_of_five() {
+        let hundredth = Kgf(Q16::lit("0.01")).to_bits();
+        for len in 3..=i32::try_from(BURST_MAX).unwrap() {
+            for spike in [-4, 4] {
+                // Off: the burst reaches the filtered sample and its rate.
+                let (sample, rate) = burst_on_a_ramp(false, len, spike);
+                assert!(sample > 20 * hundredth, "off, {len} × {spike}: {sample}");
+                assert!(rate > Kgf::from_int(10).to_bits(), "off, {len} × {spike}: {rate}");
+                // On: the ramp goes on at its own rate.
+                let (sample, rate) = burst_on_a_ramp(true, len, spike);
+                assert!(sample <= 5 * hundredth, "on, {len} × {spike}: {sample}");
+                assert!(rate <= Kgf::from_int(2).to_bits(), "on, {len} × {spike}: {rate}");
+            }
+        }
+        // A change that outlasts any burst is the string's: followed.
+        let mut est = estimator(true, false);
+        est.set_burst_bridge(true);
+        let base = Kgf::from_int(10);
+        est.update(base, 0);
+        let step = base.saturating_add(Kgf::from_int(1));
+        let mut last = Estimate::default();
+        for _ in 0..30 {
+            last = est.update(step, 0);
+        }
+        assert_eq!(last.sample, step);
     }
 
     #[test]

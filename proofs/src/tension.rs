@@ -600,6 +600,7 @@ mod verification {
         let case: EstimatorCase = kani::any();
         // The estimator's invariant, as `TensionEstimator::is_valid` states it.
         kani::assume(case.state.stiffness >= 0 && case.state.stiffness <= 4 << 16);
+        kani::assume(usize::from(case.state.bridged) <= taut_core::tension::estimator::BURST_MAX);
         assert!(estimator_step_bounded(&case));
         crate::harness_end_reached();
     }

@@ -65,7 +65,7 @@ fn law_case() -> impl Strategy<Value = LawCase> {
 fn estimator_state() -> impl Strategy<Value = EstimatorState> {
     (
         (any::<[i32; 15]>(), any::<[i32; 15]>(), any::<i32>(), any::<i64>(), any::<i32>()),
-        (any::<i32>(), any::<i32>(), any::<bool>(), 0..=4 * KGF, any::<[i32; 4]>(), any::<u8>()),
+        (any::<i32>(), any::<i32>(), any::<bool>(), 0..=4 * KGF, any::<[i32; 4]>(), 0..=5u8),
     )
         .prop_map(
             |(

@@ -368,10 +368,13 @@ impl TensionEstimator {
         self.state = state;
     }
 
-    /// The invariant: the stiffness within `[0, STIFFNESS_MAX]`.
+    /// The invariant: the stiffness within `[0, STIFFNESS_MAX]`, the bridged ticks within
+    /// [`BURST_MAX`].
     #[must_use]
     pub fn is_valid(&self) -> bool {
-        self.state.stiffness >= 0 && self.state.stiffness <= STIFFNESS_MAX.to_bits()
+        self.state.stiffness >= 0
+            && self.state.stiffness <= STIFFNESS_MAX.to_bits()
+            && usize::from(self.state.bridged) <= BURST_MAX
     }
 
     /// The tension in Q15.16, rounded from the observer's Q31.32.
@@ -427,11 +430,8 @@ impl TensionEstimator {
             let bridging = self.bridge && beyond && s.bridged < burst_max;
             // The count restarts only once the median is back within the limit: a change
             // that outlasts the bridge is slewed toward to the end.
-            s.bridged = if self.bridge && beyond {
-                s.bridged.saturating_add(1).min(burst_max)
-            } else {
-                0
-            };
+            s.bridged =
+                if self.bridge && beyond { s.bridged.saturating_add(1).min(burst_max) } else { 0 };
             let change = if bridging {
                 // ẏ·dt: the rate (kgf/s bits) times the period (Q0.32 s).
                 narrow(i64::from(s.rate).saturating_mul(self.dt_q32) >> 16)

@@ -363,6 +363,19 @@ mod tests {
         assert_eq!(FIVE_VOLTS.mean_volts(41 * 64, 64), FIVE_VOLTS.volts(AdcCode::new(41)));
         assert_eq!(FIVE_VOLTS.mean_volts(7, 0), FIVE_VOLTS.volts(AdcCode::new(7)));
         assert_eq!(FIVE_VOLTS.mean_volts(u32::MAX, 1).to_bits(), i32::MAX);
+        // Rounded to the nearest bit: 124 × 80 / 3 = 3 306.67.
+        assert_eq!(FIVE_VOLTS.mean_volts(41 + 41 + 42, 3).to_bits(), 3_307);
+    }
+
+    #[test]
+    fn a_code_of_another_reference_is_its_volts_rounded_to_the_bit() {
+        // 3.3 V: 52.8 bits a code; the fraction of `code × 52.8` is a multiple of 0.2, so the
+        // nearest bit is `(code × 528 + 5) / 10` exactly.
+        let reference = AdcReference::from_millivolts(3_300).expect("in range");
+        for raw in 0..=ADC_MAX_CODE {
+            let expected = (i32::from(raw) * 528 + 5) / 10;
+            assert_eq!(reference.volts(AdcCode::new(raw)).to_bits(), expected, "code {raw}");
+        }
     }
 
     #[test]

@@ -95,6 +95,13 @@ pub fn timing(mcu: &Mcu) -> String {
             link.max,
             100.0 * link.total as f64 / total as f64
         );
+        if link.unseen_returns > 0 {
+            let _ = writeln!(
+                s,
+                "(the machine link: {} calls whose return the bench did not see, not timed)",
+                link.unseen_returns
+            );
+        }
     }
     let _ = writeln!(
         s,

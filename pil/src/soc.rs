@@ -93,6 +93,9 @@ pub struct CallTimes {
     pub total: u64,
     /// The longest.
     pub max: u64,
+    /// Calls whose return the bench did not see: the function was entered again from the same
+    /// call site while they were open (it is not reentrant, so they had returned). Not timed.
+    pub unseen_returns: u64,
 }
 
 impl CallTimes {
@@ -100,7 +103,11 @@ impl CallTimes {
     /// `link` the caller's return address when the block is the entry.
     pub fn block(&mut self, address: u32, cycle: u64, entry: u32, link: impl FnOnce() -> u32) {
         if address == entry {
-            self.open.push((link() & !1, cycle));
+            let ret = link() & !1;
+            let before = self.open.len();
+            self.open.retain(|&(open_ret, _)| open_ret != ret);
+            self.unseen_returns += (before - self.open.len()) as u64;
+            self.open.push((ret, cycle));
         } else if let Some(&(ret, start)) = self.open.last() {
             if address == ret {
                 self.open.pop();
@@ -1285,6 +1292,21 @@ impl Soc {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_call_is_timed_from_its_entry_to_its_return_and_an_unseen_return_is_not_timed() {
+        let mut calls = CallTimes::default();
+        let (entry, ret) = (0x0800_1000, 0x0800_2004);
+        calls.block(entry, 100, entry, || ret | 1);
+        calls.block(0x0800_1010, 150, entry, || 0);
+        calls.block(ret, 400, entry, || 0);
+        assert_eq!((calls.calls, calls.total, calls.max, calls.unseen_returns), (1, 300, 300, 0));
+        // Entered again from the same site with the last return unseen: that call is dropped.
+        calls.block(entry, 1_000, entry, || ret | 1);
+        calls.block(entry, 9_000_000, entry, || ret | 1);
+        calls.block(ret, 9_000_250, entry, || 0);
+        assert_eq!((calls.calls, calls.max, calls.unseen_returns), (2, 300, 1));
+    }
+
     use super::*;
 
     #[test]

@@ -648,6 +648,7 @@ mod verification {
         Estimate {
             tension: Kgf::from_bits(kani::any()),
             sample: Kgf::from_bits(kani::any()),
+            clipped: Kgf::from_bits(kani::any()),
             rate: KgfPerSecond::from_bits(kani::any()),
             speed: MmPerSecond(Q16::from_bits(kani::any())),
             steps,

@@ -738,7 +738,7 @@ impl TensionController {
                 }
             }
             PullPhase::TakeUp => {
-                self.profile.observe_take_up(speed, est.sample);
+                self.profile.observe_take_up(speed, est.clipped);
                 if self.profile.braking_due(&est) {
                     self.begin_braking(&est);
                     self.closed_loop(&est, speed, Kgf::ZERO, &mut force)

@@ -126,8 +126,13 @@ pub struct Estimate {
     /// The observer's tension `ŷ` (= the filtered sample without the observer): what the
     /// law regulates and the machine displays.
     pub tension: Kgf,
-    /// The spike-filtered sample `y_f` (median, then clip).
+    /// The spike-filtered sample `y_f` (median, then clip; bridged over a burst in the
+    /// take-up).
     pub sample: Kgf,
+    /// The median moved toward by the clip alone, from the last `y_f` (= `sample` whenever no
+    /// burst is bridged): what the carriage's load-cell reading does, for the take-up's gripper
+    /// identification — a heavy gripper's inertial step is a real reading, not a burst.
+    pub clipped: Kgf,
     /// The low-passed rate of `y_f`, kgf/s.
     pub rate: KgfPerSecond,
     /// The low-passed carriage speed from Hall steps, mm/s.
@@ -421,10 +426,12 @@ impl TensionEstimator {
         // that is a burst, bridged at the filtered rate for up to BURST_MAX ticks.
         let previous = s.filtered;
         let travel = moved.saturating_abs().saturating_mul(STEP_MM_BITS);
+        let mut clipped = median;
         s.filtered = if self.clip {
             let limit = narrow(mul_wide(CLIP_STIFFNESS.to_bits(), travel))
                 .saturating_add(CLIP_ALLOWANCE.to_bits());
             let jump = median.saturating_sub(previous);
+            clipped = previous.saturating_add(jump.clamp(limit.saturating_neg(), limit));
             let beyond = jump < limit.saturating_neg() || jump > limit;
             let burst_max = u8::try_from(BURST_MAX).unwrap_or(u8::MAX);
             let bridging = self.bridge && beyond && s.bridged < burst_max;
@@ -490,6 +497,7 @@ impl TensionEstimator {
         Estimate {
             tension: self.fused_kgf(),
             sample: Kgf::from_bits(filtered),
+            clipped: Kgf::from_bits(clipped),
             rate: KgfPerSecond::from_bits(rate),
             speed: MmPerSecond(Q16::from_bits(speed)),
             steps: moved,
@@ -698,6 +706,52 @@ mod tests {
             }
         }
         (worst_sample, worst_rate)
+    }
+
+    #[test]
+    fn a_change_of_exactly_the_clips_limit_is_followed_and_a_larger_one_bridged() {
+        // A still carriage: the limit is the allowance alone; up and down.
+        for sign in [1, -1] {
+            for (over, bridged) in [(0, false), (1, true)] {
+                let mut est = estimator(true, false);
+                est.set_burst_bridge(true);
+                let base = Kgf::from_int(10);
+                est.update(base, 0);
+                let change = sign * (CLIP_ALLOWANCE.to_bits() + over);
+                let step = Kgf::from_bits(base.to_bits() + change);
+                let mut out = Estimate::default();
+                // The median of five takes the step on the third sample.
+                for _ in 0..3 {
+                    out = est.update(step, 0);
+                }
+                let moved = sign * out.sample.saturating_sub(base).to_bits();
+                let clipped = sign * out.clipped.saturating_sub(base).to_bits();
+                if bridged {
+                    assert!(moved < CLIP_ALLOWANCE.to_bits(), "bridged {sign}: {moved}");
+                    // The clip alone still moves toward the reading (the gripper's
+                    // identification reads it).
+                    assert_eq!(clipped, CLIP_ALLOWANCE.to_bits(), "{sign}");
+                } else {
+                    assert_eq!(moved, CLIP_ALLOWANCE.to_bits(), "followed {sign}");
+                    assert_eq!(out.clipped, out.sample);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_invariant_bounds_the_stiffness_and_the_bridged_ticks() {
+        let mut est = estimator(true, true);
+        let valid_state =
+            EstimatorState { bridged: 5, stiffness: STIFFNESS_MAX.to_bits(), ..est.state() };
+        est.set_state(valid_state);
+        assert!(est.is_valid());
+        est.set_state(EstimatorState { bridged: 6, ..valid_state });
+        assert!(!est.is_valid(), "six bridged ticks");
+        est.set_state(EstimatorState { stiffness: -1, ..valid_state });
+        assert!(!est.is_valid(), "a negative stiffness");
+        est.set_state(EstimatorState { stiffness: STIFFNESS_MAX.to_bits() + 1, ..valid_state });
+        assert!(!est.is_valid(), "past the largest stiffness");
     }
 
     #[test]

@@ -1332,6 +1332,7 @@ mod tests {
         let est = |speed: i32| Estimate {
             tension: Kgf::from_int(10),
             sample: Kgf::from_int(10),
+            clipped: Kgf::from_int(10),
             rate: KgfPerSecond::from_int(50),
             speed: MmPerSecond(Q16::const_from_int(speed)),
             steps: 0,

@@ -699,9 +699,11 @@ impl TensionController {
         // While the carriage brakes, the gripper outboard of the load cell takes its inertial
         // force off the reading (REQ-ID-07): the observer is given the string's pull.
         let sample = m.tension.saturating_add(self.profile.gripper_bias());
-        // In the take-up a burst of spikes that passes the median of five is bridged at the
-        // string's own rate: it would time the braking and identify the stiffness.
-        self.estimator.set_burst_bridge(self.profile.phase() == PullPhase::TakeUp);
+        // In the take-up, once the carriage runs at its speed, a burst of spikes that passes
+        // the median of five is bridged at the string's own rate: it would time the braking
+        // and identify the stiffness. Not while the carriage accelerates: the gripper's
+        // inertial step is then a real change of the reading, which identifies the gripper.
+        self.estimator.set_burst_bridge(self.profile.take_up_identified());
         let est = self.estimator.update(sample, m.drive.steps);
         self.shown = est.tension;
         let holding = self.profile.phase() == PullPhase::Hold;

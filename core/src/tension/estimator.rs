@@ -33,7 +33,7 @@
 //!    string cannot change its tension faster than the stiffest string (2 kgf/mm) times the
 //!    carriage's travel this tick, plus 0.1 kgf for noise and relaxation — so the filtered
 //!    sample `y_f` moves toward the median by at most that much per tick.
-//!    **Burst bridge** (the take-up, [`TensionEstimator::set_burst_bridge`]): before the
+//!    **Burst bridge** (the take-up at speed, [`TensionEstimator::set_burst_bridge`]): before the
 //!    stiffness is known the median is of five, and a burst of three or more spikes passes
 //!    it: the median jumps by tenths of a kgf or more, further than the clip's limit, which
 //!    the string cannot do. Slewing toward it at the limit would take the burst in at

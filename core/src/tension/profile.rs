@@ -816,6 +816,13 @@ impl Profile {
         };
     }
 
+    /// The take-up's acceleration window is over (its deceleration and the gripper's inertia
+    /// are identified): the carriage runs at its take-up speed.
+    #[must_use]
+    pub fn take_up_identified(&self) -> bool {
+        self.state.phase == PullPhase::TakeUp && self.state.braking_decel > Q16::ZERO
+    }
+
     /// What to add to the load-cell reading this tick for the gripper's inertia: the
     /// identified [`ProfileState::gripper_bias`] while the carriage brakes along its parabola
     /// ([`PullPhase::Approach`]), else nothing (REQ-ID-07).

@@ -187,7 +187,8 @@ pub fn duty_constructors_bounded(raw: u16, fraction: i32, period_ticks: u16) {
 
 /// REQ-DRV-02, no shoot-through in any emitted pattern: no leg has both gates on, at most
 /// one high side and one low side conduct, and every conducting leg is the six-step table's
-/// entry for the accepted sector and the commanded direction.
+/// entry for the accepted sector and the commanded direction — or, braking (REQ-DRV-15), the
+/// entry of the direction against it.
 pub fn no_shoot_through(record: &StepRecord) {
     pattern_is_safe(&record.output.pattern);
     let pattern = record.output.pattern;
@@ -200,15 +201,30 @@ pub fn no_shoot_through(record: &StepRecord) {
     let Some(direction) = record.input.command.command().direction() else {
         panic!("REQ-DRV-02: a leg conducts while coasting");
     };
-    let table = six_step(sector, direction);
-    for phase in Phase::ALL {
-        let leg = pattern.leg(phase);
-        assert!(
-            !leg.is_on() || leg == table.leg(phase),
-            "REQ-DRV-02: leg {phase:?} is {leg:?}, table says {:?}",
-            table.leg(phase)
-        );
+    assert!(
+        pattern_direction(record).is_some(),
+        "REQ-DRV-02: {pattern:?} follows neither table entry of {sector:?} ({direction:?} commanded)"
+    );
+}
+
+/// The direction whose six-step entry for the accepted sector `record`'s pattern follows
+/// (every conducting leg as that entry has it; at least one conducting). An entry and its
+/// reverse put the same pair across the bus the other way round (`reverse(k) =
+/// forward(k + 3)`), so a conducting pattern follows at most one of them.
+#[must_use]
+pub fn pattern_direction(record: &StepRecord) -> Option<Direction> {
+    let pattern = record.output.pattern;
+    let HallState::Sector(sector) = record.after.hall() else { return None };
+    if pattern.is_all_off() {
+        return None;
     }
+    [Direction::Pull, Direction::Release].into_iter().find(|&direction| {
+        let table = six_step(sector, direction);
+        Phase::ALL.iter().all(|&phase| {
+            let leg = pattern.leg(phase);
+            !leg.is_on() || leg == table.leg(phase)
+        })
+    })
 }
 
 /// The per-pattern half of REQ-DRV-02, on the six gate signals the firmware applies.
@@ -319,7 +335,7 @@ impl Observer {
         if pattern.is_all_off() {
             self.off_since = true;
         } else {
-            self.last_direction = record.input.command.command().direction();
+            self.last_direction = pattern_direction(record);
             self.off_since = false;
         }
         let rotor = rotor_after(self, record);
@@ -464,13 +480,17 @@ pub fn fault_latched_until_cleared(observer: &Observer, record: &StepRecord) {
     }
 }
 
-/// REQ-DRV-07, limit switches: the bridge is never energised toward an actuated limit switch.
+/// REQ-DRV-07, limit switches: the bridge is never energised under a command toward an
+/// actuated limit switch, nor with the table of a direction toward one (a brake included).
 pub fn never_toward_active_limit(record: &StepRecord) {
     if record.output.pattern.is_all_off() {
         return;
     }
     let limits = record.input.sample().limits;
-    if let Some(direction) = record.input.command.command().direction() {
+    for direction in [record.input.command.command().direction(), pattern_direction(record)]
+        .into_iter()
+        .flatten()
+    {
         assert!(
             !direction.blocked_by(limits),
             "REQ-DRV-07: driving {direction:?} into an active limit {limits:?}"
@@ -498,7 +518,7 @@ pub fn safe_reversal(observer: &Observer, record: &StepRecord) {
     if record.output.pattern.is_all_off() {
         return;
     }
-    let Some(direction) = record.input.command.command().direction() else {
+    let Some(direction) = pattern_direction(record) else {
         return;
     };
     if let Some(last) = observer.last_direction {
@@ -572,7 +592,7 @@ pub fn duty_within_window(observer: &Observer, record: &StepRecord) {
     if out.pattern.count(LegState::High) == 0 {
         return;
     }
-    let Some(direction) = record.input.command.command().direction() else { return };
+    let Some(direction) = pattern_direction(record) else { return };
     let config = record.before.config();
     let bus = record.input.sample().bus_voltage;
     let v = i64::from(bus_mv(bus).max(config.bus().floor_mv));
@@ -583,6 +603,47 @@ pub fn duty_within_window(observer: &Observer, record: &StepRecord) {
     if out.duty < DUTY_MAX {
         let floor = if bus_mv(bus) >= config.bus().regen_mv { 0 } else { -ir };
         assert!(applied - e >= floor - 10, "REQ-DRV-10: braking {applied} mV against {e} mV");
+    }
+}
+
+/// REQ-DRV-15, four-quadrant torque: the bridge follows the table of the direction against
+/// the command only to brake a rotor that turns that way at a *measured* speed (its last two
+/// steps that way) too fast for any duty of the command's own table to keep the current within
+/// the limit (the back-EMF bound against the command at least `I_lim·R`), and then never
+/// drives that way: `duty·V − e ≤ 0` (to the window's 10 mV rounding) — the winding's current
+/// runs against the rotation, torque toward the command. Its current bound is REQ-DRV-10's, in
+/// the table's own direction; REQ-DRV-07 keeps it off a direction toward an actuated switch.
+#[allow(
+    clippy::arithmetic_side_effects,
+    reason = "specification arithmetic on bounded values: codes ≤ 4 095, mV ≤ 120 000, duty ≤ 65 535, divisors ≥ 1, all in i64/u64"
+)]
+pub fn brakes_only_against_the_command(observer: &Observer, record: &StepRecord) {
+    let (Some(along), Some(commanded)) =
+        (pattern_direction(record), record.input.command.command().direction())
+    else {
+        return;
+    };
+    if along == commanded {
+        return;
+    }
+    let rotor = rotor_after(observer, record);
+    assert!(
+        rotor.rotation == Some(along) && rotor.interval != 0,
+        "REQ-DRV-15: braking {along:?} without a measured rotation that way"
+    );
+    let ir = i64::from(record.after.ir_mv());
+    let against = emf_toward(observer, record, commanded);
+    assert!(
+        against <= -ir,
+        "REQ-DRV-15: braking with the {commanded:?} window open ({against} mV)"
+    );
+    if record.output.pattern.count(LegState::High) > 0 {
+        let config = record.before.config();
+        let bus = record.input.sample().bus_voltage;
+        let v = i64::from(bus_mv(bus).max(config.bus().floor_mv));
+        let applied = i64::from(record.output.duty.raw()) * v / 65_536;
+        let e = emf_toward(observer, record, along);
+        assert!(applied - e <= 10, "REQ-DRV-15: driving {along:?}: {applied} mV against {e} mV");
     }
 }
 
@@ -665,6 +726,7 @@ pub fn check_all(observer: &Observer, record: &StepRecord) {
     never_toward_active_limit(record);
     safe_reversal(observer, record);
     duty_within_window(observer, record);
+    brakes_only_against_the_command(observer, record);
 }
 
 /// REQ-DRV-03, inductively: from *any* valid sequencer state (any legs, any off-times, any
@@ -839,6 +901,13 @@ mod verification {
     #[kani::unwind(8)]
     fn verify_safe_reversal() {
         three_calls(safe_reversal);
+        crate::harness_end_reached();
+    }
+
+    #[kani::proof]
+    #[kani::unwind(8)]
+    fn verify_brakes_only_against_the_command() {
+        three_calls(brakes_only_against_the_command);
         crate::harness_end_reached();
     }
 

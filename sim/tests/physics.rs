@@ -632,3 +632,44 @@ fn a_hard_brake_pumps_the_bus_up_and_the_supply_diode_blocks() {
     let settled = twin.truth().bus_volts;
     assert!((settled - supply).abs() < 0.01, "{settled}");
 }
+
+#[test]
+fn a_carriage_driven_back_against_a_pull_is_braked_at_the_current_limit() {
+    // The carriage runs toward home at speed (≈ 10 V of back-EMF, past I_lim·R) when the
+    // command turns to a light pull — what a string that back-drives a ball screw does to a
+    // held carriage, and a reversal at speed. No duty of the pull table keeps the current
+    // within the limit: the drive brakes through the release table at its lower edge, the
+    // limit's current against the rotation (four-quadrant torque), instead of coasting.
+    let mut config = quiet(StringKind::NoString);
+    config.mechanics.start_mm = 150.0;
+    let mut twin = Twin::new(&config);
+    run(&mut twin, 300, ramped(Direction::Release, 0.45, 100));
+    let v0 = twin.truth().carriage_mm_per_s;
+    let coasted_before = twin.truth().drive_coasting;
+    let mut coasting = twin.clone();
+    let trace = run(&mut twin, 15, |_| Outputs {
+        drive: drive_at(Direction::Pull, 0.05),
+        ..Outputs::default()
+    });
+    run(&mut coasting, 15, coast());
+    let torque = trace.rows.iter().map(|r| r.truth.torque_nm).fold(0.0, f64::max);
+    let amps = trace.rows.iter().map(|r| r.truth.peak_current_a).fold(0.0, f64::max);
+    let (v_brake, v_coast) = (twin.truth().carriage_mm_per_s, coasting.truth().carriage_mm_per_s);
+    let coasted = twin.truth().drive_coasting - coasted_before;
+    println!(
+        "from {v0:.1} mm/s: a 5 % pull for 15 ms → {v_brake:.1} mm/s (torque up to {torque:.3} \
+         N·m, peak {amps:.2} A, {coasted} periods coasting), coasting → {v_coast:.1} mm/s"
+    );
+    assert!(v0 < -30.0, "{v0} mm/s");
+    // Braking at the window's lower edge: the 8 A limit with the coldest winding's 0.70 Ω;
+    // the nominal 0.85 Ω and a speed read from the last step interval (an upper bound while
+    // the rotor slows) put ≈ 4 A through it (Kt ≈ 0.06 N·m/A): ≈ 0.24 N·m toward the pull,
+    // never past the limit, never near the 12 A trip.
+    assert!(torque > 0.2, "braking torque {torque}");
+    assert!(amps < 9.6, "peak {amps} A");
+    assert!(trace.rows.iter().all(|r| r.truth.drive_fault.is_none()));
+    // The carriage has stopped running home or turned; coasting it runs on.
+    assert!(v_brake > 0.3 * v0, "{v_brake}");
+    assert!(v_coast < 0.7 * v0, "{v_coast}");
+    assert!(coasted <= 2, "{coasted} periods coasted under the pull");
+}

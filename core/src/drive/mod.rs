@@ -24,10 +24,17 @@
 //!    [`Drive::clear_fault`] is called while the held command is coast and the overcurrent
 //!    comparator is no longer tripped.
 //! 4. **What to drive.** Coast, a command toward an active limit switch, or an unknown rotor
-//!    position request all-off. So does a rotor turning against the commanded torque so fast
-//!    that no duty keeps the winding current within the limit (the duty window of
-//!    [`limit`] is empty: `|e| ≥ I_lim·R`, from the Hall timing; after a turn-around the
-//!    bound is what the rotor can have reached from rest, see [`limit`]); such a call is
+//!    position request all-off. A rotor turning against the commanded torque so fast that no
+//!    duty of the command's table keeps the winding current within the limit (the duty
+//!    window of [`limit`] is empty: `|e| ≥ I_lim·R`, from the Hall timing) is **braked**
+//!    (four-quadrant torque): the table of the way it turns, at that window's lower edge,
+//!    puts the limit's current through the winding against the rotation — torque toward the
+//!    command, regenerating into the bus below the regeneration threshold, none above it.
+//!    Only for a *measured* speed (two steps that way: the back-EMF known on both sides),
+//!    never toward an actuated limit switch and never with the edge at the duty cap (a rotor
+//!    faster than the bus). Otherwise — after a turn-around, whose speed is only bounded by
+//!    what the rotor can have reached from rest (see [`limit`]), a lower edge from that bound
+//!    would drive the rotor's way if it is in fact slow — the drive coasts; such a call is
 //!    counted ([`Drive::coasting`]: torque asked for and none given). The bridge is
 //!    **energised** (from all-off) only in a call where the window exists and the whole
 //!    table entry clears the dead time; a change of direction first de-energises.
@@ -517,6 +524,31 @@ impl Drive {
         self.config.window_with(bus, self.emf_toward(direction), self.heat.ir_mv())
     }
 
+    /// The window for **braking** a rotor that turns against `direction` (four-quadrant
+    /// torque): the window of the table for the way the rotor turns, whose lower edge puts
+    /// the limit's current through the winding against the rotation — torque toward
+    /// `direction` — regenerating into the bus (none above the regeneration threshold). Only
+    /// for a rotor whose speed is *measured*: two steps the same way, so the back-EMF is
+    /// known on both sides (after a single step against the torque, a turn-around, only an
+    /// upper bound is, and a lower edge taken from it would drive the rotor's way if it is
+    /// in fact slow); never toward an actuated limit switch. `None`: coast.
+    fn braking_window(
+        &self,
+        direction: Direction,
+        bus: AdcCode,
+        limits: LimitSwitches,
+    ) -> Option<DutyWindow> {
+        let along = direction.reversed();
+        let measured = self.rotation == Some(along) && self.interval.0 != 0;
+        if !measured || along.blocked_by(limits) {
+            return None;
+        }
+        // A lower edge at the cap is a rotor faster than the bus: its current flows through
+        // the body diodes whatever the switches do, and the cap's low-side time would only add
+        // to it.
+        self.window(along, bus).filter(|window| window.low < DUTY_MAX)
+    }
+
     /// The winding's temperature estimate ([`WindingHeat`]).
     #[must_use]
     pub const fn heat(&self) -> WindingHeat {
@@ -670,15 +702,25 @@ impl Drive {
 
         // 4. What to drive, and the duty window that keeps the current within the limit.
         let mut window = None;
+        let mut braking = false;
         let requested = match (self.command, hall) {
             (DriveCommand::Drive { direction, .. }, HallState::Sector(sector))
                 if !direction.blocked_by(sample.limits) =>
             {
                 window = self.window(direction, sample.bus_voltage);
+                let mut along = direction;
+                if window.is_none() {
+                    // The rotor turns against the torque too fast for the table's own
+                    // direction: brake it through the table of the way it turns.
+                    window = self.braking_window(direction, sample.bus_voltage, sample.limits);
+                    along = direction.reversed();
+                    braking = window.is_some();
+                }
                 match window {
-                    Some(_) => self.engage(direction, sector, sample.elapsed),
+                    Some(_) => self.engage(along, sector, sample.elapsed),
                     None => {
-                        // The rotor turns against the torque too fast: coast until it slows.
+                        // No measured speed to brake from, or braking is blocked: coast until
+                        // the rotor slows.
                         self.coasting = self.coasting.saturating_add(1);
                         self.energized = None;
                         SwitchPattern::ALL_OFF
@@ -709,6 +751,9 @@ impl Drive {
             target.max(Duty::from_raw_clamped(self.applied.raw().saturating_sub(slew)))
         };
         let folding = self.config.fold_back(sample.current, self.current_zero());
+        // Braking asks the lower edge itself (the most torque toward the command the limit
+        // allows); the window's lower edge is what the lift rule measures either way.
+        let asked = if braking { Duty::ZERO } else { self.command.duty() };
         let over_limit =
             self.config.over_limit(sample.current, self.current_zero(), self.duty_hold);
         self.folded = if over_limit {
@@ -716,7 +761,7 @@ impl Drive {
         } else {
             self.folded.saturating_sub(1)
         };
-        self.lifted_for = if self.command.duty() < window.low {
+        self.lifted_for = if asked < window.low {
             DriveTime(self.lifted_for.0.saturating_add(sample.elapsed.0))
         } else {
             DriveTime(self.lifted_for.0.saturating_sub(sample.elapsed.0))
@@ -734,11 +779,13 @@ impl Drive {
             return self.off(sample);
         }
         let duty = if folding {
-            let direction = self.command.direction().unwrap_or(Direction::Pull);
+            let direction = self.energized.unwrap_or(Direction::Pull);
             let zero =
                 self.config.zero_current_duty(sample.bus_voltage, self.emf_toward(direction));
             let mid = u32::from(self.applied.raw()).saturating_add(u32::from(zero.raw())) / 2;
             window.clamp(Duty::from_raw_clamped(u16::try_from(mid).unwrap_or(0)))
+        } else if braking {
+            window.low
         } else {
             window.clamp(slewed)
         };
@@ -1753,6 +1800,94 @@ mod tests {
         drive.step(DriveSample { overcurrent_trip: true, ..sample(Sector::S4) });
         drive.step(sample(Sector::S4));
         assert_eq!(drive.coasting(), coasted);
+    }
+
+    /// A settled drive held toward `Pull` at `duty` whose rotor turns backward one step every
+    /// `periods` periods (`steps` steps), with `limits`: each call's output.
+    fn back_driven(
+        periods: u32,
+        steps: usize,
+        limits: LimitSwitches,
+        bus: AdcCode,
+    ) -> (Drive, heapless::Vec<(Sector, DriveOutput), 512>) {
+        let mut drive = settled(Sector::S0);
+        drive.set_command(pull(10_000));
+        let backward = [Sector::S5, Sector::S4, Sector::S3, Sector::S2, Sector::S1, Sector::S0];
+        let mut outputs = heapless::Vec::new();
+        for sector in backward.iter().cycle().take(steps) {
+            for _ in 0..periods {
+                let at = DriveSample { limits, bus_voltage: bus, ..sample(*sector) };
+                assert!(outputs.push((*sector, drive.step(at))).is_ok());
+            }
+        }
+        (drive, outputs)
+    }
+
+    #[test]
+    fn a_rotor_turning_against_the_command_at_a_measured_speed_is_braked_at_the_limit() {
+        // One backward step every 1.6 ms: ≈ 10 V of back-EMF against the pull, past
+        // I_lim·R (≈ 5.5 V), so no pull-table duty keeps the current within the limit.
+        let free = LimitSwitches { home: false, end: false };
+        let (drive, outputs) = back_driven(32, 12, free, BUS_24V);
+        let e = drive.emf_toward(Direction::Release);
+        assert!(e > 9_000 && e < 11_000, "{e} mV");
+        assert!(drive.window(Direction::Pull, BUS_24V).is_none());
+        // Until the second step is accepted the speed is only bounded (one step against the
+        // torque): the pull table while its window lasts, then coast. From the second step on,
+        // the release table at the window's lower edge: the limit's current against the
+        // rotation, torque toward the pull.
+        let second = 32 + usize::from(HALL_CONFIRM_READS) - 1;
+        let pull_s0 = six_step(Sector::S0, Direction::Pull);
+        let before = outputs.iter().take(second);
+        assert!(before.clone().all(|(_, out)| out.pattern.is_all_off() || out.pattern == pull_s0));
+        let coasted = drive.coasting();
+        let off = before.filter(|(_, out)| out.pattern.is_all_off()).count();
+        assert_eq!(usize::try_from(coasted).unwrap_or(0), off);
+        assert!(coasted > 20, "{coasted}");
+        let mut drive_now = drive;
+        let low = drive_now.window(Direction::Release, BUS_24V).map(|w| w.low);
+        let mut previous = Sector::S4;
+        for (sector, out) in outputs.iter().skip(second) {
+            let entries =
+                [six_step(*sector, Direction::Release), six_step(previous, Direction::Release)];
+            assert!(entries.contains(&out.pattern), "{sector:?}: {out:?}");
+            assert!(!out.duty.is_zero());
+            previous = *sector;
+        }
+        // The last call's duty is the release window's lower edge for the rotor as now seen.
+        drive_now.set_command(pull(10_000));
+        assert_eq!(outputs.last().map(|(_, out)| out.duty), low);
+        assert_eq!(drive_now.status().energized, Some(Direction::Release));
+        // (e − I_lim·R) / V, to the window's rounding.
+        let v = 24_000_i64;
+        let applied = i64::from(low.map_or(0, Duty::raw)) * v / 65_536;
+        let expected = i64::from(e) - i64::from(drive_now.ir_mv());
+        assert!((applied - expected).abs() <= 10, "{applied} mV against {expected} mV");
+    }
+
+    #[test]
+    fn a_brake_toward_an_actuated_limit_switch_coasts() {
+        // The rotor turns toward home with the home switch closed: no release table.
+        let home = LimitSwitches { home: true, end: false };
+        let (drive, outputs) = back_driven(32, 12, home, BUS_24V);
+        let pull_s0 = six_step(Sector::S0, Direction::Pull);
+        assert!(outputs.iter().all(|(_, out)| out.pattern.is_all_off() || out.pattern == pull_s0));
+        let off = outputs.iter().filter(|(_, out)| out.pattern.is_all_off()).count();
+        assert_eq!(usize::try_from(drive.coasting()).unwrap_or(0), off);
+        assert!(off > 300, "{off}");
+    }
+
+    #[test]
+    fn above_the_regeneration_threshold_the_brake_draws_no_current() {
+        // At 38 V (the regeneration threshold's code) the lower edge is the back-EMF itself.
+        let bus = AdcCode::new(2_595);
+        let (drive, outputs) = back_driven(32, 12, LimitSwitches::default(), bus);
+        let e = i64::from(drive.emf_toward(Direction::Release));
+        let (_, last) = outputs.last().copied().unwrap_or((Sector::S0, DriveOutput::OFF));
+        assert!(!last.pattern.is_all_off());
+        let v = i64::from(drive.config().bus().millivolts(bus));
+        let applied = i64::from(last.duty.raw()) * v / 65_536;
+        assert!(applied >= e && applied <= e + 10, "{applied} mV against {e} mV");
     }
 
     #[test]

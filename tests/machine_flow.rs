@@ -517,7 +517,12 @@ fn second_board() -> (TwinConfig, taut_core::board::BoardConfig) {
     let reference = AdcReference::from_millivolts(3_300).unwrap();
     let dead_time = DriveTime(5);
     let mut config = TwinConfig::nominal(StringKind::TennisSynthetic).with_seed(11);
-    config.board = BoardDesign { adc_reference: reference, bus_full_scale_mv: 66_000, dead_time };
+    config.board = BoardDesign {
+        adc_reference: reference,
+        bus_full_scale_mv: 66_000,
+        dead_time,
+        overcurrent_ma: 12_000,
+    };
     config.bridge.dead_time_s = 0.5e-6;
     config.bus_sense.divider_ratio = 20.0;
     config.current_sense = CurrentSenseParams::per_phase_low_side();
@@ -533,11 +538,13 @@ fn second_board() -> (TwinConfig, taut_core::board::BoardConfig) {
     };
     let bus =
         BusSense { full_scale_mv: 66_000, floor_mv: 18_000, regen_mv: 38_000, max_mv: 40_000 };
-    let drive = DriveConfig::new(sense, bus, CurrentLimit::PAPER, 12_000, dead_time).unwrap();
+    let drive =
+        DriveConfig::new(sense, bus, CurrentLimit::PAPER, config.board.overcurrent_ma, dead_time)
+            .unwrap();
     let load_cell =
         LoadCellScale::new(reference, PAPER_LOAD_CELL_ZERO, Q16::from_num(1.0 / 0.060_72)).unwrap();
     let board =
-        BoardConfig::new(drive, DriveTime::from_micros(50), load_cell, ControllerConfig::TAUT)
+        BoardConfig::new(drive, taut_sim::twin::PWM_PERIOD, load_cell, ControllerConfig::TAUT)
             .unwrap();
     (config, board)
 }

@@ -508,7 +508,7 @@ fn machine_flow_the_logged_peak_is_the_tension_the_string_saw() {
 fn second_board() -> (TwinConfig, taut_core::board::BoardConfig) {
     use taut_core::board::{BoardConfig, PAPER_LOAD_CELL_ZERO};
     use taut_core::drive::limit::{CurrentLimit, CurrentReading, CurrentSense};
-    use taut_core::drive::{BusSense, DriveConfig, DriveTime};
+    use taut_core::drive::{BusSense, DriveConfig, DriveTime, TIME_UNITS_PER_SECOND};
     use taut_core::sense::load_cell::LoadCellScale;
     use taut_core::tension::controller::ControllerConfig;
     use taut_core::units::{AdcCode, AdcReference, Q16};
@@ -523,13 +523,15 @@ fn second_board() -> (TwinConfig, taut_core::board::BoardConfig) {
         dead_time,
         overcurrent_ma: 12_000,
     };
-    config.bridge.dead_time_s = 0.5e-6;
-    config.bus_sense.divider_ratio = 20.0;
+    config.bridge.dead_time_s = f64::from(dead_time.0) / f64::from(TIME_UNITS_PER_SECOND);
+    config.bus_sense.divider_ratio =
+        f64::from(config.board.bus_full_scale_mv) / f64::from(reference.millivolts());
     config.current_sense = CurrentSenseParams::per_phase_low_side();
     config.current_sense.offset_volts = 1.65;
     config.load_cell.volts_per_kgf = 0.092 * 3.3 / 5.0;
 
-    // The board's own description: 3.3 V / 4 096 / 0.1 V/A = 8.057 mA a code from mid-rail.
+    // The board's own description, written apart from the twin's so that the test compares
+    // the two: 3.3 V / 4 096 / 0.1 V/A = 8.057 mA a code from mid-rail.
     let sense = CurrentSense {
         reading: CurrentReading::Winding,
         design_zero: AdcCode::new(2_048),
@@ -538,13 +540,11 @@ fn second_board() -> (TwinConfig, taut_core::board::BoardConfig) {
     };
     let bus =
         BusSense { full_scale_mv: 66_000, floor_mv: 18_000, regen_mv: 38_000, max_mv: 40_000 };
-    let drive =
-        DriveConfig::new(sense, bus, CurrentLimit::PAPER, config.board.overcurrent_ma, dead_time)
-            .unwrap();
+    let drive = DriveConfig::new(sense, bus, CurrentLimit::PAPER, 12_000, dead_time).unwrap();
     let load_cell =
         LoadCellScale::new(reference, PAPER_LOAD_CELL_ZERO, Q16::from_num(1.0 / 0.060_72)).unwrap();
     let board =
-        BoardConfig::new(drive, taut_sim::twin::PWM_PERIOD, load_cell, ControllerConfig::TAUT)
+        BoardConfig::new(drive, DriveTime::from_micros(50), load_cell, ControllerConfig::TAUT)
             .unwrap();
     (config, board)
 }

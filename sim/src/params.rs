@@ -599,10 +599,15 @@ impl BusSenseParams {
     /// Conversions the hardware oversampler averages (`taut_firmware::timing`: ratio 16).
     pub const OVERSAMPLING: u32 = 16;
 
-    /// A 1:12 divider, 1 mV rms of noise at the pin.
+    /// The paper's board's divider ([`BoardDesign::PAPER`]: 60 V full scale on 5 V, 1:12),
+    /// 1 mV rms of noise at the pin.
     #[must_use]
+    #[allow(clippy::cast_lossless, reason = "`f64::from` is not callable in a const fn")]
     pub const fn nominal() -> Self {
-        Self { divider_ratio: 12.0, noise_volts: 1e-3 }
+        let board = BoardDesign::PAPER;
+        let divider_ratio =
+            board.bus_full_scale_mv as f64 / board.adc_reference.millivolts() as f64;
+        Self { divider_ratio, noise_volts: 1e-3 }
     }
 }
 

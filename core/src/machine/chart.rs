@@ -63,8 +63,8 @@ pub use storage::Chart;
 /// Ticks the self-test takes: [`SELF_TEST_SETTLE`] ticks for the amplifier to settle,
 /// then 100 readings of the unloaded load cell averaged (the limits are watched throughout).
 /// 100 ms is five periods of 50 Hz mains and six of 60 Hz, so the hum averages out of the
-/// tare (over 64 ms, 3.2 periods of 50 Hz, up to a tenth of the hum's peak stayed in it:
-/// 0.01 kgf, an offset in every pull until the next boot).
+/// tare (over a span that is not whole periods, up to a tenth of the hum's peak would stay in
+/// it: an offset in every pull until the next boot).
 pub const SELF_TEST_TICKS: u16 = 116;
 /// Ticks at the start of the self-test whose load-cell readings are not averaged.
 pub const SELF_TEST_SETTLE: u16 = 16;
@@ -85,7 +85,7 @@ pub const CALIBRATION_SPEED: u8 = 3;
 /// The calibration entry's range, hundredths of a kg: 5.00–55.00 (the reference readings
 /// `Calibration::new` accepts). The entry is keyed to 0.01 kg, a reference gauge's
 /// resolution: keyed to the set point's 0.1 kg, the rounding (up to ±0.05 kgf per point, the
-/// same way at every point when the chain's offset is constant) stayed in the fitted line.
+/// same way at every point when the chain's offset is constant) would stay in the fitted line.
 pub const ENTRY_MIN: u16 = 500;
 /// See [`ENTRY_MIN`].
 pub const ENTRY_MAX: u16 = 5_500;
@@ -102,9 +102,9 @@ pub const PULL_TIMEOUT_APPROACH_MS: u32 = 20_000;
 
 /// How long a pull at `speed` may take to reach tension: [`PULL_TIMEOUT_TRAVEL_MM`] at the
 /// speed's carriage limit plus [`PULL_TIMEOUT_APPROACH_MS`], and at least [`PULL_TIMEOUT`]
-/// (64.4 s at speed 1, 42.2 s at 2, 40 s from 3 up). A fixed 40 s faulted honest pulls of a
-/// soft string at speed 1 (9 mm/s: 250 mm of take-up alone is 28 s); a jammed carriage is a
-/// stall (E-09) long before, and a string slipping in its clamp still ends here.
+/// (64.4 s at speed 1, 42.2 s at 2, 40 s from 3 up). A fixed 40 s would fault honest pulls
+/// of a soft string at speed 1 (9 mm/s: 250 mm of take-up alone is 28 s); a jammed carriage
+/// is a stall (E-09) long before, and a string slipping in its clamp still ends here.
 #[must_use]
 pub fn pull_timeout(speed: Speed) -> u32 {
     // The speed's carriage limit in whole mm/s (a whole number: 9 per step).

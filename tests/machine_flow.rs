@@ -508,7 +508,7 @@ fn machine_flow_the_logged_peak_is_the_tension_the_string_saw() {
 fn second_board() -> (TwinConfig, taut_core::board::BoardConfig) {
     use taut_core::board::{BoardConfig, PAPER_LOAD_CELL_ZERO};
     use taut_core::drive::limit::{CurrentLimit, CurrentReading, CurrentSense};
-    use taut_core::drive::{BusSense, DriveConfig, DriveTime};
+    use taut_core::drive::{BusSense, DriveConfig, DriveTime, TIME_UNITS_PER_SECOND};
     use taut_core::sense::load_cell::LoadCellScale;
     use taut_core::tension::controller::ControllerConfig;
     use taut_core::units::{AdcCode, AdcReference, Q16};
@@ -517,14 +517,21 @@ fn second_board() -> (TwinConfig, taut_core::board::BoardConfig) {
     let reference = AdcReference::from_millivolts(3_300).unwrap();
     let dead_time = DriveTime(5);
     let mut config = TwinConfig::nominal(StringKind::TennisSynthetic).with_seed(11);
-    config.board = BoardDesign { adc_reference: reference, bus_full_scale_mv: 66_000, dead_time };
-    config.bridge.dead_time_s = 0.5e-6;
-    config.bus_sense.divider_ratio = 20.0;
+    config.board = BoardDesign {
+        adc_reference: reference,
+        bus_full_scale_mv: 66_000,
+        dead_time,
+        overcurrent_ma: 12_000,
+    };
+    config.bridge.dead_time_s = f64::from(dead_time.0) / f64::from(TIME_UNITS_PER_SECOND);
+    config.bus_sense.divider_ratio =
+        f64::from(config.board.bus_full_scale_mv) / f64::from(reference.millivolts());
     config.current_sense = CurrentSenseParams::per_phase_low_side();
     config.current_sense.offset_volts = 1.65;
     config.load_cell.volts_per_kgf = 0.092 * 3.3 / 5.0;
 
-    // The board's own description: 3.3 V / 4 096 / 0.1 V/A = 8.057 mA a code from mid-rail.
+    // The board's own description, written apart from the twin's so that the test compares
+    // the two: 3.3 V / 4 096 / 0.1 V/A = 8.057 mA a code from mid-rail.
     let sense = CurrentSense {
         reading: CurrentReading::Winding,
         design_zero: AdcCode::new(2_048),

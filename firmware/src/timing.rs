@@ -59,7 +59,11 @@ pub const PWM_TIMER_HZ: u32 = 170_000_000;
 pub const PWM_FREQUENCY_HZ: u32 = 20_000;
 
 /// Timer ticks in one PWM period (edge-aligned): 170 MHz / 20 kHz = 8 500.
-pub const PWM_PERIOD_TICKS: u16 = 8_500;
+#[allow(
+    clippy::cast_possible_truncation,
+    reason = "`u16::try_from` is not callable in a const item; the compile-time checks below refuse a period past the 16-bit timer"
+)]
+pub const PWM_PERIOD_TICKS: u16 = (PWM_TIMER_HZ / PWM_FREQUENCY_HZ) as u16;
 
 /// Minimum both-off time of a leg before either of its switches turns on: 170 ticks = 1.0 µs.
 /// The IRF2807 turns off in ≈100 ns, and the paper's FAN7888 gate driver (or the L6398
@@ -137,7 +141,7 @@ pub const CCMR3: u32 = 0b0111 << 4;
 #[allow(clippy::cast_lossless, reason = "`u32::from` is not callable in a const item")]
 const _: () = {
     let period = PWM_PERIOD_TICKS as u32;
-    assert!(PWM_TIMER_HZ / PWM_FREQUENCY_HZ == period, "the PWM constants must describe one timer");
+    assert!(PWM_TIMER_HZ / PWM_FREQUENCY_HZ == period, "the PWM period must fit the 16-bit timer");
     assert!(
         PWM_TIMER_HZ.is_multiple_of(TIME_UNITS_PER_SECOND) && TICKS_PER_DRIVE_TIME > 0,
         "the timer clock must be a whole number of ticks per 100 ns"

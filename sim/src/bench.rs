@@ -89,32 +89,32 @@ pub fn to_kgf(value: f64) -> Kgf {
 // ───────────────────────────── core types, in one place ─────────────────────────────
 
 /// The board of a twin of `config`: its design ([`crate::params::BoardDesign`]: converter
-/// reference, bus divider, dead time) with its current sensing ([`TwinConfig::current_sense`]'s
-/// drive configuration), the paper's 20 kHz, the paper's load-cell chain (50 mV at no load)
+/// reference, bus divider, dead time, overcurrent trip) with its current sensing
+/// ([`TwinConfig::current_sense`]'s drive configuration), the twin's PWM period
+/// ([`crate::twin::PWM_PERIOD`]), the paper's load-cell chain (50 mV at no load)
 /// with its gain scaled to keep the paper's full scale on the board's converter (92 mV/kgf on
 /// 5 V), and taut's controller. Every board the twin's family builds is valid (a test checks
 /// each sensing kind); were one ever refused, the paper's board stands in.
 #[must_use]
 pub fn board_for(config: &TwinConfig) -> BoardConfig {
     use taut_core::board::{PAPER_KGF_PER_VOLT, PAPER_LOAD_CELL_ZERO};
-    let paper = taut_core::board::paper();
     let reference = config.board.adc_reference;
     let scaled = i64::from(PAPER_KGF_PER_VOLT.to_bits())
         .saturating_mul(5_000)
         .checked_div(i64::from(reference.millivolts()))
         .unwrap_or(i64::MAX);
     let gain = taut_core::units::Q16::from_bits(i32::try_from(scaled).unwrap_or(i32::MAX));
-    let built = paper.and_then(|paper| {
-        let load_cell = LoadCellScale::new(reference, PAPER_LOAD_CELL_ZERO, gain)
-            .map_err(|_| taut_core::board::BoardError::LoadCell)?;
-        BoardConfig::new(
-            config.current_sense.drive_config(&config.board),
-            paper.pwm_period(),
-            load_cell,
-            ControllerConfig::TAUT,
-        )
-    });
-    built.or(paper).unwrap_or_else(|_| unreachable_board())
+    let built = LoadCellScale::new(reference, PAPER_LOAD_CELL_ZERO, gain)
+        .map_err(|_| taut_core::board::BoardError::LoadCell)
+        .and_then(|load_cell| {
+            BoardConfig::new(
+                config.current_sense.drive_config(&config.board),
+                crate::twin::PWM_PERIOD,
+                load_cell,
+                ControllerConfig::TAUT,
+            )
+        });
+    built.or_else(|_| taut_core::board::paper()).unwrap_or_else(|_| unreachable_board())
 }
 
 /// Only reachable if the paper's board itself were refused, which core's own tests rule out.

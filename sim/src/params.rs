@@ -33,10 +33,13 @@ pub struct BoardDesign {
     pub bus_full_scale_mv: u32,
     /// The bridge's dead time (the physics' [`BridgeParams::dead_time_s`] is this at nominal).
     pub dead_time: DriveTime,
+    /// The drive's overcurrent trip, mA (a winding-current sample at or above it latches).
+    pub overcurrent_ma: u32,
 }
 
 impl BoardDesign {
-    /// The paper's board: a 5 V converter, a 1 : 12 bus divider (60 V full scale), 1 µs.
+    /// The paper's board: a 5 V converter, a 1 : 12 bus divider (60 V full scale), 1 µs, a
+    /// 12 A trip.
     #[allow(clippy::panic, reason = "evaluated when compiled: a refused reference stops the build")]
     pub const PAPER: Self = Self {
         adc_reference: match AdcReference::from_millivolts(5_000) {
@@ -45,6 +48,7 @@ impl BoardDesign {
         },
         bus_full_scale_mv: 60_000,
         dead_time: BOARD_DEAD_TIME,
+        overcurrent_ma: 12_000,
     };
 
     /// The converter's reference, volts.
@@ -595,10 +599,15 @@ impl BusSenseParams {
     /// Conversions the hardware oversampler averages (`taut_firmware::timing`: ratio 16).
     pub const OVERSAMPLING: u32 = 16;
 
-    /// A 1:12 divider, 1 mV rms of noise at the pin.
+    /// The paper's board's divider ([`BoardDesign::PAPER`]: 60 V full scale on 5 V, 1:12),
+    /// 1 mV rms of noise at the pin.
     #[must_use]
+    #[allow(clippy::cast_lossless, reason = "`f64::from` is not callable in a const fn")]
     pub const fn nominal() -> Self {
-        Self { divider_ratio: 12.0, noise_volts: 1e-3 }
+        let board = BoardDesign::PAPER;
+        let divider_ratio =
+            board.bus_full_scale_mv as f64 / board.adc_reference.millivolts() as f64;
+        Self { divider_ratio, noise_volts: 1e-3 }
     }
 }
 
@@ -929,8 +938,8 @@ impl CurrentSenseParams {
 
     /// The drive configuration a core on `board` with this sensing is given: what the code
     /// stands for (winding current, or the link average of an RC-filtered DC-link shunt), the
-    /// design zero and gain on the board's converter, the board's bus divider and dead time,
-    /// taut's current limit, the 12 A trip. (Design values: the board's errors are the twin's
+    /// design zero and gain on the board's converter, the board's bus divider, dead time and
+    /// overcurrent trip, taut's current limit. (Design values: the board's errors are the twin's
     /// hidden parameters, and the drive tares the zero.)
     #[must_use]
     pub fn drive_config(&self, board: &BoardDesign) -> taut_core::drive::DriveConfig {
@@ -953,8 +962,14 @@ impl CurrentSenseParams {
             zero_tolerance,
         };
         let bus = BusSense { full_scale_mv: board.bus_full_scale_mv, ..BusSense::PAPER };
-        taut_core::drive::DriveConfig::new(sense, bus, CurrentLimit::PAPER, 12_000, board.dead_time)
-            .unwrap_or(taut_core::drive::DriveConfig::PAPER)
+        taut_core::drive::DriveConfig::new(
+            sense,
+            bus,
+            CurrentLimit::PAPER,
+            board.overcurrent_ma,
+            board.dead_time,
+        )
+        .unwrap_or(taut_core::drive::DriveConfig::PAPER)
     }
 
     /// Whether the amplifier is biased at mid-rail (reads negative currents).

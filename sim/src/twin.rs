@@ -447,11 +447,12 @@ impl Twin {
     #[must_use]
     pub fn with_voltage_mode_drive(mut self) -> Self {
         use taut_core::drive::limit::{BusSense, CurrentLimit};
-        let sense = self.config.current_sense.drive_config(&self.config.board).sense();
+        let board = self.config.board;
+        let sense = self.config.current_sense.drive_config(&board).sense();
         let open = CurrentLimit {
-            limit_ma: 11_000,
+            limit_ma: board.overcurrent_ma.saturating_sub(1_000),
             resistance_mohm: 5_000,
-            fold_back_ma: 11_999,
+            fold_back_ma: board.overcurrent_ma.saturating_sub(1),
             ..CurrentLimit::PAPER
         };
         // No bus rule and no zero check either: the physics under test must not be cut short.
@@ -461,8 +462,8 @@ impl Twin {
             sense,
             bus,
             open,
-            12_000,
-            self.config.board.dead_time,
+            board.overcurrent_ma,
+            board.dead_time,
         ) {
             self.drive = Drive::with_config(config);
         }

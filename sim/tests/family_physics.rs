@@ -535,7 +535,7 @@ fn the_ball_screw_end_of_the_friction_axis_coasts_far() {
     // Coasting without a string, the motor's own iron losses (fixed by the nameplate's
     // no-load current) take most of the energy: the drivetrain's friction adds the rest.
     assert!(low.0 > 1.2 * high.0 && low.1 > high.1, "{low:?} vs {high:?}");
-    assert!(heavy.1 > 0.3, "the issue-17 machine coasts ≈ 0.4 s: {heavy:?}");
+    assert!(heavy.1 > 0.3, "the heavy ball-screw machine coasts ≈ 0.4 s: {heavy:?}");
 }
 
 #[test]

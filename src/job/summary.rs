@@ -19,8 +19,9 @@ pub const SETTLE_BAND_KGF: f64 = 0.1;
 pub const SETTLE_FOR_MS: u64 = 500;
 /// The hold error is measured from this long after the holding lamp lit, ms.
 pub const HOLD_ERROR_FROM_MS: u64 = 1_000;
-/// The drive's software overcurrent trip, A (`taut_core::drive`'s 12 A limit).
-pub const TRIP_A: f64 = 12.0;
+/// The drive's overcurrent trip, A: the twin's board's (12 A).
+#[allow(clippy::cast_lossless, reason = "`f64::from` is not callable in a const item")]
+pub const TRIP_A: f64 = taut_sim::params::BoardDesign::PAPER.overcurrent_ma as f64 / 1_000.0;
 
 /// The commanded duty of a row, signed (negative = release), percent.
 #[must_use]

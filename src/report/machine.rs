@@ -50,6 +50,7 @@ use taut_sim::{SimRng, StringKind, TwinConfig};
 use super::robustness::{check_corner, corner_json, corner_machine, describe_corner, string_for};
 use super::{cell, number, percentile, scenario_seed, target_range};
 use crate::cli::MachineArgs;
+use crate::job::summary::TRIP_A;
 use crate::output::{Outputs, Progress, Status, json_bytes, parallel, threads};
 
 /// How long the operator holds before releasing, ms.
@@ -58,8 +59,6 @@ pub const HOLD_MS: u32 = 2_000;
 pub const BREAK_AFTER_MS: u64 = 500;
 /// A real fault is injected this long after the machine enters Pulling, ms.
 pub const FAULT_AFTER_MS: u64 = 100;
-/// The drive's software overcurrent trip, A.
-pub const TRIP_A: f64 = 12.0;
 
 /// What a cycle has injected.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]

@@ -54,14 +54,17 @@ mod storage;
 use calibrating::{calibration_label, entry_average};
 pub use calibrating::{calibration_settings, point_of_reading};
 pub(crate) use checkpoint::{power_up, public_state, state_at};
-pub use pages::{COUNTER_ITEMS, LABEL_MS, LOG_FIELDS, SERVICE_ITEMS, StringingTimer, View};
+pub use pages::{
+    ADJUST_SHOWN_MS, COUNTER_ITEMS, DISPLAY_REFRESH_MS, HoldMessage, LABEL_MS, LOG_FIELDS,
+    SERVICE_ITEMS, StringingTimer, VIEW_TIMEOUT, View, tension_display,
+};
 pub use storage::Chart;
 
 /// Ticks the self-test takes: [`SELF_TEST_SETTLE`] ticks for the amplifier to settle,
 /// then 100 readings of the unloaded load cell averaged (the limits are watched throughout).
 /// 100 ms is five periods of 50 Hz mains and six of 60 Hz, so the hum averages out of the
-/// tare (over 64 ms, 3.2 periods of 50 Hz, up to a tenth of the hum's peak stayed in it:
-/// 0.01 kgf, an offset in every pull until the next boot).
+/// tare (over a span that is not whole periods, up to a tenth of the hum's peak would stay in
+/// it: an offset in every pull until the next boot).
 pub const SELF_TEST_TICKS: u16 = 116;
 /// Ticks at the start of the self-test whose load-cell readings are not averaged.
 pub const SELF_TEST_SETTLE: u16 = 16;
@@ -82,7 +85,7 @@ pub const CALIBRATION_SPEED: u8 = 3;
 /// The calibration entry's range, hundredths of a kg: 5.00–55.00 (the reference readings
 /// `Calibration::new` accepts). The entry is keyed to 0.01 kg, a reference gauge's
 /// resolution: keyed to the set point's 0.1 kg, the rounding (up to ±0.05 kgf per point, the
-/// same way at every point when the chain's offset is constant) stayed in the fitted line.
+/// same way at every point when the chain's offset is constant) would stay in the fitted line.
 pub const ENTRY_MIN: u16 = 500;
 /// See [`ENTRY_MIN`].
 pub const ENTRY_MAX: u16 = 5_500;
@@ -99,9 +102,9 @@ pub const PULL_TIMEOUT_APPROACH_MS: u32 = 20_000;
 
 /// How long a pull at `speed` may take to reach tension: [`PULL_TIMEOUT_TRAVEL_MM`] at the
 /// speed's carriage limit plus [`PULL_TIMEOUT_APPROACH_MS`], and at least [`PULL_TIMEOUT`]
-/// (64.4 s at speed 1, 42.2 s at 2, 40 s from 3 up). A fixed 40 s faulted honest pulls of a
-/// soft string at speed 1 (9 mm/s: 250 mm of take-up alone is 28 s); a jammed carriage is a
-/// stall (E-09) long before, and a string slipping in its clamp still ends here.
+/// (64.4 s at speed 1, 42.2 s at 2, 40 s from 3 up). A fixed 40 s would fault honest pulls
+/// of a soft string at speed 1 (9 mm/s: 250 mm of take-up alone is 28 s); a jammed carriage
+/// is a stall (E-09) long before, and a string slipping in its clamp still ends here.
 #[must_use]
 pub fn pull_timeout(speed: Speed) -> u32 {
     // The speed's carriage limit in whole mm/s (a whole number: 9 per step).
@@ -110,33 +113,12 @@ pub fn pull_timeout(speed: Speed) -> u32 {
     let travel_ms = PULL_TIMEOUT_TRAVEL_MM.saturating_mul(1_000).checked_div(mm_per_s).unwrap_or(0);
     travel_ms.saturating_add(PULL_TIMEOUT_APPROACH_MS).max(PULL_TIMEOUT)
 }
-/// While the carriage works the display refreshes every 200 ms (5 Hz, what the eye reads
-/// comfortably) from the ≈ 64 ms running average, so single-tick switching spikes (paper
-/// fig. 22) never reach the digits and the last digit does not flicker.
-pub const DISPLAY_REFRESH_MS: u16 = 200;
 /// A release that has not reached home after this many ticks faults.
 pub const RELEASE_TIMEOUT: u32 = 40_000;
 /// Ticks the fault state keeps asking the drive to clear after the operator's Start.
 pub const CLEAR_ATTEMPT: u16 = 100;
 /// Ticks without a key before a settings change is written to the store.
 pub const STORE_DELAY: u32 = 2_000;
-/// Ticks without a key before the panel returns from a settings page to the tension.
-pub const VIEW_TIMEOUT: u32 = 5_000;
-
-/// How long the digits show the new target after a hold adjustment (or `LOCK` / `PULL`
-/// after Function), ms.
-pub const ADJUST_SHOWN_MS: u16 = 1_000;
-
-/// What the hold's digits show for [`ADJUST_SHOWN_MS`] after a key.
-#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
-pub enum HoldMessage {
-    /// The adjusted target.
-    Target,
-    /// `LOCK`: constant pull off, the carriage held where it is.
-    Locked,
-    /// `PULL`: constant pull on again.
-    ConstantPull,
-}
 
 /// The hold's own data: the operator's adjustment, the tension timer, the page shown.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
@@ -254,15 +236,6 @@ pub enum AfterRelease {
     /// Between the calibration's passes: the second pass's first point
     /// (`calibration_pull(CALIBRATION_POINTS)`).
     NextPass,
-}
-
-/// A tension on the display in `unit`.
-#[must_use]
-pub fn tension_display(tension: Kgf, unit: Unit) -> crate::io::Display {
-    match unit {
-        Unit::Kilograms => panel::tenths(tension.to_tenths_rounded()),
-        Unit::Pounds => panel::tenths(tension.to_lbf_tenths_rounded()),
-    }
 }
 
 /// Whether a pull is still taking up slack: below half its peak target, where the carriage
@@ -597,22 +570,8 @@ impl Chart {
             self.dirty = false;
             context.out.store = true;
         }
-        if *view != View::Tension && self.idle >= VIEW_TIMEOUT {
-            *view = View::Tension;
-        }
         self.rezero_at_rest(sample);
-        if let Some(notice) = self.notice {
-            context.out.display = panel::notice(notice.number());
-            if pressed(sample.key) {
-                // The key acknowledges the notice and does nothing else.
-                self.notice = None;
-            }
-            return Super;
-        }
-        if let Some(key) = sample.key {
-            context.next = self.ready_key(context, sample, view, key);
-        }
-        context.out.display = self.render(*view, sample);
+        self.ready_panel(context, sample, view);
         Super
     }
 
@@ -730,21 +689,7 @@ impl Chart {
             }
             _ => {}
         }
-        if let Some((message, left)) = hold.message {
-            hold.message = left.checked_sub(1).filter(|&ms| ms > 0).map(|ms| (message, ms));
-            context.out.display = match message {
-                HoldMessage::Target => {
-                    tension_display(hold_target(self.base_target(), unit, hold.adjust), unit)
-                }
-                HoldMessage::Locked => panel::text(b"LOCK"),
-                HoldMessage::ConstantPull => panel::text(b"PULL"),
-            };
-            self.shown.1 = u16::MAX;
-        } else if hold.timer {
-            context.out.display = panel::clock(b't', hold.held_ms.checked_div(1_000).unwrap_or(0));
-        } else {
-            self.show_working_tension(context, sample);
-        }
+        self.hold_panel(context, sample, hold, unit);
         Super
     }
 

@@ -1,20 +1,22 @@
 //! The Ready pages: what the panel shows while the machine is idle and what each key does
 //! there — the settings pages, the presets, the stringing timer, the pull log, the counters,
-//! the string estimate and the service page.
+//! the string estimate and the service page — and the hold's digits.
 //!
 //! # Theory of operation
 //!
 //! The pages are the operator's interface, not the machine's safety: nothing here drives the
 //! motor or decides a fault. `Chart::ready` (in `chart.rs`, with the states and their rules)
-//! hands each key to [`Chart::ready_key`], which changes the settings in the record, moves
-//! between pages ([`View`]) and returns the state it *proposes* next (a pull, a self-test
-//! from the service page, calibration); the chart commits it only if no safety rule vetoes
-//! it in the same tick. [`Chart::render`] draws the page on the four digits. Keeping them
-//! here means a change to a page never touches the statechart the whole-tick proofs cover
-//! (they still run through these functions: Ready is one of their states).
+//! hands the tick to [`Chart::ready_panel`], which shows a pending notice or hands the key
+//! to [`Chart::ready_key`]; that changes the settings in the record, moves between pages
+//! ([`View`]) and returns the state it *proposes* next (a pull, a self-test from the service
+//! page, calibration); the chart commits it only if no safety rule vetoes it in the same
+//! tick. [`Chart::render`] draws the page on the four digits. `Chart::holding` likewise
+//! leaves its digits to [`Chart::hold_panel`]. Keeping them here means a change to a page
+//! never touches the statechart the whole-tick proofs cover (they still run through these
+//! functions: Ready and the hold are among their states).
 
 use super::calibrating::calibration_label;
-use super::{Chart, Context, Sample, State};
+use super::{Chart, Context, Hold, Sample, State, hold_target, pressed};
 use crate::io::Key;
 use crate::machine::panel::{self, Beep, KeyEvent};
 use crate::machine::snapshot::FAULT_HISTORY;
@@ -22,6 +24,37 @@ use crate::sense::calibration::CALIBRATION_POINTS;
 use crate::settings::Unit;
 use crate::store::PRESET_COUNT;
 use crate::units::{Kgf, Volts};
+
+/// While the carriage works the display refreshes every 200 ms (5 Hz, what the eye reads
+/// comfortably) from the ≈ 64 ms running average, so single-tick switching spikes (paper
+/// fig. 22) never reach the digits and the last digit does not flicker.
+pub const DISPLAY_REFRESH_MS: u16 = 200;
+/// Ticks without a key before the panel returns from a settings page to the tension.
+pub const VIEW_TIMEOUT: u32 = 5_000;
+
+/// How long the digits show the new target after a hold adjustment (or `LOCK` / `PULL`
+/// after Function), ms.
+pub const ADJUST_SHOWN_MS: u16 = 1_000;
+
+/// What the hold's digits show for [`ADJUST_SHOWN_MS`] after a key.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub enum HoldMessage {
+    /// The adjusted target.
+    Target,
+    /// `LOCK`: constant pull off, the carriage held where it is.
+    Locked,
+    /// `PULL`: constant pull on again.
+    ConstantPull,
+}
+
+/// A tension on the display in `unit`.
+#[must_use]
+pub fn tension_display(tension: Kgf, unit: Unit) -> crate::io::Display {
+    match unit {
+        Unit::Kilograms => panel::tenths(tension.to_tenths_rounded()),
+        Unit::Pounds => panel::tenths(tension.to_lbf_tenths_rounded()),
+    }
+}
 
 /// The page the Ready panel shows.
 ///
@@ -282,6 +315,54 @@ impl StringingTimer {
 }
 
 impl Chart {
+    /// The Ready panel this tick: back to the tension after [`VIEW_TIMEOUT`] without a key; a
+    /// pending notice, which the next key acknowledges and does nothing else; otherwise the
+    /// key's effect ([`Chart::ready_key`], whose proposal goes to `context.next`) and the
+    /// page drawn.
+    pub(super) fn ready_panel(&mut self, context: &mut Context, sample: &Sample, view: &mut View) {
+        if *view != View::Tension && self.idle >= VIEW_TIMEOUT {
+            *view = View::Tension;
+        }
+        if let Some(notice) = self.notice {
+            context.out.display = panel::notice(notice.number());
+            if pressed(sample.key) {
+                // The key acknowledges the notice and does nothing else.
+                self.notice = None;
+            }
+            return;
+        }
+        if let Some(key) = sample.key {
+            context.next = self.ready_key(context, sample, view, key);
+        }
+        context.out.display = self.render(*view, sample);
+    }
+
+    /// The hold's digits: a message after a key for [`ADJUST_SHOWN_MS`] (the adjusted
+    /// target, `LOCK`, `PULL`), the tension timer, or the working tension.
+    pub(super) fn hold_panel(
+        &mut self,
+        context: &mut Context,
+        sample: &Sample,
+        hold: &mut Hold,
+        unit: Unit,
+    ) {
+        if let Some((message, left)) = hold.message {
+            hold.message = left.checked_sub(1).filter(|&ms| ms > 0).map(|ms| (message, ms));
+            context.out.display = match message {
+                HoldMessage::Target => {
+                    tension_display(hold_target(self.base_target(), unit, hold.adjust), unit)
+                }
+                HoldMessage::Locked => panel::text(b"LOCK"),
+                HoldMessage::ConstantPull => panel::text(b"PULL"),
+            };
+            self.shown.1 = u16::MAX;
+        } else if hold.timer {
+            context.out.display = panel::clock(b't', hold.held_ms.checked_div(1_000).unwrap_or(0));
+        } else {
+            self.show_working_tension(context, sample);
+        }
+    }
+
     /// One key in Ready; returns the proposed next state.
     pub(super) fn ready_key(
         &mut self,

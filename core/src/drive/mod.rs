@@ -831,8 +831,10 @@ impl Drive {
     /// Calls since power-up (saturating) in which a drive command was held, no fault was
     /// latched, no limit switch blocked it and the rotor's sector was known, yet the bridge
     /// was all-off because the duty window was empty (the rotor turned against the torque
-    /// too fast for any duty to keep the current within the limit): torque asked for and
-    /// none given. One call per PWM period (and per Hall edge where the binding calls on
+    /// too fast for any duty to keep the current within the limit) and no brake was possible
+    /// ([`Drive::step`]'s four-quadrant rule: a turn-around's speed is only bounded, a brake
+    /// toward an actuated switch or from a rotor faster than the bus is not made): torque
+    /// asked for and none given. One call per PWM period (and per Hall edge where the binding calls on
     /// edges too). A counter of the drive beside [`Drive::lifted_for`], not part of
     /// [`DriveStatus`]: the machine does not act on it; the twin and the bench read it.
     #[must_use]

@@ -506,6 +506,11 @@ pub struct LoadCellParams {
     pub spikes: SpikeParams,
     /// Mains hum.
     pub hum: HumParams,
+    /// The amplifier's zero warming up: how fast the output at zero load moves at power-up,
+    /// V/s (either sign; 0: a settled chain). See [`crate::sensors`].
+    pub zero_drift_volts_per_s: f64,
+    /// The time constant over which that warm-up settles, s.
+    pub zero_drift_settle_s: f64,
 }
 
 /// Mains hum picked up by the load-cell wiring and amplifier, referred to the amplifier's
@@ -866,6 +871,8 @@ impl LoadCellParams {
                 burst_samples_max: 0,
             },
             hum: HumParams { frequency_hz: 50.0, volts: 0.0, phase_deg: 0.0 },
+            zero_drift_volts_per_s: 0.0,
+            zero_drift_settle_s: 180.0,
         }
     }
 }
@@ -1225,6 +1232,12 @@ impl TwinConfig {
                 && probability(spikes.burst_probability)
                 && spikes.burst_samples_max <= 64,
             "load-cell spikes",
+        )?;
+        in_range(
+            cell.zero_drift_volts_per_s.is_finite()
+                && cell.zero_drift_settle_s.is_finite()
+                && cell.zero_drift_settle_s > 0.0,
+            "load-cell zero drift",
         )?;
         let hum = &self.load_cell.hum;
         in_range(

@@ -242,6 +242,17 @@ pub mod ranges {
     pub const SPIKE_BURST_PROBABILITY: Span = Span::linear(0.0, 0.01);
     /// The longest burst, samples: 1 (single spikes) to 5.
     pub const SPIKE_BURST_SAMPLES: Span = Span::linear(1.0, 5.0);
+    /// How fast the amplifier's zero moves at power-up while the chain warms, V/s (either
+    /// sign; ± 6 mV a minute at the ends, ± 0.065 kgf/min at 92 mV/kgf). A strain-gauge
+    /// chain's zero moves ≈ 1–1.5 mV/K at the output (the bridge's zero coefficient of 0.02 %
+    /// of full scale per kelvin, an instrumentation amplifier's 1 µV/K times its gain of a few
+    /// hundred) and the
+    /// excitation and the amplifier warm the bridge and board by a few kelvin over their first
+    /// minutes: a few mV over minutes, a board still warming briskly at the ends.
+    pub const ZERO_DRIFT_VOLTS_PER_S: Span = Span::linear(-0.1e-3, 0.1e-3);
+    /// The time constant over which that warm-up settles, s: a small amplifier board's and a
+    /// load cell's thermal time constant (the ends settle at ± 12–30 mV, ≤ 0.33 kgf).
+    pub const ZERO_DRIFT_SETTLE_S: Span = Span::linear(120.0, 300.0);
 
     // Current and bus sensing.
 
@@ -292,6 +303,16 @@ pub mod ranges {
     pub const RELAXATION_FRACTION_SCALE: Span = Span::linear(0.5, 1.5);
     /// Relaxation arms' time constants, × the kind's.
     pub const RELAXATION_TIME_SCALE: Span = Span::linear(0.6, 1.6);
+    /// Rate-independent hysteresis, the share `h` of the tension the string's internal
+    /// friction adds drawn out and takes off let back: none to 3 % (a loop 6 % of the tension
+    /// wide, a quasi-static loss of ≈ 6 % of the stored energy per cycle — the rate-free
+    /// part of the 5–15 % a polyamide, polyester or gut string loses over a load cycle; the
+    /// rate-dependent part is the relaxation arms').
+    pub const STRING_HYSTERESIS: Span = Span::linear(0.0, 0.03);
+    /// The string extension over which the friction turns round after a reversal, mm: the
+    /// microslip of the polymer chains or gut fibres, a small part of the millimetres of
+    /// stretch a pull adds.
+    pub const HYSTERESIS_STRAIN_MM: Span = Span::linear(0.05, 0.2);
 }
 
 /// The back-driven efficiency for a forward efficiency `forward` at `position` (0 ..= 1)
@@ -428,6 +449,12 @@ pub enum Axis {
     BallScrew,
     /// The end stop past the home switch: 20 mm down to 1.5 mm.
     EndStop,
+    /// String hysteresis: none to a loop of ± 3 % of the tension (drawn out above, let back
+    /// below), turning round over 0.1 mm of extension.
+    StringHysteresis,
+    /// The load-cell amplifier's zero warming up: moving at −0.1 to +0.1 mV/s from power-up
+    /// (none at the middle), settling over 3 minutes.
+    LoadCellZeroDrift,
 }
 
 /// The headline quantity an axis moves, with its value at each end, for printing.
@@ -492,7 +519,7 @@ fn sensing_index(position: f64) -> usize {
 
 impl Axis {
     /// Every axis, in the order reports print them.
-    pub const ALL: [Self; 26] = [
+    pub const ALL: [Self; 28] = [
         Self::Inertia,
         Self::Friction,
         Self::Backlash,
@@ -519,6 +546,8 @@ impl Axis {
         Self::Slack,
         Self::BallScrew,
         Self::EndStop,
+        Self::StringHysteresis,
+        Self::LoadCellZeroDrift,
     ];
 
     /// The command-line name (`inertia`, `load-cell-noise-hum`, …), also what [`FromStr`]
@@ -552,6 +581,8 @@ impl Axis {
             Self::Slack => "slack",
             Self::BallScrew => "ball-screw",
             Self::EndStop => "end-stop",
+            Self::StringHysteresis => "string-hysteresis",
+            Self::LoadCellZeroDrift => "load-cell-zero-drift",
         }
     }
 
@@ -648,6 +679,18 @@ impl Axis {
             Self::Slack => s("slack", "mm", r::SLACK_MM),
             Self::BallScrew => s("back-driven efficiency", "", r::BALL_SCREW_BACKWARD),
             Self::EndStop => s("end stop past the home switch", "mm", r::OVERTRAVEL_MM),
+            Self::StringHysteresis => AxisSpan {
+                quantity: "string hysteresis",
+                unit: "% of the tension",
+                at_low_end: r::STRING_HYSTERESIS.low * 100.0,
+                at_high_end: r::STRING_HYSTERESIS.high * 100.0,
+            },
+            Self::LoadCellZeroDrift => AxisSpan {
+                quantity: "load-cell zero drift at power-up",
+                unit: "mV/s",
+                at_low_end: r::ZERO_DRIFT_VOLTS_PER_S.low * 1e3,
+                at_high_end: r::ZERO_DRIFT_VOLTS_PER_S.high * 1e3,
+            },
         }
     }
 
@@ -677,6 +720,22 @@ impl Axis {
                 format!(
                     "{}: efficiency forward {forward:.3}, back-driven {backward:.3}",
                     self.name()
+                )
+            }
+            Self::StringHysteresis => format!(
+                "{}: ± {:.2} % of the tension, turning round over {:.2} mm",
+                self.name(),
+                100.0 * ranges::STRING_HYSTERESIS.beyond(p),
+                centre_hysteresis_strain_mm()
+            ),
+            Self::LoadCellZeroDrift => {
+                let rate = ranges::ZERO_DRIFT_VOLTS_PER_S.beyond(p);
+                format!(
+                    "{}: zero moving {:+.3} mV/s ({:+.3} kgf/min at 92 mV/kgf), settling over {:.0} s",
+                    self.name(),
+                    rate * 1e3,
+                    rate * 60.0 / 0.092,
+                    centre_zero_drift_settle_s()
                 )
             }
             Self::LoadCellNoiseHum => format!(
@@ -732,6 +791,18 @@ impl FromStr for Axis {
         let wanted = s.trim().to_ascii_lowercase().replace('_', "-");
         Self::ALL.into_iter().find(|axis| axis.name() == wanted).ok_or(UnknownAxis)
     }
+}
+
+/// The string hysteresis's turn-round strain on the family's centre machine (and along
+/// [`Axis::StringHysteresis`]), mm.
+fn centre_hysteresis_strain_mm() -> f64 {
+    crate::params::StringParams::nominal(StringKind::TennisPolyester).hysteresis_strain_mm
+}
+
+/// The load-cell warm-up's settling time on the family's centre machine (and along
+/// [`Axis::LoadCellZeroDrift`]), s.
+fn centre_zero_drift_settle_s() -> f64 {
+    crate::params::LoadCellParams::nominal().zero_drift_settle_s
 }
 
 /// The family centre's motor: [`family_motor`] at the nominal inputs.
@@ -853,6 +924,16 @@ impl TwinConfig {
             k.drag_torque_nm = r::DRAG_NM.low;
             k.slide_friction_n = r::SLIDE_N.low;
             k.stiction_ratio = r::STICTION.low;
+        }
+
+        // The string's hysteresis and the load cell's warm-up drift came later still: their
+        // own stream again, so every draw above and below is what it was.
+        let mut rng = SimRng::substream(seed, 0xFA4A);
+        c.load_cell.zero_drift_volts_per_s = r::ZERO_DRIFT_VOLTS_PER_S.draw(&mut rng);
+        c.load_cell.zero_drift_settle_s = r::ZERO_DRIFT_SETTLE_S.draw(&mut rng);
+        if kind.spec().is_some() {
+            c.string.hysteresis_fraction = r::STRING_HYSTERESIS.draw(&mut rng);
+            c.string.hysteresis_strain_mm = r::HYSTERESIS_STRAIN_MM.draw(&mut rng);
         }
 
         let mut rng = SimRng::substream(seed, 0xFA46);
@@ -1049,6 +1130,10 @@ impl TwinConfig {
                 k.stiction_ratio = r::STICTION.low;
             }
             Axis::EndStop => c.mechanics.overtravel_mm = r::OVERTRAVEL_MM.beyond(p),
+            Axis::StringHysteresis => c.string.hysteresis_fraction = r::STRING_HYSTERESIS.beyond(p),
+            Axis::LoadCellZeroDrift => {
+                c.load_cell.zero_drift_volts_per_s = r::ZERO_DRIFT_VOLTS_PER_S.beyond(p);
+            }
             Axis::GripperMass => c.mechanics.gripper.mass_kg = r::GRIPPER_KG.beyond(p),
             Axis::HallError => c.hall.offset_deg = r::HALL_EDGE_DEG.beyond(p),
             Axis::BusSupply => {

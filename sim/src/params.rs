@@ -280,6 +280,13 @@ pub struct StringParams {
     /// The viscoelastic arms; the remaining `1 − Σ fraction` of the stiffness is the
     /// long-term (equilibrium) spring.
     pub relaxation: [RelaxationArm; 2],
+    /// Rate-independent hysteresis (the internal friction of the polymer or gut): the share
+    /// `h` of the viscoelastic tension the friction element adds while the string is drawn
+    /// out and takes off while it is let back (0: none; see [`crate::string`]).
+    pub hysteresis_fraction: f64,
+    /// The extension over which the friction element turns round after the string's motion
+    /// reverses, mm (`δ`: 63 % of the way from one side of the band toward the other).
+    pub hysteresis_strain_mm: f64,
     /// The string breaks when its tension first reaches this, kgf (fault tests).
     pub break_at_kgf: Option<f64>,
     /// The string breaks at this time after power-up, s (fault tests).
@@ -300,6 +307,8 @@ impl StringParams {
                 .map_or([RelaxationArm { fraction: 0.0, time_constant_s: 1.0 }; 2], |s| {
                     s.relaxation
                 }),
+            hysteresis_fraction: 0.0,
+            hysteresis_strain_mm: 0.1,
             break_at_kgf: None,
             break_at_s: None,
         }
@@ -497,6 +506,11 @@ pub struct LoadCellParams {
     pub spikes: SpikeParams,
     /// Mains hum.
     pub hum: HumParams,
+    /// The amplifier's zero warming up: how fast the output at zero load moves at power-up,
+    /// V/s (either sign; 0: a settled chain). See [`crate::sensors`].
+    pub zero_drift_volts_per_s: f64,
+    /// The time constant over which that warm-up settles, s.
+    pub zero_drift_settle_s: f64,
 }
 
 /// Mains hum picked up by the load-cell wiring and amplifier, referred to the amplifier's
@@ -857,6 +871,8 @@ impl LoadCellParams {
                 burst_samples_max: 0,
             },
             hum: HumParams { frequency_hz: 50.0, volts: 0.0, phase_deg: 0.0 },
+            zero_drift_volts_per_s: 0.0,
+            zero_drift_settle_s: 180.0,
         }
     }
 }
@@ -1187,6 +1203,13 @@ impl TwinConfig {
         in_range(k.stiction_ratio >= 1.0, "stiction ratio (static below kinetic friction)")?;
         in_range(finite_non_negative(k.backlash_mm), "backlash")?;
         in_range(!self.string.present() || finite_non_negative(self.string.slack_mm), "slack")?;
+        let string = &self.string;
+        in_range(
+            (0.0..0.5).contains(&string.hysteresis_fraction)
+                && string.hysteresis_strain_mm.is_finite()
+                && string.hysteresis_strain_mm > 0.0,
+            "string hysteresis",
+        )?;
         let g = &k.gripper;
         in_range(finite_non_negative(g.mass_kg), "gripper mass")?;
         in_range(
@@ -1209,6 +1232,12 @@ impl TwinConfig {
                 && probability(spikes.burst_probability)
                 && spikes.burst_samples_max <= 64,
             "load-cell spikes",
+        )?;
+        in_range(
+            cell.zero_drift_volts_per_s.is_finite()
+                && cell.zero_drift_settle_s.is_finite()
+                && cell.zero_drift_settle_s > 0.0,
+            "load-cell zero drift",
         )?;
         let hum = &self.load_cell.hum;
         in_range(

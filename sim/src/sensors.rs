@@ -26,6 +26,20 @@
 //! Mains hum (`volts · sin(2π·f·t + φ)`, referred to the amplifier output) is added at
 //! the sample with the noise.
 //!
+//! The amplifier's zero **drifts while the chain warms up** after power-up (the bridge's
+//! excitation heats its gauges, the amplifier chip and board warm, and their offset drifts
+//! follow): the zero moves at a rate `ṙ` at power-up and settles with the board's thermal
+//! time constant `τ_w`,
+//!
+//! ```text
+//! V_w(t) = ṙ · τ_w · (1 − e^(−t/τ_w))
+//! ```
+//!
+//! so over the seconds of a pull it is a constant-rate ramp (within `t/2τ_w`: 3 % over a
+//! 16 s pull at 3 min), and over a working day it stays bounded at `ṙ·τ_w`. `t` is the
+//! chain's time since power-up (every [`LoadCell::update`], and [`LoadCell::idle`] between
+//! pulls). The day's slow drift ([`crate::drift`]) adds on top.
+//!
 //! **Motor current.** One sample per PWM period of what the board's shunt carries
 //! ([`crate::params::CurrentSensing`]): the sector's low-leg shunt (per-phase sensing: the
 //! winding current, signed), or the DC-link shunt at mid on-time (the winding current while
@@ -99,6 +113,8 @@ pub struct LoadCell {
     injected: (u32, f64),
     /// The day's drift of the output (zero with temperature, creep), V ([`crate::drift`]).
     drift_volts: f64,
+    /// Time since power-up, s: the warm-up's clock.
+    powered_s: f64,
 }
 
 impl LoadCell {
@@ -113,6 +129,7 @@ impl LoadCell {
             burst_sign: 1.0,
             injected: (0, 0.0),
             drift_volts: 0.0,
+            powered_s: 0.0,
         };
         cell.filtered = cell.static_volts(0.0);
         cell
@@ -127,7 +144,25 @@ impl LoadCell {
         let seated = t - p.low_load_deficit * scale * (1.0 - (-t / scale).exp());
         p.zero_volts
             + self.drift_volts
+            + self.warm_up_volts()
             + p.volts_per_kgf * seated * (1.0 + p.quadratic_at_50_kgf * t / 50.0)
+    }
+
+    /// How far the amplifier's zero has moved since power-up as the chain warms, V.
+    #[must_use]
+    pub fn warm_up_volts(&self) -> f64 {
+        let p = &self.params;
+        if p.zero_drift_volts_per_s == 0.0 {
+            return 0.0;
+        }
+        let settle = p.zero_drift_settle_s;
+        p.zero_drift_volts_per_s * settle * -(-self.powered_s / settle).exp_m1()
+    }
+
+    /// Lets `seconds` pass without a sample (the minutes between pulls): the chain keeps
+    /// warming up.
+    pub fn idle(&mut self, seconds: f64) {
+        self.powered_s += seconds.max(0.0);
     }
 
     /// Sets the day's drift of the output, kgf of the nominal sensitivity: the amplifier's
@@ -144,6 +179,7 @@ impl LoadCell {
 
     /// Advances the amplifier's low-pass by `dt` toward the output for `tension_kgf`.
     pub fn update(&mut self, tension_kgf: f64, dt: f64) {
+        self.powered_s += dt;
         let target = self.static_volts(tension_kgf);
         let alpha = 1.0 - (-dt * core::f64::consts::TAU * self.params.bandwidth_hz).exp();
         self.filtered += (target - self.filtered) * alpha;
@@ -492,6 +528,41 @@ mod tests {
             taut_core::board::paper().expect("valid").load_cell().to_kgf(code).0.to_num::<f64>();
         // Nominal scale, uncorrected: within the deficit offset (≈ 0.75 kgf) + noise.
         assert!((kgf - 25.0).abs() < 1.0, "{kgf}");
+    }
+
+    #[test]
+    fn a_warming_amplifier_moves_the_zero_at_its_rate_under_a_constant_load() {
+        let rate = 0.1e-3;
+        let p = LoadCellParams { zero_drift_volts_per_s: rate, ..LoadCellParams::nominal() };
+        let mut cell = LoadCell::new(&p, FIVE_VOLTS);
+        let mut settled = LoadCell::new(&LoadCellParams::nominal(), FIVE_VOLTS);
+        let dt = 1e-3;
+        let run = |cell: &mut LoadCell, seconds: f64| {
+            for _ in 0..(seconds / dt).round() as u32 {
+                cell.update(20.0, dt);
+            }
+            cell.output_volts()
+        };
+        // 20 kgf held: after a second (the amplifier's low-pass long settled) and ten more.
+        let (start, plain_start) = (run(&mut cell, 1.0), run(&mut settled, 1.0));
+        let (end, plain_end) = (run(&mut cell, 10.0), run(&mut settled, 10.0));
+        assert!((plain_end - plain_start).abs() < 1e-12, "a settled chain holds its reading");
+        let slope = (end - start) / 10.0;
+        assert!((slope / rate - 1.0).abs() < 0.04, "{slope} V/s vs {rate}");
+        // The reading moved by the ramp alone (1.1 mV, 0.012 kgf at 92 mV/kgf), behind it by
+        // the amplifier's low-pass (a few nanovolts at 500 Hz).
+        let lag = cell.warm_up_volts() - (end - plain_end);
+        assert!(lag > 0.0 && lag < 1e-8, "{lag}");
+        assert!((cell.warm_up_volts() - rate * 11.0).abs() < 0.04 * rate * 11.0);
+        // Between pulls it keeps warming, and settles at rate × τ.
+        cell.idle(3_600.0);
+        let bound = rate * p.zero_drift_settle_s;
+        assert!((cell.warm_up_volts() - bound).abs() < 1e-6 * bound, "{}", cell.warm_up_volts());
+        // A negative rate drifts down the same way.
+        let cooling = LoadCellParams { zero_drift_volts_per_s: -rate, ..p };
+        let mut down = LoadCell::new(&cooling, FIVE_VOLTS);
+        let (a, b) = (run(&mut down, 1.0), run(&mut down, 10.0));
+        assert!(((b - a) / 10.0 + slope).abs() < 1e-12);
     }
 
     #[test]

@@ -23,7 +23,25 @@
 //! the configuration), a string held at fixed length **relaxes** toward `K_∞ · ε_eff`,
 //! and a string held at fixed tension **creeps** — the tension head must keep moving
 //! during the hold. Each arm is advanced exactly for a constant strain rate over the
-//! step. A string cannot push: the tension is `max(0, T)`.
+//! step.
+//!
+//! On top of the viscous arms the string has **rate-independent hysteresis**, the internal
+//! friction of the polymer or gut: a string let back carries less than it did at the same
+//! length on the way up, however slowly either was done. A normalised Dahl (Prandtl-type)
+//! friction element `s ∈ [−1, 1]` follows the direction of the extension's motion and turns
+//! round exponentially in the extension travelled, over a strain `δ`:
+//!
+//! ```text
+//! ds/dε_eff = (sgn(dε_eff) − s) / δ,      T_h = T · (1 + h·s)
+//! ```
+//!
+//! so after a few `δ` of drawing out the tension is `(1 + h)` of the viscoelastic `T`, after a
+//! few `δ` of letting back `(1 − h)`: the loop is `2h·T` wide. The element is advanced exactly
+//! for the step's extension change (`s → sgn + (s − sgn)·e^(−|Δε|/δ)`), so it is continuous,
+//! unconditionally stable, independent of the step and of the rate, and does nothing while
+//! the extension stands still; it scales with `T`, so it vanishes with the tension and never
+//! makes the string push. With `h = 0` the tension is the viscoelastic one exactly. A string
+//! cannot push: the tension is `max(0, T_h)`.
 //!
 //! The string breaks when its tension reaches the configured break tension, at the
 //! configured time, or on request; from then on it carries nothing and no longer turns
@@ -57,6 +75,10 @@ pub struct StringModel {
     arms: [f64; 2],
     /// Effective extension at the previous update, m.
     last_extension: f64,
+    /// The hysteresis element's state `s` (−1 let back … +1 drawn out).
+    friction: f64,
+    /// The extension over which the element turns round, m.
+    friction_strain_m: f64,
     state: StringState,
     tension_n: f64,
 }
@@ -72,6 +94,8 @@ impl StringModel {
             stiffness: params.stiffness_kgf_per_cm * NEWTONS_PER_KGF * 100.0,
             arms: [0.0; 2],
             last_extension: 0.0,
+            friction: 0.0,
+            friction_strain_m: (params.hysteresis_strain_mm * 1e-3).max(1e-9),
             state: if params.present() { StringState::Slack } else { StringState::Absent },
             tension_n: 0.0,
         }
@@ -109,6 +133,7 @@ impl StringModel {
             self.state = StringState::Broken;
             self.tension_n = 0.0;
             self.arms = [0.0; 2];
+            self.friction = 0.0;
         }
     }
 
@@ -135,7 +160,8 @@ impl StringModel {
             return 0.0;
         }
         let extension = self.effective_extension(x_m);
-        let rate = (extension - self.last_extension) / dt;
+        let step = extension - self.last_extension;
+        let rate = step / dt;
         self.last_extension = extension;
         let mut relaxing_share = 0.0;
         for (force, arm) in self.arms.iter_mut().zip(self.params.relaxation) {
@@ -146,7 +172,21 @@ impl StringModel {
             relaxing_share += arm.fraction;
         }
         let equilibrium = self.stiffness * (1.0 - relaxing_share) * extension;
-        let total = equilibrium + self.arms.iter().sum::<f64>();
+        let mut total = equilibrium + self.arms.iter().sum::<f64>();
+        let h = self.params.hysteresis_fraction;
+        if h > 0.0 {
+            // Exact for the step's extension change; nothing moves while it stands still.
+            let direction = if step > 0.0 {
+                1.0
+            } else if step < 0.0 {
+                -1.0
+            } else {
+                self.friction
+            };
+            let decay = (-step.abs() / self.friction_strain_m).exp();
+            self.friction = direction + (self.friction - direction) * decay;
+            total *= 1.0 + h * self.friction;
+        }
         self.tension_n = total.max(0.0);
         self.state = if extension > 0.0 { StringState::Taut } else { StringState::Slack };
         if let Some(limit) = self.params.break_at_kgf {
@@ -212,6 +252,107 @@ mod tests {
         // The last tension reported before the break was within one step of the limit.
         assert!(peak < 10.0 * NEWTONS_PER_KGF && peak > 9.9 * NEWTONS_PER_KGF, "{peak}");
         assert_eq!(s.update(x + 0.1, 1e-3, 0.0), 0.0);
+    }
+
+    /// (carriage position m, tension N) along one way of a path.
+    type Curve = Vec<(f64, f64)>;
+
+    /// A stiff tennis string without creep (so only the rate-independent loop remains) with
+    /// hysteresis `h` over `δ` = 0.1 mm, drawn from `start` to `top` and let back to `end`
+    /// in steps of `step_m`: the tensions at every position, on the way up and on the way back.
+    fn loop_tensions(h: f64, step_m: f64, dt: f64) -> (Curve, Curve) {
+        let mut params = StringParams::nominal(StringKind::TennisPolyester);
+        params.relaxation =
+            [crate::params::RelaxationArm { fraction: 0.0, time_constant_s: 1.0 }; 2];
+        params.hysteresis_fraction = h;
+        params.hysteresis_strain_mm = 0.1;
+        let mut s = StringModel::new(&params, 0.0);
+        let slack = params.slack_mm * 1e-3;
+        let (top, back) = (slack + 0.020, slack + 0.018);
+        let mut up = Vec::new();
+        let mut x = 0.0;
+        while x < top - 0.5 * step_m {
+            x += step_m;
+            up.push((x, s.update(x, dt, 0.0)));
+        }
+        let mut down = Vec::new();
+        while x > back + 0.5 * step_m {
+            x -= step_m;
+            down.push((x, s.update(x, dt, 0.0)));
+        }
+        (up, down)
+    }
+
+    #[test]
+    fn hysteresis_lets_the_string_back_below_its_way_up() {
+        let h = 0.02;
+        let (up, down) = loop_tensions(h, 1e-6, 50e-6);
+        let (plain_up, _) = loop_tensions(0.0, 1e-6, 50e-6);
+        // 1.5 mm back from the top (15 δ): the element has turned all the way round.
+        let at = |curve: &[(f64, f64)], x: f64| {
+            curve.iter().min_by(|a, b| (a.0 - x).abs().total_cmp(&(b.0 - x).abs())).map(|p| p.1)
+        };
+        let x = down.last().map(|p| p.0).unwrap_or_default() + 0.5e-3;
+        let (rising, falling, elastic) =
+            (at(&up, x).unwrap(), at(&down, x).unwrap(), at(&plain_up, x).unwrap());
+        assert!(elastic > 100.0, "{elastic} N");
+        assert!((rising / elastic - (1.0 + h)).abs() < 1e-6, "{rising} vs {elastic}");
+        assert!((falling / elastic - (1.0 - h)).abs() < 1e-6, "{falling} vs {elastic}");
+        let width = (rising - falling) / elastic;
+        assert!((width - 2.0 * h).abs() < 1e-6, "loop {width} of the tension");
+        // Continuous: no step of the tension larger than the string's own (K·Δx, here
+        // ≈ 0.12 N per µm) plus the element's turn-round (2h·T·Δx/δ ≤ 0.1 N per µm).
+        for pair in up.windows(2).chain(down.windows(2)) {
+            assert!((pair[1].1 - pair[0].1).abs() < 0.25, "{pair:?}");
+        }
+        // Rate-independent and step-independent: ten times the step and the time step draw
+        // the same loop.
+        let (coarse_up, coarse_down) = loop_tensions(h, 1e-5, 500e-6);
+        for (coarse, fine) in [(&coarse_up, &up), (&coarse_down, &down)] {
+            for &(x, t) in coarse {
+                let reference = at(fine, x).unwrap();
+                assert!(
+                    (t - reference).abs() < 1e-6 * reference.max(1.0),
+                    "{x}: {t} vs {reference}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn without_hysteresis_the_string_is_the_viscoelastic_one_exactly() {
+        let params = StringParams::nominal(StringKind::TennisSynthetic);
+        assert_eq!(params.hysteresis_fraction, 0.0);
+        let mut s = StringModel::new(&params, 0.0);
+        // The Wiechert model written out on its own, for the same back-and-forth path.
+        let k0 = params.stiffness_kgf_per_cm * NEWTONS_PER_KGF * 100.0;
+        let toe = params.toe_mm * 1e-3;
+        let taut_at = params.slack_mm * 1e-3;
+        let (mut arms, mut last) = ([0.0_f64; 2], 0.0);
+        let dt = 50e-6;
+        for k in 0..40_000 {
+            let t = f64::from(k) * dt;
+            let x = taut_at + 0.012 * (1.0 - (t * 3.0).cos()) - 0.002;
+            let stretch = x - taut_at;
+            let e = if stretch <= 0.0 {
+                0.0
+            } else if stretch < toe {
+                stretch * stretch / (2.0 * toe)
+            } else {
+                stretch - 0.5 * toe
+            };
+            let rate = (e - last) / dt;
+            last = e;
+            let mut share = 0.0;
+            for (force, arm) in arms.iter_mut().zip(params.relaxation) {
+                let decay = (-dt / arm.time_constant_s).exp();
+                *force =
+                    *force * decay + arm.fraction * k0 * arm.time_constant_s * rate * (1.0 - decay);
+                share += arm.fraction;
+            }
+            let expected = (k0 * (1.0 - share) * e + arms.iter().sum::<f64>()).max(0.0);
+            assert_eq!(s.update(x, dt, t).to_bits(), expected.to_bits(), "{t} s");
+        }
     }
 
     #[test]

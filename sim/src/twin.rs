@@ -798,13 +798,14 @@ impl Twin {
 
     /// Lets `seconds` of the day pass at rest without simulating them tick by tick (the
     /// stringer between pulls: the motor coasts, so no copper loss; the load cell's load is
-    /// the present one). Only the drifts move; the machine sees their result from the next
-    /// tick on.
+    /// the present one). Only the drifts move (the day's, and the load-cell amplifier's
+    /// warm-up); the machine sees their result from the next tick on.
     pub fn idle(&mut self, seconds: f64) {
         let load_kgf = self.load_cell_force_n / NEWTONS_PER_KGF;
         if let Some(day) = &mut self.drift {
             day.drift.step(seconds.max(0.0), 0.0, load_kgf, 0.0);
         }
+        self.load_cell.idle(seconds);
         self.apply_drift();
     }
 

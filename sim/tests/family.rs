@@ -130,6 +130,8 @@ fn family_parameters_stay_in_their_documented_ranges_over_10000_seeds() {
         assert_in(r::SPIKE_BASE_VOLTS, l.spikes.base_volts, "spike base", seed);
         assert_in(r::SPIKE_VOLTS_PER_AMP, l.spikes.volts_per_amp, "spike per A", seed);
         assert_in(r::SPIKE_BURST_PROBABILITY, l.spikes.burst_probability, "burst rate", seed);
+        assert_in(r::ZERO_DRIFT_VOLTS_PER_S, l.zero_drift_volts_per_s, "zero drift", seed);
+        assert_in(r::ZERO_DRIFT_SETTLE_S, l.zero_drift_settle_s, "zero drift settling", seed);
         let burst = l.spikes.burst_samples_max as usize;
         assert!((1..=5).contains(&burst), "seed {seed}: burst {burst}");
         burst_lengths[burst] += 1;
@@ -175,6 +177,8 @@ fn family_parameters_stay_in_their_documented_ranges_over_10000_seeds() {
         assert_in(Span::linear(low, high), c.string.stiffness_kgf_per_cm, "stiffness", seed);
         assert_in(r::SLACK_MM, c.string.slack_mm, "slack", seed);
         assert_in(r::TOE_MM, c.string.toe_mm, "toe", seed);
+        assert_in(r::STRING_HYSTERESIS, c.string.hysteresis_fraction, "hysteresis", seed);
+        assert_in(r::HYSTERESIS_STRAIN_MM, c.string.hysteresis_strain_mm, "δ", seed);
         for (arm, nominal) in c.string.relaxation.iter().zip(spec.relaxation) {
             let f = arm.fraction / nominal.fraction;
             let t = arm.time_constant_s / nominal.time_constant_s;
@@ -208,6 +212,11 @@ fn family_draws_fill_their_ranges() {
     assert!(max(&|c| c.bridge.bus_volts) > 29.9 && min(&|c| c.bridge.bus_volts) < 20.1);
     assert!(max(&|c| c.mechanics.backlash_mm) > 0.19);
     assert!(max(&|c| c.load_cell.spikes.base_volts) > 0.39);
+    // The warm-up drifts both ways; some strings are nearly free of hysteresis, some at 3 %.
+    assert!(max(&|c| c.load_cell.zero_drift_volts_per_s) > 0.099e-3);
+    assert!(min(&|c| c.load_cell.zero_drift_volts_per_s) < -0.099e-3);
+    assert!(max(&|c| c.string.hysteresis_fraction) > 0.0299);
+    assert!(min(&|c| c.string.hysteresis_fraction) < 0.0001);
 }
 
 #[test]

@@ -809,6 +809,13 @@ impl Twin {
         self.apply_drift();
     }
 
+    /// How far the load-cell amplifier's zero has moved since power-up as the chain warms
+    /// (`LoadCellParams::zero_drift_volts_per_s`), in kgf of reading.
+    #[must_use]
+    pub fn load_cell_warm_up_kgf(&self) -> f64 {
+        self.load_cell.warm_up_volts() / self.config.load_cell.volts_per_kgf
+    }
+
     /// One step of the drifts over the tick just simulated.
     fn step_drift(&mut self, dt: f64) {
         let periods = f64::from(PERIODS_PER_TICK);

@@ -81,7 +81,8 @@ pub struct SessionResult {
     pub fault: Option<FaultCode>,
     /// Notices shown after the commissioning.
     pub notices: Vec<Notice>,
-    /// The load cell's apparent offset at the end (zero shift plus creep), kgf.
+    /// The load cell's apparent offset at the end (zero shift plus creep, and the amplifier's
+    /// warm-up since the machine's tare), kgf.
     pub offset_kgf: f64,
     /// The winding's temperature at the end, °C.
     pub winding_c: f64,
@@ -112,6 +113,7 @@ pub fn run_machine(args: &SessionArgs, index: u64) -> SessionResult {
     let mut fault = None;
     let mut notices = Vec::new();
     let mut tare = None;
+    let mut warm_at_tare = 0.0;
     let mut commissioned = false;
     let mut completed = true;
     for pull in 0..args.pulls {
@@ -133,6 +135,7 @@ pub fn run_machine(args: &SessionArgs, index: u64) -> SessionResult {
             let machine = b.machine();
             if tare.is_none() && machine.state() == MachineState::CalibrationWindow {
                 tare = Some(machine.load_cell_zero());
+                warm_at_tare = b.twin().load_cell_warm_up_kgf();
             }
             if machine.state() == MachineState::Ready && pull == 0 && tare.is_some() {
                 commissioned = true;
@@ -197,7 +200,8 @@ pub fn run_machine(args: &SessionArgs, index: u64) -> SessionResult {
         last_offset_kgf: percentile(last_offsets, 50.0),
         fault,
         notices,
-        offset_kgf: drift.map_or(f64::NAN, |d| d.offset_kgf()),
+        offset_kgf: drift.map_or(f64::NAN, |d| d.offset_kgf())
+            + (bench.twin().load_cell_warm_up_kgf() - warm_at_tare),
         winding_c: drift.map_or(f64::NAN, |d| d.winding_c()),
         resistance_factor: drift.map_or(f64::NAN, |d| d.resistance_factor()),
         friction_factor: drift.map_or(f64::NAN, |d| d.friction_factor()),

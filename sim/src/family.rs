@@ -604,40 +604,27 @@ impl Axis {
             at_low_end: span.low,
             at_high_end: span.high,
         };
+        // A span printed in another unit than the range's (mV of volts, % of a fraction).
+        let scaled = |quantity, unit, span: Span, factor: f64| AxisSpan {
+            quantity,
+            unit,
+            at_low_end: span.low * factor,
+            at_high_end: span.high * factor,
+        };
         match self {
             Self::Inertia => s("rotor + gearbox inertia", "× nominal", r::INERTIA_SCALE),
             Self::Friction => s("forward efficiency", "", r::EFFICIENCY_FORWARD),
             Self::Backlash => s("backlash", "mm", r::BACKLASH_MM),
             Self::MotorResistance => s("winding resistance", "Ω", r::WINDING_OHM),
             Self::MotorSpeedConstant => s("no-load speed at 24 V", "rpm", r::NO_LOAD_RPM),
-            Self::MotorInductance => AxisSpan {
-                quantity: "phase inductance",
-                unit: "mH",
-                at_low_end: r::INDUCTANCE_H.low * 1e3,
-                at_high_end: r::INDUCTANCE_H.high * 1e3,
-            },
+            Self::MotorInductance => scaled("phase inductance", "mH", r::INDUCTANCE_H, 1e3),
             Self::BackEmfShape => s("back-EMF ramp", "° el.", r::EMF_RAMP_DEG),
             Self::Cogging => s("cogging torque", "N·m", r::COGGING_NM),
-            Self::LoadCellGain => AxisSpan {
-                quantity: "load-cell sensitivity",
-                unit: "mV/kgf",
-                at_low_end: r::SENSITIVITY.low * 1e3,
-                at_high_end: r::SENSITIVITY.high * 1e3,
-            },
-            Self::LoadCellZero => AxisSpan {
-                quantity: "load-cell zero",
-                unit: "mV",
-                at_low_end: r::ZERO_VOLTS.low * 1e3,
-                at_high_end: r::ZERO_VOLTS.high * 1e3,
-            },
+            Self::LoadCellGain => scaled("load-cell sensitivity", "mV/kgf", r::SENSITIVITY, 1e3),
+            Self::LoadCellZero => scaled("load-cell zero", "mV", r::ZERO_VOLTS, 1e3),
             Self::LoadCellNonlinearity => s("low-load deficit c", "", r::LOW_LOAD_DEFICIT),
             Self::LoadCellBandwidth => s("load-cell bandwidth", "Hz", r::BANDWIDTH_HZ),
-            Self::LoadCellNoiseHum => AxisSpan {
-                quantity: "mains hum (peak)",
-                unit: "mV",
-                at_low_end: r::HUM_VOLTS.low * 1e3,
-                at_high_end: r::HUM_VOLTS.high * 1e3,
-            },
+            Self::LoadCellNoiseHum => scaled("mains hum (peak)", "mV", r::HUM_VOLTS, 1e3),
             Self::Spikes => AxisSpan {
                 quantity: "largest spike at 3 A",
                 unit: "kgf",
@@ -649,12 +636,7 @@ impl Axis {
             Self::HallError => s("Hall mounting error", "° el.", r::HALL_EDGE_DEG),
             Self::BusSupply => s("supply voltage", "V", r::SUPPLY_VOLTS),
             Self::BusClamp => s("bus clamp", "V", r::CLAMP_VOLTS),
-            Self::BusCapacitance => AxisSpan {
-                quantity: "bulk capacitance",
-                unit: "µF",
-                at_low_end: r::BUS_CAPACITANCE_F.low * 1e6,
-                at_high_end: r::BUS_CAPACITANCE_F.high * 1e6,
-            },
+            Self::BusCapacitance => scaled("bulk capacitance", "µF", r::BUS_CAPACITANCE_F, 1e6),
             Self::CurrentSensing => AxisSpan {
                 quantity: "current-sensing board",
                 unit: "of 0 … 4",
@@ -679,18 +661,12 @@ impl Axis {
             Self::Slack => s("slack", "mm", r::SLACK_MM),
             Self::BallScrew => s("back-driven efficiency", "", r::BALL_SCREW_BACKWARD),
             Self::EndStop => s("end stop past the home switch", "mm", r::OVERTRAVEL_MM),
-            Self::StringHysteresis => AxisSpan {
-                quantity: "string hysteresis",
-                unit: "% of the tension",
-                at_low_end: r::STRING_HYSTERESIS.low * 100.0,
-                at_high_end: r::STRING_HYSTERESIS.high * 100.0,
-            },
-            Self::LoadCellZeroDrift => AxisSpan {
-                quantity: "load-cell zero drift at power-up",
-                unit: "mV/s",
-                at_low_end: r::ZERO_DRIFT_VOLTS_PER_S.low * 1e3,
-                at_high_end: r::ZERO_DRIFT_VOLTS_PER_S.high * 1e3,
-            },
+            Self::StringHysteresis => {
+                scaled("string hysteresis", "% of the tension", r::STRING_HYSTERESIS, 100.0)
+            }
+            Self::LoadCellZeroDrift => {
+                scaled("load-cell zero drift at power-up", "mV/s", r::ZERO_DRIFT_VOLTS_PER_S, 1e3)
+            }
         }
     }
 

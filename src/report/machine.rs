@@ -315,9 +315,9 @@ pub struct Findings {
     pub bus_max_v: f64,
     /// Current-sensing mix.
     pub sensing: Vec<(String, usize)>,
-    /// Arrivals at the end stop past the home switch, over every cycle, and the cycles
-    /// with any.
-    pub end_stop: (u32, usize),
+    /// Arrivals at the end stop past the home switch, over every cycle, the cycles with any,
+    /// and of those the cycles that completed (normal operation: no fault latched).
+    pub end_stop: (u32, usize, usize),
     /// The completed cycles' largest distance of the carriage at rest from the home switch,
     /// mm.
     pub rest_max_mm: f64,
@@ -374,6 +374,7 @@ pub fn findings(cycles: &[Cycle]) -> Findings {
         end_stop: (
             cycles.iter().map(|c| c.end_stop_hits).sum(),
             cycles.iter().filter(|c| c.end_stop_hits > 0).count(),
+            cycles.iter().filter(|c| c.end_stop_hits > 0 && c.completed).count(),
         ),
         rest_max_mm: cycles
             .iter()
@@ -447,9 +448,10 @@ pub fn text(f: &Findings) -> String {
     let _ = writeln!(out, "current sensing: {}", mix.join(", "));
     let _ = writeln!(
         out,
-        "end stop past the home switch met {} times (in {} cycles); completed cycles at rest within {} mm of the home switch",
+        "end stop past the home switch met {} times (in {} cycles, {} of them completed); completed cycles at rest within {} mm of the home switch",
         f.end_stop.0,
         f.end_stop.1,
+        f.end_stop.2,
         cell(f.rest_max_mm, 2)
     );
     out
@@ -484,6 +486,7 @@ pub fn to_json(args: &MachineArgs, f: &Findings) -> Value {
         "current_sensing": f.sensing.iter().map(|(n, c)| json!({"board": n, "count": c})).collect::<Vec<_>>(),
         "end_stop_hits": f.end_stop.0,
         "end_stop_cycles": f.end_stop.1,
+        "end_stop_completed_cycles": f.end_stop.2,
         "rest_from_home_max_mm": number(f.rest_max_mm),
     })
 }

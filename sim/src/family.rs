@@ -908,12 +908,7 @@ impl TwinConfig {
         c.load_cell.zero_drift_volts_per_s = r::ZERO_DRIFT_VOLTS_PER_S.draw(&mut rng);
         c.load_cell.zero_drift_settle_s = r::ZERO_DRIFT_SETTLE_S.draw(&mut rng);
         if kind.spec().is_some() {
-            // Drawn, so the stream stays as it is, but not yet given to the family's machines:
-            // with it, taut's hold limit-cycles on some of them (the hysteresis's turning round
-            // over δ reads as a string many times stiffer than the take-up identified). The
-            // sweep's `string-hysteresis` axis and its `--beyond` runs give it; RESULTS reports
-            // the family with it drawn.
-            let _drawn = r::STRING_HYSTERESIS.draw(&mut rng);
+            c.string.hysteresis_fraction = r::STRING_HYSTERESIS.draw(&mut rng);
             c.string.hysteresis_strain_mm = r::HYSTERESIS_STRAIN_MM.draw(&mut rng);
         }
 

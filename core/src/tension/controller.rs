@@ -65,6 +65,18 @@
 //! drives toward home only while the carriage backs off slower than the back-out's speed;
 //! faster, the law's braking command stands and the string itself does the rest.
 //!
+//! In the settle and the hold a **governor** watches the error for a limit cycle (REQ-TEN-22):
+//! four excursions beyond [`SWING_BAND`] of alternating sign within [`SWING_WINDOW_MS`]
+//! halve the law's correction over the string's pull (`y + (u − y)/2`, the pull itself still
+//! balanced in full), up to [`GOVERNOR_SHIFT_MAX`] times in a pull. The law is tuned to the
+//! stiffness identified while the string was drawn out; a string with internal friction
+//! (hysteresis) is many times stiffer for the first fraction of a millimetre after every
+//! change of direction — `2h·T` over the turning strain `δ`, 20 × the drawn-out stiffness for
+//! 3 % at 30 kgf over 0.1 mm — and a hold that moves back and forth meets that stiffness at
+//! every reversal, so at full gain it can ring at 10–20 Hz with a growing swing. A hold that
+//! keeps to its band (the family's without hysteresis: its p99 error is under the band) is
+//! never governed.
+//!
 //! With the **step** profile (the paper's simulation, used for the `paper_rsmc` and `pd`
 //! baselines) the reference is the target from the first tick and the law acts at once;
 //! the phase reads `Approach` until the tension first enters the band, then `Hold`.
@@ -172,6 +184,24 @@ pub const BACK_OUT_CONFIRM: u8 = 12;
 /// rotor's rest position).
 pub const BACK_DRIVE_STEPS: u8 = 2;
 
+/// REQ-TEN-22, the hold's governor: an error beyond this band either side of the reference,
+/// in the settle or the hold, is an excursion; 0.1 kgf, above the hold's ordinary error on
+/// every machine of the family (its p99 is under it), so a hold that keeps to its band never
+/// counts one.
+pub const SWING_BAND: Kgf = Kgf(Q16::lit("0.1"));
+
+/// REQ-TEN-22: excursions of alternating sign, each within [`SWING_WINDOW_MS`] of the
+/// run's first, that mark the loop as oscillating: 4 (three reversals, one and a half
+/// periods of a limit cycle).
+pub const SWING_EXCURSIONS: u8 = 4;
+
+/// REQ-TEN-22: the window the alternating excursions must fall in, ms: 300 (a limit cycle of
+/// up to 5 Hz; a slow wander, a stick-slip sawtooth that only falls, is never one).
+pub const SWING_WINDOW_MS: u32 = 300;
+
+/// REQ-TEN-22: the governor halves the law's correction at most this many times (to ⅛).
+pub const GOVERNOR_SHIFT_MAX: u8 = 3;
+
 /// The shortest and longest control periods accepted: 50 µs to 10 ms.
 pub const PERIOD_RANGE_US: (u32, u32) = (50, 10_000);
 
@@ -193,6 +223,16 @@ pub const HOLD_GAIN_PER_STIFFNESS: Q16 = Q16::lit("0.15");
 /// REQ-TEN-19: the largest hold gain the stiffness gives, 0.2 per tick (5 ms): above it
 /// the load cell's hum reaches the law (at 0.3 the family's noisiest cells chatter).
 pub const HOLD_GAIN_MAX: Q16 = Q16::lit("0.2");
+
+/// REQ-TEN-22: the law's force `law` with its correction over the string's pull `y` divided
+/// by `2^shift` (rounded toward −∞): `y + (law − y) / 2^shift`. The string's own pull is
+/// still balanced in full; only how hard the law corrects an error is lowered.
+#[must_use]
+pub fn governed(law: Kgf, y: Kgf, shift: u8) -> Kgf {
+    let correction = law.0.to_bits().saturating_sub(y.0.to_bits());
+    let lowered = correction.checked_shr(u32::from(shift)).unwrap_or(0);
+    Kgf(Q16::from_bits(y.0.to_bits().saturating_add(lowered)))
+}
 
 /// The observer's hold gain for a string of identified stiffness `stiffness` (kgf/mm) on a
 /// controller configured with the hold gain `floor` (REQ-TEN-19): `stiffness ×`
@@ -397,6 +437,17 @@ pub struct TensionController {
     /// Hall steps toward home seen under a pull command in this pull's settle and hold
     /// (saturating; [`BACK_DRIVE_STEPS`] identify a back-driving drivetrain).
     backward_steps: u8,
+    /// REQ-TEN-22: the law's correction `u − y` is divided by `2^governor` (0 until the
+    /// settle or the hold oscillates; at most [`GOVERNOR_SHIFT_MAX`]).
+    governor: u8,
+    /// The sign of the last excursion beyond [`SWING_BAND`] (0: none in the window).
+    swing_sign: i8,
+    /// Alternating excursions in the present window.
+    swings: u8,
+    /// Ticks since the window's first excursion.
+    swing_ticks: u32,
+    /// [`SWING_WINDOW_MS`] in ticks of the configured period.
+    swing_window: u32,
     /// The last tick's command was a pull.
     pulled: bool,
     /// The Hall count at the pull's first tick, on the home switch (`None`: no pull yet).
@@ -510,6 +561,11 @@ impl TensionController {
             lock: None,
             excess_ticks: 0,
             backward_steps: 0,
+            governor: 0,
+            swing_sign: 0,
+            swings: 0,
+            swing_ticks: 0,
+            swing_window: SWING_WINDOW_MS.saturating_mul(1_000).checked_div(period).unwrap_or(1),
             pulled: false,
             origin: None,
         })
@@ -544,6 +600,11 @@ impl TensionController {
             lock: None,
             excess_ticks: 0,
             backward_steps: 0,
+            governor: 0,
+            swing_sign: 0,
+            swings: 0,
+            swing_ticks: 0,
+            swing_window: SWING_WINDOW_MS,
             pulled: false,
             origin: None,
         }
@@ -565,8 +626,18 @@ impl TensionController {
         self.hold_gain_pending = false;
         self.excess_ticks = 0;
         self.backward_steps = 0;
+        self.governor = 0;
+        self.swing_sign = 0;
+        self.swings = 0;
+        self.swing_ticks = 0;
         self.pulled = false;
         self.origin = None;
+    }
+
+    /// REQ-TEN-22: how many times this pull's governor has halved the law's correction.
+    #[must_use]
+    pub const fn governor(&self) -> u8 {
+        self.governor
     }
 
     /// REQ-TEN-20: whether this pull has seen the drivetrain back-drive (a Hall step toward
@@ -670,7 +741,10 @@ impl TensionController {
             Law::Pd(_) => true,
         };
         let lock_ok = self.lock.is_none() || self.profile.phase() == PullPhase::Hold;
-        law_ok && self.estimator.is_valid() && self.profile.is_valid() && lock_ok
+        let governor_ok = self.governor <= GOVERNOR_SHIFT_MAX
+            && self.swings < SWING_EXCURSIONS
+            && (-1..=1).contains(&self.swing_sign);
+        law_ok && self.estimator.is_valid() && self.profile.is_valid() && lock_ok && governor_ok
     }
 
     /// Starts the braking ([`Profile::begin_braking`]) and applies what it identified: the
@@ -812,11 +886,14 @@ impl TensionController {
                 Law::Pd(pd) => pd.reset(e0),
             }
         }
-        let force = match &mut self.law {
+        let law = match &mut self.law {
             Law::Rsmc(rsmc) => rsmc.step(&reference, y, self.profile.saturated()).force,
             Law::Pd(pd) => pd.step(&reference, y),
+        };
+        if matches!(phase, PullPhase::Settle | PullPhase::Hold) {
+            self.watch_swings(reference.tension.saturating_sub(y));
         }
-        .saturating_sub(slip_brake);
+        let force = governed(law, y, self.governor).saturating_sub(slip_brake);
         let (command, saturated) = self.map.command(force, speed);
         let shaped = self.profile.coefficients().shaped;
         let command = if shaped && matches!(phase, PullPhase::Settle | PullPhase::Hold) {
@@ -829,6 +906,40 @@ impl TensionController {
         *force_out = force;
         self.profile.transitions(phase, y);
         command
+    }
+
+    /// REQ-TEN-22, the governor's watch on the settle's and the hold's error `e`
+    /// (reference − estimate): [`SWING_EXCURSIONS`] excursions beyond [`SWING_BAND`] of
+    /// alternating sign within [`SWING_WINDOW_MS`] of the first halve the law's correction
+    /// once more (up to [`GOVERNOR_SHIFT_MAX`] times), and the count starts again.
+    fn watch_swings(&mut self, e: Kgf) {
+        if self.swing_sign != 0 {
+            self.swing_ticks = self.swing_ticks.saturating_add(1);
+            if self.swing_ticks > self.swing_window {
+                self.swing_sign = 0;
+                self.swings = 0;
+            }
+        }
+        let sign: i8 = if e > SWING_BAND {
+            1
+        } else if e < Kgf(SWING_BAND.0.saturating_neg()) {
+            -1
+        } else {
+            0
+        };
+        if sign == 0 || sign == self.swing_sign {
+            return;
+        }
+        if self.swing_sign == 0 {
+            self.swing_ticks = 0;
+        }
+        self.swing_sign = sign;
+        self.swings = self.swings.saturating_add(1);
+        if self.swings >= SWING_EXCURSIONS {
+            self.governor = self.governor.saturating_add(1).min(GOVERNOR_SHIFT_MAX);
+            self.swing_sign = 0;
+            self.swings = 0;
+        }
     }
 
     /// The lock-out's command (REQ-TEN-18): the string's pull `y` plus [`LOCK_STIFFNESS`] per
@@ -1151,6 +1262,87 @@ mod tests {
             PullKind::Main,
         );
         assert!(!controller.back_drives());
+    }
+
+    /// REQ-TEN-22: the governed force keeps the string's pull and divides the law's
+    /// correction over it by `2^shift` (rounded toward −∞), saturating, for every shift the
+    /// governor can hold and beyond.
+    #[test]
+    fn the_governor_divides_only_the_correction() {
+        let values = [i32::MIN, -3_276_800, -65_537, -1, 0, 1, 65_536, 1_638_400, i32::MAX];
+        for law in values {
+            for y in values {
+                let (law_q, y_q) = (Kgf(Q16::from_bits(law)), Kgf(Q16::from_bits(y)));
+                if law.checked_sub(y).is_some() {
+                    assert_eq!(governed(law_q, y_q, 0), law_q, "ungoverned: the law's {law} {y}");
+                }
+                for shift in 0..=8_u8 {
+                    let correction = law.saturating_sub(y) >> shift;
+                    let want = y.saturating_add(correction);
+                    assert_eq!(governed(law_q, y_q, shift).0.to_bits(), want, "{law} {y} {shift}");
+                }
+                assert_eq!(governed(y_q, y_q, 3), y_q, "no correction, the pull alone");
+            }
+        }
+    }
+
+    /// REQ-TEN-22: four excursions beyond ±0.1 kgf of alternating sign within 300 ms in the
+    /// hold halve the law's correction, up to three times; an error that wanders one way,
+    /// alternates slower than the window or keeps within the band never does; a new pull
+    /// starts at the full correction.
+    #[test]
+    fn an_oscillating_hold_lowers_the_laws_correction() {
+        // A 60 ms limit cycle of ±0.3 kgf: four excursions (three reversals) within 90 ms.
+        let mut controller = holding();
+        let mut halvings = [None; 3];
+        for tick in 0..1_000_u32 {
+            let tenths = if (tick / 30).is_multiple_of(2) { 253 } else { 247 };
+            tick_at(&mut controller, tenths, 0);
+            let governor = usize::from(controller.governor());
+            if let Some(slot) = governor.checked_sub(1).and_then(|i| halvings.get_mut(i)) {
+                slot.get_or_insert(tick);
+            }
+        }
+        assert_eq!(controller.governor(), GOVERNOR_SHIFT_MAX, "at most three halvings");
+        let first = halvings[0].expect("halved");
+        assert!((90..=130).contains(&first), "first halving at tick {first}");
+        assert!(controller.is_valid());
+        // The same controller state with and without the governor: the correction over the
+        // estimate is an eighth (the slip damper's brake is the same in both).
+        let mut full = controller;
+        full.governor = 0;
+        let m = |c: &mut TensionController| tick_at(c, 240, 0);
+        let (lowered, whole) = (m(&mut controller), m(&mut full));
+        let over = |out: &ControlOutput| out.force.0.saturating_sub(out.tension.0).to_num::<f64>();
+        assert!(over(&whole).abs() > 0.5, "{whole:?}");
+        assert!(
+            (over(&lowered) - over(&whole) / 8.0).abs() < 0.001 + over(&whole).abs() * 0.01,
+            "{lowered:?} {whole:?}"
+        );
+
+        // Within the band, wandering one way, or alternating every 400 ms: never.
+        for pattern in [
+            |tick: u32| if (tick / 30).is_multiple_of(2) { 251 } else { 249 },
+            |tick: u32| 250 - i32::try_from(tick / 100).unwrap_or(0),
+            |tick: u32| if (tick / 400).is_multiple_of(2) { 253 } else { 247 },
+        ] {
+            let mut calm = holding();
+            for tick in 0..2_000_u32 {
+                tick_at(&mut calm, pattern(tick), 0);
+            }
+            assert_eq!(calm.governor(), 0);
+        }
+        // A new pull: the full correction.
+        controller.start(
+            &valid(PullSettings::new(
+                Kgf::from_int(25),
+                Speed::MAX,
+                PreStretch::NONE,
+                KnotBoost::NONE,
+            )),
+            PullKind::Main,
+        );
+        assert_eq!(controller.governor(), 0);
     }
 
     /// REQ-TEN-21: the release's speed is 8 mm/s per millimetre left to the pull's first

@@ -1267,6 +1267,17 @@ mod tests {
             DriveConfig::new(s, BusSense { regen_mv: 45_000, ..b }, l, 12_000, DEAD_TIME),
             Err(DriveConfigError::Bus)
         );
+        // A maximum the converter cannot read is refused: at full scale (code 4 096) and just
+        // below it (59.999 V, code 4 096 rounded up); 59.985 V is the last code, 4 095.
+        for max_mv in [60_000, 59_999] {
+            assert_eq!(
+                DriveConfig::new(s, BusSense { max_mv, ..b }, l, 12_000, DEAD_TIME),
+                Err(DriveConfigError::Bus),
+                "{max_mv} mV"
+            );
+        }
+        let top = DriveConfig::new(s, BusSense { max_mv: 59_985, ..b }, l, 12_000, DEAD_TIME);
+        assert_eq!(top.map(|c| c.over_code), Ok(4_095));
         assert_eq!(
             DriveConfig::new(s, b, CurrentLimit { limit_ma: 12_000, ..l }, 12_000, DEAD_TIME),
             Err(DriveConfigError::Limit)

@@ -14,7 +14,11 @@
 //! - the load cell's converter and nominal chain ([`LoadCellScale`]: the converter's reference,
 //!   the amplifier's zero-load output and gain; the self-test tares the zero, the calibration
 //!   corrects the gain's residue);
-//! - the controller's configuration ([`ControllerConfig`]), whose dead-time duty the board sets.
+//! - the controller's configuration ([`ControllerConfig`]), whose dead-time duty and current
+//!   limit the board sets: the duty map's `current_limit` is the drive's
+//!   ([`crate::drive::limit::CurrentLimit::limit_ma`]), so the limit the force → duty stage
+//!   asks for and the one the drive's window keeps to are one statement of the board
+//!   ([`ControllerConfig::taut`] leaves it to the board).
 //!
 //! [`BoardConfig::new`] checks each part and their agreement once, when the board is built:
 //! the drive's configuration is already valid by construction, the dead time must be a sane
@@ -31,6 +35,7 @@ use crate::sense::load_cell::LoadCellScale;
 use crate::tension::controller::{
     ConfigError, ControllerConfig, DEAD_TIME_DUTY_MAX, TensionController,
 };
+use crate::units::Amps;
 #[cfg(any(test, feature = "paper-board"))]
 use crate::units::{AdcReference, Q16, Volts};
 
@@ -70,7 +75,8 @@ pub struct BoardConfig {
 impl BoardConfig {
     /// A board of `drive` switching every `pwm_period`, with the load cell's nominal chain
     /// `load_cell` and the controller `controller` (its dead-time duty is replaced by the
-    /// board's: the drive's dead time over the period).
+    /// board's: the drive's dead time over the period; its duty map's current limit by the
+    /// drive's).
     ///
     /// # Errors
     /// [`BoardError`] naming what is out of range.
@@ -87,7 +93,8 @@ impl BoardConfig {
         if dead_time_duty > DEAD_TIME_DUTY_MAX {
             return Err(BoardError::DeadTimeShare);
         }
-        let config = ControllerConfig { dead_time_duty, ..controller };
+        let config = ControllerConfig { dead_time_duty, ..controller }
+            .with_current_limit(amps_of_ma(drive.limit().limit_ma));
         let controller = TensionController::new(&config).map_err(BoardError::Controller)?;
         Ok(Self { drive, pwm_period, load_cell, dead_time_duty, controller })
     }
@@ -168,6 +175,16 @@ fn dead_time_duty(dead_time: DriveTime, period: DriveTime) -> Duty {
     Duty::from_raw_clamped(u16::try_from(raw).unwrap_or(u16::MAX))
 }
 
+/// `ma` milliamperes as [`Amps`], rounded to the nearest and saturating: `Amps::from_milli`
+/// for a `u32`, in plain integers that fold at compile time when the board is a constant (an
+/// image then carries no conversion; `scripts/firmware-size` checks the controller's
+/// construction folds).
+#[inline(always)]
+fn amps_of_ma(ma: u32) -> Amps {
+    let bits = u64::from(ma).saturating_mul(65_536).saturating_add(500) / 1_000;
+    Amps::from_bits(i32::try_from(bits).unwrap_or(i32::MAX))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -227,5 +244,49 @@ mod tests {
         assert_eq!(board.controller(), TensionController::new(&config).expect("valid"));
         assert_ne!(board.controller(), TensionController::taut(), "the ideal bridge's differs");
         assert_eq!(board.pwm_period(), DriveTime::from_micros(50));
+    }
+
+    #[test]
+    fn milliamperes_convert_as_amps_from_milli_does() {
+        for ma in (0..=40_000).chain([32_767_000, 32_767_999, 32_768_000, u32::MAX]) {
+            let milli = i32::try_from(ma).unwrap_or(i32::MAX);
+            assert_eq!(amps_of_ma(ma), Amps::from_milli(milli), "{ma} mA");
+        }
+    }
+
+    #[test]
+    fn the_controller_limits_the_current_to_the_drives_limit() {
+        let board = paper_board();
+        let drive = board.drive();
+        let six_amps = crate::drive::limit::CurrentLimit { limit_ma: 6_000, ..drive.limit() };
+        let Ok(drive) =
+            DriveConfig::new(drive.sense(), drive.bus(), six_amps, 12_000, drive.dead_time())
+        else {
+            panic!("6 A is a limit the drive takes");
+        };
+        // Whatever limit the controller's configuration came with, and whichever map.
+        let back_emf = ControllerConfig {
+            duty_map: crate::tension::motor::DutyMap::BackEmf { current_limit: Amps::from_int(3) },
+            ..ControllerConfig::TAUT
+        };
+        for given in [ControllerConfig::taut(ControllerConfig::TAUT.motor), back_emf] {
+            let built = BoardConfig::new(drive, board.pwm_period(), board.load_cell(), given);
+            let expected = ControllerConfig { dead_time_duty: board.dead_time_duty(), ..given }
+                .with_current_limit(Amps::from_int(6));
+            assert_eq!(
+                built.map(|built| built.controller()),
+                TensionController::new(&expected).map_err(BoardError::Controller)
+            );
+        }
+        // On the paper's board the limit is the 8 A the built-in configurations state too.
+        assert_eq!(
+            BoardConfig::new(
+                board.drive(),
+                board.pwm_period(),
+                board.load_cell(),
+                ControllerConfig::taut(ControllerConfig::TAUT.motor)
+            ),
+            Ok(board)
+        );
     }
 }

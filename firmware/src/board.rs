@@ -13,6 +13,10 @@
 //!   the same value its dead-time generator is programmed with). These are the paper's
 //!   board's parts (the twin's), which `the_drive_is_the_papers_but_for_the_bus_divider`
 //!   checks value by value.
+//! - **Motor**: the paper's 57 mm 24 V brushless motor through its 1:20 gearbox ([`MOTOR`]),
+//!   whose constants taut's controller is built with ([`ControllerConfig::taut`]); its current
+//!   limit is the drive's ([`CURRENT_LIMIT`]), which the board's constructor gives the
+//!   controller.
 //! - **PWM period**: [`crate::timing::PWM_PERIOD_TICKS`] of the 170 MHz timer, 50 µs; the
 //!   controller's dead-time duty is derived from it and the dead time by the board's
 //!   constructor, not written down.
@@ -28,6 +32,7 @@ use taut_core::drive::limit::{CurrentLimit, CurrentReading, CurrentSense};
 use taut_core::drive::{BusSense, DriveConfig, DriveTime};
 use taut_core::sense::load_cell::LoadCellScale;
 use taut_core::tension::controller::ControllerConfig;
+use taut_core::tension::motor::MotorModel;
 use taut_core::units::{AdcCode, AdcReference, Q16, Volts};
 
 use crate::timing::{DEAD_TIME, PWM_PERIOD_TICKS, TICKS_PER_DRIVE_TIME};
@@ -60,6 +65,18 @@ pub const CURRENT_LIMIT: CurrentLimit = CurrentLimit {
     accel_emf_mv_per_1024: 523,
 };
 
+/// The motor: the paper's 57 mm 24 V brushless motor (3 700 rpm no-load, 2.85 kgf·cm at
+/// 5.5 A) on a 24 V bus — `Ke = Kt` = 60.1 mV·s/rad (line to line), 0.846 Ω across the driven
+/// pair (windings and MOSFETs), 64 % forward efficiency of gearbox and screw (the gearbox's
+/// 1:20 and the screw's 25.4 mm lead are core's `mechanism`, shared by every conversion).
+pub const MOTOR: MotorModel = MotorModel {
+    bus_mv: 24_000,
+    resistance_mohm: 846,
+    ke_micro: 60_100,
+    kt_micro: 60_100,
+    efficiency_pct: 64,
+};
+
 /// The IHM08M1's bus divider on the 3.3 V converter: full scale 3.3 V / 0.0522 = 63.2 V;
 /// lockout at 18 V, no regeneration above 38 V, a fault at 40 V.
 pub const BUS: BusSense =
@@ -74,14 +91,22 @@ pub const LOAD_CELL_KGF_PER_VOLT: Q16 = Q16::lit("10.869565");
 /// The overcurrent trip, mA: the drive's 12 A.
 pub const OVERCURRENT_MA: u32 = 12_000;
 
+/// The drive's configuration: [`DriveConfig::new`] evaluated as the firmware is built (a
+/// refused part is a compile error, not a path of the image), so the board's construction
+/// folds to constants.
+pub const DRIVE: DriveConfig =
+    match DriveConfig::new(CURRENT_SENSE, BUS, CURRENT_LIMIT, OVERCURRENT_MA, DEAD_TIME) {
+        Ok(drive) => drive,
+        #[allow(clippy::panic, reason = "const evaluation: fails the build, not the run")]
+        Err(_) => panic!("this firmware's drive configuration is refused"),
+    };
+
 /// The PWM period in core's time unit: 8 500 ticks / 17 = 500 (50 µs).
 pub const PWM_PERIOD: DriveTime = DriveTime(PWM_PERIOD_TICKS as u32 / TICKS_PER_DRIVE_TIME);
 
 /// Why this firmware's board was refused (a host test rules each out).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub enum Refused {
-    /// The drive's configuration.
-    Drive(taut_core::drive::limit::DriveConfigError),
     /// The load cell's converter or chain.
     LoadCell,
     /// The board as a whole.
@@ -96,13 +121,12 @@ pub enum Refused {
 // image carries no constructor (`scripts/firmware-size` checks the controller's).
 #[inline(always)]
 pub fn board() -> Result<BoardConfig, Refused> {
-    let drive = DriveConfig::new(CURRENT_SENSE, BUS, CURRENT_LIMIT, OVERCURRENT_MA, DEAD_TIME)
-        .map_err(Refused::Drive)?;
     let reference = AdcReference::from_millivolts(ADC_REFERENCE_MV).ok_or(Refused::LoadCell)?;
     let zero = Volts(LOAD_CELL_ZERO.0.saturating_mul(LOAD_CELL_DIVIDER));
     let gain = LOAD_CELL_KGF_PER_VOLT.saturating_div(LOAD_CELL_DIVIDER);
     let load_cell = LoadCellScale::new(reference, zero, gain).map_err(|_| Refused::LoadCell)?;
-    BoardConfig::new(drive, PWM_PERIOD, load_cell, ControllerConfig::TAUT).map_err(Refused::Board)
+    BoardConfig::new(DRIVE, PWM_PERIOD, load_cell, ControllerConfig::taut(MOTOR))
+        .map_err(Refused::Board)
 }
 
 #[cfg(test)]
@@ -115,6 +139,7 @@ mod tests {
     fn the_drive_is_the_papers_but_for_the_bus_divider() {
         assert_eq!(CURRENT_SENSE, CurrentSense::PAPER);
         assert_eq!(CURRENT_LIMIT, CurrentLimit::PAPER);
+        assert_eq!(MOTOR, MotorModel::PAPER);
         assert_eq!(BusSense { full_scale_mv: 60_000, ..BUS }, BusSense::PAPER);
         assert_eq!(
             (LOAD_CELL_ZERO, LOAD_CELL_KGF_PER_VOLT),
@@ -126,6 +151,7 @@ mod tests {
         assert_eq!(ours.dead_time_duty(), paper.dead_time_duty());
         assert_eq!(ours.drive().dead_time(), paper.drive().dead_time());
         assert_eq!(ours.drive().trip_codes(), paper.drive().trip_codes());
+        assert_eq!(ours.controller(), paper.controller(), "the paper's motor and 8 A limit");
     }
 
     #[test]

@@ -24,7 +24,8 @@
 //!
 //! The properties do not reuse the drive's own bookkeeping. Overcurrent is judged by
 //! converting the code's distance from the drive's tared zero with [`current::amps`] and
-//! comparing it with [`OVERCURRENT_LIMIT`] (the drive compares codes against a precomputed
+//! comparing it with the trip the drive's configuration was built with
+//! ([`taut_core::drive::DriveConfig::trip`]; the drive compares codes against a precomputed
 //! threshold); the bus by converting its code to millivolts; dead time, reversal and the
 //! current window are judged from the emitted patterns, the Hall states and the elapsed ticks
 //! alone, with the back-EMF recomputed from the motor's constant (the drive keeps its own
@@ -34,8 +35,8 @@
 
 use taut_core::drive::{
     ClearRefused, DUTY_MAX, Direction, Drive, DriveCommand, DriveOutput, DriveSample, DriveTime,
-    Duty, HALL_CONFIRM_READS, HallCode, HallState, LegState, OVERCURRENT_LIMIT, Phase, Sector,
-    SectorStep, SwitchPattern, six_step,
+    Duty, HALL_CONFIRM_READS, HallCode, HallState, LegState, Phase, Sector, SectorStep,
+    SwitchPattern, six_step,
 };
 use taut_core::io::LimitSwitches;
 use taut_core::sense::current;
@@ -445,14 +446,16 @@ fn bus_mv(code: AdcCode) -> u32 {
 }
 
 /// REQ-DRV-05, overcurrent and bus overvoltage: a current sample whose distance from the
-/// tared zero is at or above [`OVERCURRENT_LIMIT`], the comparator flag, or a bus at or above
-/// its configured maximum switches everything off and latches a fault in the same call.
+/// tared zero is at or above the trip of the drive's board
+/// ([`taut_core::drive::DriveConfig::trip`]), the comparator flag, or a bus at or above its
+/// configured maximum switches everything off and latches a fault in the same call.
 pub fn overcurrent_turns_off(record: &StepRecord) {
     let sample = record.input.sample();
     let zero = record.before.current_zero().get();
     let from_zero = AdcCode::new(sample.current.get().abs_diff(zero));
-    let over = current::amps(from_zero) >= OVERCURRENT_LIMIT
-        || bus_mv(sample.bus_voltage) >= record.before.config().bus().max_mv;
+    let config = record.before.config();
+    let over = current::amps(from_zero) >= config.trip()
+        || bus_mv(sample.bus_voltage) >= config.bus().max_mv;
     if sample.overcurrent_trip || over {
         assert_eq!(record.output, DriveOutput::OFF, "REQ-DRV-05: bridge on during overcurrent");
         assert!(record.after.fault().is_some(), "REQ-DRV-05: overcurrent not latched");

@@ -16,7 +16,7 @@ use std::collections::HashSet;
 use proptest::prelude::*;
 use taut_core::drive::{
     DEAD_TIME_MAX, DEAD_TIME_MIN, DUTY_MAX, Direction, Drive, DriveConfig, DriveTime, LegState,
-    OVERCURRENT_LIMIT, REVERSAL_QUIET, Sector, SwitchPattern,
+    REVERSAL_QUIET, Sector, SwitchPattern,
 };
 use taut_core::sense::current;
 use taut_proofs::drive::{
@@ -26,11 +26,12 @@ use taut_proofs::drive::{
     window_bounds_current,
 };
 
-/// The lowest current code that is an overcurrent, found from the conversion (not from the
-/// drive's own threshold).
+/// The lowest current code that is an overcurrent on the paper's board, found from the
+/// conversion and the trip the board states (not from the drive's own threshold in codes).
 fn first_overcurrent_code() -> u16 {
+    let trip = DriveConfig::PAPER.trip();
     (0..=4095u16)
-        .find(|&raw| current::amps(taut_core::units::AdcCode::new(raw)) >= OVERCURRENT_LIMIT)
+        .find(|&raw| current::amps(taut_core::units::AdcCode::new(raw)) >= trip)
         .expect("the limit is below full scale")
 }
 

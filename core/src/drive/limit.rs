@@ -72,9 +72,10 @@
 //! (per-phase low-side shunts, or a DC-link shunt sampled in the middle of the on-time) or the
 //! **link average** (a DC-link shunt behind an RC filter: `≈ duty × I`). Its zero — 0 for a
 //! unidirectional amplifier, mid-rail for a bidirectional one — is tared by the drive while
-//! the bridge is off ([`TARE_SETTLE`]); the overcurrent threshold is 12 A of the reading on
-//! both kinds ([`DriveConfig::overcurrent`]): the winding current itself, or a link average
-//! that never exceeds it. The limit the window keeps to (8 A) is watched on both kinds too
+//! the bridge is off ([`TARE_SETTLE`]); the overcurrent threshold is the board's trip
+//! ([`DriveConfig::trip`], 12 A on the paper's) of the reading on both kinds
+//! ([`DriveConfig::overcurrent`]): the winding current itself, or a link average that never
+//! exceeds it. The limit the window keeps to (8 A) is watched on both kinds too
 //! ([`DriveConfig::over_limit`]): a winding reading against it directly, a link average
 //! against the duty applied lately × the limit, so a shorted winding that the window cannot
 //! hold down is caught on an RC-filtered board at any duty, not only once `duty × I` reaches
@@ -160,12 +161,15 @@ impl CurrentSense {
         Amps::from_milli(i32::try_from(ma).unwrap_or(0))
     }
 
-    /// The codes a current of `ma` spans, rounded up.
-    fn codes_for(&self, ma: u32) -> Option<u16> {
-        let na = u64::from(ma).checked_mul(1_000_000)?;
-        let per = u64::from(self.na_per_code);
-        let codes = na.checked_add(per.checked_sub(1)?)?.checked_div(per)?;
-        u16::try_from(codes).ok()
+    /// The codes a current of `ma` spans, rounded up (`const`: `DriveConfig::new` is
+    /// evaluated at compile time for a board's constant).
+    const fn codes_for(&self, ma: u32) -> Option<u16> {
+        let Some(na) = (ma as u64).checked_mul(1_000_000) else { return None };
+        let per = self.na_per_code as u64;
+        let Some(less_one) = per.checked_sub(1) else { return None };
+        let Some(sum) = na.checked_add(less_one) else { return None };
+        let Some(codes) = sum.checked_div(per) else { return None };
+        narrow(codes)
     }
 }
 
@@ -205,12 +209,30 @@ impl BusSense {
         Volts::from_milli(i32::try_from(self.millivolts(code)).unwrap_or(i32::MAX))
     }
 
-    /// The lowest code that reads at least `mv`.
-    fn code_for(&self, mv: u32) -> Option<u16> {
-        let scaled = u64::from(mv).checked_mul(u64::from(ADC_COUNTS))?;
-        let per = u64::from(self.full_scale_mv);
-        let code = scaled.checked_add(per.checked_sub(1)?)?.checked_div(per)?;
-        u16::try_from(code).ok().filter(|&code| code <= AdcCode::MAX.get())
+    /// The lowest code that reads at least `mv` (`const`, as [`CurrentSense`]'s conversion).
+    const fn code_for(&self, mv: u32) -> Option<u16> {
+        let Some(scaled) = (mv as u64).checked_mul(ADC_COUNTS as u64) else { return None };
+        let per = self.full_scale_mv as u64;
+        let Some(less_one) = per.checked_sub(1) else { return None };
+        let Some(sum) = scaled.checked_add(less_one) else { return None };
+        let Some(code) = sum.checked_div(per) else { return None };
+        match narrow(code) {
+            Some(code) if code <= AdcCode::MAX.get() => Some(code),
+            _ => None,
+        }
+    }
+}
+
+/// `value` as a `u16`, if it fits (`u16::try_from` in a `const fn`).
+const fn narrow(value: u64) -> Option<u16> {
+    if value <= u16::MAX as u64 {
+        #[allow(
+            clippy::cast_possible_truncation,
+            reason = "at most u16::MAX, checked on the line before"
+        )]
+        Some(value as u16)
+    } else {
+        None
     }
 }
 
@@ -461,6 +483,8 @@ pub struct DriveConfig {
     sense: CurrentSense,
     bus: BusSense,
     limit: CurrentLimit,
+    /// The winding current at which the drive trips, mA (as the board states it).
+    trip_ma: u32,
     /// `I_lim·R`, mV.
     ir_mv: u32,
     /// Codes from zero that trip (winding current at the trip).
@@ -500,47 +524,55 @@ pub const TURN_LAG: DriveTime = DriveTime::from_micros(100);
 
 impl DriveConfig {
     #[cfg(any(test, feature = "paper-board"))]
-    /// taut's own board and the paper's motor.
-    pub const PAPER: Self = Self {
-        sense: CurrentSense::PAPER,
-        bus: BusSense::PAPER,
-        limit: CurrentLimit::PAPER,
-        ir_mv: 5_600,
-        trip_codes: 1_967,
-        fold_back_codes: 1_557,
-        limit_codes: 1_311,
-        regen_code: 2_595,
-        over_code: 2_731,
-        dead_time: DriveTime::from_micros(1),
+    /// taut's own board and the paper's motor, tripping at 12 A: [`Self::new`] evaluated at
+    /// compile time, so its derived codes are the constructor's and nowhere written by hand.
+    pub const PAPER: Self = match Self::new(
+        CurrentSense::PAPER,
+        BusSense::PAPER,
+        CurrentLimit::PAPER,
+        12_000,
+        DriveTime::from_micros(1),
+    ) {
+        Ok(config) => config,
+        // A constant's evaluation: a refused board is a compile error, never a run-time path.
+        #[allow(clippy::panic, reason = "const evaluation: fails the build, not the run")]
+        Err(_) => panic!("the paper's board is refused by DriveConfig::new"),
     };
 
     /// A configuration for `sense`, `bus` and `limit` with the trip at `trip_ma` and the
     /// bridge's `dead_time` (the same value the board programs into its timer's dead-time
-    /// generator).
+    /// generator). `const`: a board's configuration can be a constant, checked as the firmware
+    /// is built.
     ///
     /// # Errors
     /// [`DriveConfigError`] names the part that is zero, out of order or out of range.
-    pub fn new(
+    pub const fn new(
         sense: CurrentSense,
         bus: BusSense,
         limit: CurrentLimit,
         trip_ma: u32,
         dead_time: DriveTime,
     ) -> Result<Self, DriveConfigError> {
-        if !(DEAD_TIME_MIN..=DEAD_TIME_MAX).contains(&dead_time) {
+        if dead_time.0 < DEAD_TIME_MIN.0 || dead_time.0 > DEAD_TIME_MAX.0 {
             return Err(DriveConfigError::DeadTime);
         }
-        if sense.na_per_code == 0 || sense.design_zero > AdcCode::MAX {
+        if sense.na_per_code == 0 || sense.design_zero.get() > AdcCode::MAX.get() {
             return Err(DriveConfigError::CurrentSense);
         }
-        let trip_codes = sense.codes_for(trip_ma).ok_or(DriveConfigError::CurrentSense)?;
-        let fold_back_codes =
-            sense.codes_for(limit.fold_back_ma).ok_or(DriveConfigError::CurrentSense)?;
-        let limit_codes = sense.codes_for(limit.limit_ma).ok_or(DriveConfigError::CurrentSense)?;
+        let Some(trip_codes) = sense.codes_for(trip_ma) else {
+            return Err(DriveConfigError::CurrentSense);
+        };
+        let Some(fold_back_codes) = sense.codes_for(limit.fold_back_ma) else {
+            return Err(DriveConfigError::CurrentSense);
+        };
+        let Some(limit_codes) = sense.codes_for(limit.limit_ma) else {
+            return Err(DriveConfigError::CurrentSense);
+        };
         if trip_codes == 0 || trip_codes > AdcCode::MAX.get() {
             return Err(DriveConfigError::CurrentSense);
         }
-        let bus_ok = (1_000..=1_000_000).contains(&bus.full_scale_mv)
+        let bus_ok = bus.full_scale_mv >= 1_000
+            && bus.full_scale_mv <= 1_000_000
             && bus.floor_mv > 0
             && bus.floor_mv < bus.regen_mv
             && bus.regen_mv < bus.max_mv
@@ -548,14 +580,18 @@ impl DriveConfig {
         if !bus_ok {
             return Err(DriveConfigError::Bus);
         }
-        let regen_code = bus.code_for(bus.regen_mv).ok_or(DriveConfigError::Bus)?;
-        let over_code = bus.code_for(bus.max_mv).ok_or(DriveConfigError::Bus)?;
-        let ir_mv = limit
-            .limit_ma
-            .checked_mul(limit.resistance_mohm)
-            .map(|product| product / 1_000)
-            .filter(|&ir| ir > 0 && ir <= EMF_MAX_MV)
-            .ok_or(DriveConfigError::Limit)?;
+        let Some(regen_code) = bus.code_for(bus.regen_mv) else {
+            return Err(DriveConfigError::Bus);
+        };
+        let Some(over_code) = bus.code_for(bus.max_mv) else {
+            return Err(DriveConfigError::Bus);
+        };
+        let ir_mv = match limit.limit_ma.checked_mul(limit.resistance_mohm) {
+            Some(product) if product / 1_000 > 0 && product / 1_000 <= EMF_MAX_MV => {
+                product / 1_000
+            }
+            _ => return Err(DriveConfigError::Limit),
+        };
         if limit.limit_ma >= trip_ma
             || limit.fold_back_ma < limit.limit_ma
             || limit.fold_back_ma >= trip_ma
@@ -568,6 +604,7 @@ impl DriveConfig {
             sense,
             bus,
             limit,
+            trip_ma,
             ir_mv,
             trip_codes,
             fold_back_codes,
@@ -606,6 +643,13 @@ impl DriveConfig {
     #[must_use]
     pub const fn ir_mv(&self) -> u32 {
         self.ir_mv
+    }
+
+    /// The winding current at which the drive trips, as the board stated it
+    /// ([`Self::trip_codes`] is the reading's codes for it, rounded up).
+    #[must_use]
+    pub fn trip(&self) -> Amps {
+        Amps::from_milli(i32::try_from(self.trip_ma).unwrap_or(i32::MAX))
     }
 
     /// Codes from the zero at which the drive trips.
@@ -918,6 +962,16 @@ mod tests {
             DEAD_TIME,
         );
         assert_eq!(built, Ok(DriveConfig::PAPER));
+        // What the constructor derives for the paper's board: 8 A × 0.70 Ω; 12 A, 9.5 A and
+        // 8 A over 6.1 mA per code, rounded up; 38 V and 40 V of a 60 V full scale, rounded up.
+        let paper = DriveConfig::PAPER;
+        assert_eq!((paper.trip_ma, paper.ir_mv), (12_000, 5_600));
+        assert_eq!(
+            (paper.trip_codes, paper.fold_back_codes, paper.limit_codes),
+            (1_967, 1_557, 1_311)
+        );
+        assert_eq!((paper.regen_code, paper.over_code), (2_595, 2_731));
+        assert_eq!(paper.dead_time, DriveTime::from_micros(1));
     }
 
     #[test]
@@ -961,6 +1015,7 @@ mod tests {
         // 8 A × 0.70 Ω; 12 A / 6.1 mA per code, rounded up.
         assert_eq!(config.ir_mv(), 5_600);
         assert_eq!(config.trip_codes(), 1_967);
+        assert_eq!(config.trip(), Amps::from_int(12));
         assert_eq!(config.sense(), CurrentSense::PAPER);
         assert_eq!(config.bus(), BusSense::PAPER);
         assert_eq!(config.limit(), CurrentLimit::PAPER);
@@ -1212,6 +1267,17 @@ mod tests {
             DriveConfig::new(s, BusSense { regen_mv: 45_000, ..b }, l, 12_000, DEAD_TIME),
             Err(DriveConfigError::Bus)
         );
+        // A maximum the converter cannot read is refused: at full scale (code 4 096) and just
+        // below it (59.999 V, code 4 096 rounded up); 59.985 V is the last code, 4 095.
+        for max_mv in [60_000, 59_999] {
+            assert_eq!(
+                DriveConfig::new(s, BusSense { max_mv, ..b }, l, 12_000, DEAD_TIME),
+                Err(DriveConfigError::Bus),
+                "{max_mv} mV"
+            );
+        }
+        let top = DriveConfig::new(s, BusSense { max_mv: 59_985, ..b }, l, 12_000, DEAD_TIME);
+        assert_eq!(top.map(|c| c.over_code), Ok(4_095));
         assert_eq!(
             DriveConfig::new(s, b, CurrentLimit { limit_ma: 12_000, ..l }, 12_000, DEAD_TIME),
             Err(DriveConfigError::Limit)

@@ -12,10 +12,10 @@
 //!
 //! Every call goes through the same fixed sequence, whose order is the safety argument:
 //!
-//! 1. **Overcurrent and bus first.** A current sample at or above [`OVERCURRENT_LIMIT`] of
-//!    winding current (read through the board's [`limit::CurrentSense`], from its tared
-//!    zero), a set comparator flag, or a bus at its configured maximum latches a fault *in
-//!    this call*, before anything else is decided.
+//! 1. **Overcurrent and bus first.** A current sample at or above the board's trip
+//!    ([`limit::DriveConfig::trip`]) of winding current (read through the board's
+//!    [`limit::CurrentSense`], from its tared zero), a set comparator flag, or a bus at its
+//!    configured maximum latches a fault *in this call*, before anything else is decided.
 //! 2. **Hall.** The voted code goes through the [`HallFilter`]; an accepted `000`/`111` or a
 //!    jump of two or more sectors latches a fault.
 //! 3. **Faulted → all off.** While a fault is latched the held command is dropped (set to
@@ -188,10 +188,6 @@ pub const OVERSPEED_MARGIN: u32 = 7;
 /// timed against the dead time's loss) are never judged.
 pub const OVERSPEED_FLOOR_MV: u32 = 1_000;
 
-/// Bus current that trips the drive: 12 A (motor rated 5.5 A; 50 kgf needs ≈ 3.5 A; stall
-/// at 24 V would be ≈ 29 A).
-pub const OVERCURRENT_LIMIT: Amps = Amps::from_int(12);
-
 /// Which way the motor is asked to turn the lead screw.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
 pub enum Direction {
@@ -264,7 +260,7 @@ crate::codes::numbered! {
     /// A latched drive fault; its number is the one recorded sessions and links carry.
     #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
     pub enum DriveFault {
-        /// A current sample at or above [`OVERCURRENT_LIMIT`].
+        /// A current sample at or above the board's trip ([`limit::DriveConfig::trip`]).
         Overcurrent = 1,
         /// The hardware overcurrent comparator (break input) fired.
         OvercurrentTrip = 2,

@@ -312,20 +312,48 @@ pub const TAUT_GAINS: RsmcGains = RsmcGains {
     },
 };
 
-/// The current every built-in configuration limits the winding to: 8 A.
+#[cfg(any(test, feature = "paper-board"))]
+/// The current the paper's board limits the winding to: 8 A, its drive's
+/// (`crate::drive::limit::CurrentLimit::PAPER`'s `limit_ma`). A board's controller takes its
+/// limit from the board's drive ([`crate::board::BoardConfig::new`]); this is for the
+/// configurations built without a board (the twin's controller benches, the reports).
 pub const CURRENT_LIMIT: Amps = Amps::from_int(8);
 
 impl ControllerConfig {
-    /// taut's controller at 1 kHz.
-    pub const TAUT: Self = Self {
-        period_us: 1_000,
-        law: LawConfig::Rsmc(TAUT_GAINS),
-        duty_map: DutyMap::Proportional { current_limit: CURRENT_LIMIT },
-        motor: MotorModel::PAPER,
-        profile: ProfileConfig::TAUT,
-        dead_time_duty: Duty::ZERO,
-    };
+    /// taut's controller at 1 kHz for a machine with `motor`, on a board that supplies the
+    /// current limit: the duty map's `current_limit` is left at zero, a configuration
+    /// [`TensionController::new`] refuses, until [`crate::board::BoardConfig::new`] sets it to
+    /// the board's drive limit ([`Self::with_current_limit`]) — so a board states its limit
+    /// once, in its drive's configuration.
+    #[must_use]
+    pub const fn taut(motor: MotorModel) -> Self {
+        Self {
+            period_us: 1_000,
+            law: LawConfig::Rsmc(TAUT_GAINS),
+            duty_map: DutyMap::Proportional { current_limit: Amps::ZERO },
+            motor,
+            profile: ProfileConfig::TAUT,
+            dead_time_duty: Duty::ZERO,
+        }
+    }
 
+    /// This configuration with its duty map limiting the winding current to `current_limit`
+    /// (whichever map it is).
+    #[must_use]
+    pub const fn with_current_limit(self, current_limit: Amps) -> Self {
+        let duty_map = match self.duty_map {
+            DutyMap::Proportional { .. } => DutyMap::Proportional { current_limit },
+            DutyMap::BackEmf { .. } => DutyMap::BackEmf { current_limit },
+        };
+        Self { duty_map, ..self }
+    }
+
+    #[cfg(any(test, feature = "paper-board"))]
+    /// taut's controller at 1 kHz on the paper's machine and board ([`MotorModel::PAPER`],
+    /// [`CURRENT_LIMIT`]).
+    pub const TAUT: Self = Self::taut(MotorModel::PAPER).with_current_limit(CURRENT_LIMIT);
+
+    #[cfg(any(test, feature = "paper-board"))]
     /// The paper's RSMC as published (λ = 100, G = 0.2, k_φ = 0.001, `sgn`, unbounded
     /// `φ̂`, raw derivative) on the machine's nominal plant, through the same force → duty
     /// stage as taut (always pulling, a negative force brakes), step set point, at 1 kHz.
@@ -338,6 +366,7 @@ impl ControllerConfig {
         dead_time_duty: Duty::ZERO,
     };
 
+    #[cfg(any(test, feature = "paper-board"))]
     /// The paper's PD baseline (`k_p = 100`, `k_d = 20`) through the same force → duty
     /// stage as taut, step set point, at 1 kHz.
     pub const PD: Self = Self {
@@ -454,6 +483,7 @@ pub struct TensionController {
     origin: Option<i32>,
 }
 
+#[cfg(any(test, feature = "paper-board"))]
 impl Default for TensionController {
     /// taut's controller ([`ControllerConfig::TAUT`]).
     fn default() -> Self {
@@ -571,7 +601,8 @@ impl TensionController {
         })
     }
 
-    /// taut's controller at 1 kHz ([`ControllerConfig::TAUT`]).
+    #[cfg(any(test, feature = "paper-board"))]
+    /// taut's controller at 1 kHz on the paper's machine and board ([`ControllerConfig::TAUT`]).
     #[must_use]
     pub fn taut() -> Self {
         // TAUT is a constant whose validity a unit test checks; should it ever fail, the
@@ -1029,6 +1060,21 @@ mod tests {
             assert!(controller.is_valid());
         }
         assert_ne!(TensionController::taut(), TensionController::braking());
+        // The board-less constructor leaves the limit to the board: refused until it is set.
+        let unlimited = ControllerConfig::taut(MotorModel::PAPER);
+        assert_eq!(
+            TensionController::new(&unlimited),
+            Err(ConfigError::Motor(MotorError::Parameter))
+        );
+        assert_eq!(unlimited.with_current_limit(CURRENT_LIMIT), ControllerConfig::TAUT);
+        let back_emf = ControllerConfig {
+            duty_map: DutyMap::BackEmf { current_limit: Amps::ZERO },
+            ..ControllerConfig::TAUT
+        };
+        assert_eq!(
+            back_emf.with_current_limit(CURRENT_LIMIT).duty_map,
+            DutyMap::BackEmf { current_limit: CURRENT_LIMIT }
+        );
         assert!(TensionController::braking().is_valid());
     }
 

@@ -81,6 +81,7 @@ pub struct MotorModel {
 }
 
 impl MotorModel {
+    #[cfg(any(test, feature = "paper-board"))]
     /// The paper's machine: 24 V bus (the 1:20 gearbox and 25.4 mm lead are
     /// [`crate::mechanism`]'s, which every conversion shares); the motor's
     /// constants as `sim/README.md` derives them from the paper's 3 700 rpm no-load and

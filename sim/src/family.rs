@@ -29,8 +29,8 @@ use core::fmt;
 use core::str::FromStr;
 
 use crate::params::{
-    ConfigError, CurrentSenseParams, GripperParams, HumParams, MotorParams, StringKind, TwinConfig,
-    motor_nominal,
+    ConfigError, CurrentSenseParams, GripperParams, HumParams, MotorParams, Screw, StringKind,
+    TwinConfig, motor_nominal,
 };
 use crate::rng::SimRng;
 
@@ -896,6 +896,7 @@ impl TwinConfig {
         c.mechanics.overtravel_mm = r::OVERTRAVEL_MM.draw(&mut rng);
         if rng.chance(r::BALL_SCREW_SHARE) {
             let k = &mut c.mechanics;
+            k.screw = Screw::Ball;
             (k.efficiency_forward, k.efficiency_backward) = ball_screw_efficiency(rng.uniform());
             k.drag_torque_nm = r::DRAG_NM.low;
             k.slide_friction_n = r::SLIDE_N.low;
@@ -1100,6 +1101,7 @@ impl TwinConfig {
             }
             Axis::BallScrew => {
                 let k = &mut c.mechanics;
+                k.screw = Screw::Ball;
                 (k.efficiency_forward, k.efficiency_backward) = ball_screw_efficiency(p);
                 k.drag_torque_nm = r::DRAG_NM.low;
                 k.slide_friction_n = r::SLIDE_N.low;

@@ -209,7 +209,9 @@ pub mod twin;
 pub use bench::{Bench, ControllerBench, bang_bang_reach_time};
 pub use drift::{Drift, DriftParams};
 pub use family::{Axis, AxisSpan, Span};
-pub use params::{CurrentSenseParams, CurrentSensing, DcLinkSampling, StringKind, TwinConfig};
+pub use params::{
+    CurrentSenseParams, CurrentSensing, DcLinkSampling, Screw, StringKind, TwinConfig,
+};
 pub use rng::SimRng;
 pub use sensors::{CurrentSense, LoadCellFault};
 pub use string::StringState;

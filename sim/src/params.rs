@@ -393,9 +393,32 @@ pub struct BridgeParams {
     pub clamp_volts: Option<f64>,
 }
 
+/// The kind of screw that turns the motor's rotation into the carriage's travel.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub enum Screw {
+    /// A trapezoidal lead screw with a sliding nut (the paper's): its friction may or may not
+    /// let the string back-drive it.
+    Lead,
+    /// A ball screw: rolling contact, back-driven by the string with almost all its pull.
+    Ball,
+}
+
+impl Screw {
+    /// The name reports print.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Lead => "lead screw",
+            Self::Ball => "ball screw",
+        }
+    }
+}
+
 /// The gearbox, lead screw and carriage.
 #[derive(Clone, Copy, PartialEq, Debug)]
 pub struct MechanicsParams {
+    /// The kind of screw (its efficiencies and friction are the fields below).
+    pub screw: Screw,
     /// Gearbox reduction (paper: 1:20).
     pub gear_ratio: f64,
     /// Lead-screw lead, mm of carriage travel per screw turn (paper: 2.54 cm).
@@ -812,6 +835,7 @@ impl MechanicsParams {
     #[must_use]
     pub const fn nominal() -> Self {
         Self {
+            screw: Screw::Lead,
             gear_ratio: 20.0,
             lead_mm: 25.4,
             efficiency_forward: 0.644,

@@ -6,12 +6,12 @@ use std::fmt::Write as _;
 use serde_json::{Value, json};
 use taut_core::sense::calibration::Calibration;
 use taut_core::tension::ControllerConfig;
-use taut_sim::bang_bang_reach_time;
+use taut_sim::{Screw, bang_bang_reach_time};
 
 use super::{
-    AGGREGATE_HEADER, Failure, Machines, Metrics, ORACLE_LIMIT_MS, PULL_MS, Scenario, aggregate,
-    aggregate_json, aggregate_row, commissioned_calibration, failure_counts, gauge_sigma_kgf,
-    metrics, pull_trace,
+    AGGREGATE_HEADER, Aggregate, Failure, Machines, Metrics, ORACLE_LIMIT_MS, PULL_MS, Scenario,
+    aggregate, aggregate_json, aggregate_row, commissioned_calibration, failure_counts,
+    gauge_sigma_kgf, metrics, number, pull_trace,
 };
 use crate::cli::{AccuracyArgs, ControllerArg};
 use crate::output::{Outputs, Progress, Status, json_bytes, parallel, threads};
@@ -59,6 +59,8 @@ pub struct ScenarioResult {
     pub string: &'static str,
     /// The board's current sensing.
     pub sensing: String,
+    /// The machine's screw.
+    pub screw: Screw,
     /// Oracle reach time, s.
     pub t_min: Option<f64>,
     /// Metrics per entry, in the lineup's order.
@@ -74,6 +76,7 @@ pub fn run_scenario(scenario: &Scenario, lineup: &[Entry]) -> ScenarioResult {
         target_kgf: scenario.target_kgf,
         string: scenario.twin.string.kind.name(),
         sensing: scenario.twin.current_sense.name(),
+        screw: scenario.twin.mechanics.screw,
         t_min,
         metrics,
     };
@@ -152,6 +155,24 @@ pub fn markdown(results: &[ScenarioResult], lineup: &[Entry]) -> String {
             "{}: hold peak-to-peak p50 / p99 {:.3} / {:.3} kgf; coasting under a command in the hold: {} PWM periods in {} runs",
             entry.name, a.hold_p2p_kgf[0], a.hold_p2p_kgf[1], a.hold_coasting.0, a.hold_coasting.1
         );
+        let by_screw: Vec<String> = by_screw(results, which)
+            .iter()
+            .map(|(screw, a)| {
+                format!(
+                    "{} ({} runs) {:.3} / {:.3}",
+                    screw.name(),
+                    a.runs,
+                    a.hold_p2p_kgf[0],
+                    a.hold_p2p_kgf[1]
+                )
+            })
+            .collect();
+        let _ = writeln!(
+            out,
+            "{}: hold peak-to-peak p50 / p99 by screw: {} kgf",
+            entry.name,
+            by_screw.join("; ")
+        );
     }
     out.push_str("\nQuantiles over the scenarios that did not fail; against the true tension.\n");
     for (which, entry) in lineup.iter().enumerate() {
@@ -166,6 +187,23 @@ pub fn markdown(results: &[ScenarioResult], lineup: &[Entry]) -> String {
     out
 }
 
+/// The aggregate of entry `which` over the runs on each kind of screw (kinds with no run left
+/// out).
+#[must_use]
+pub fn by_screw(results: &[ScenarioResult], which: usize) -> Vec<(Screw, Aggregate)> {
+    [Screw::Lead, Screw::Ball]
+        .into_iter()
+        .filter_map(|screw| {
+            let on: Vec<&Metrics> = results
+                .iter()
+                .filter(|r| r.screw == screw)
+                .filter_map(|r| r.metrics.get(which))
+                .collect();
+            (!on.is_empty()).then(|| (screw, aggregate(&on)))
+        })
+        .collect()
+}
+
 /// The JSON document of a report over `lineup`.
 #[must_use]
 pub fn to_json(
@@ -178,6 +216,19 @@ pub fn to_json(
     for (which, entry) in lineup.iter().enumerate() {
         let all: Vec<&Metrics> = results.iter().map(|r| &r.metrics[which]).collect();
         let mut doc = aggregate_json(&aggregate(&all));
+        for (screw, a) in by_screw(results, which) {
+            let key = match screw {
+                Screw::Lead => "lead_screw",
+                Screw::Ball => "ball_screw",
+            };
+            doc[key] = json!({
+                "runs": a.runs,
+                "hold_p50_kgf": number(a.hold_kgf[0]),
+                "hold_p99_kgf": number(a.hold_kgf[1]),
+                "hold_p2p_p50_kgf": number(a.hold_p2p_kgf[0]),
+                "hold_p2p_p99_kgf": number(a.hold_p2p_kgf[1]),
+            });
+        }
         let failures: serde_json::Map<String, Value> =
             failure_counts(all.iter().copied()).into_iter().map(|(n, c)| (n, json!(c))).collect();
         doc["failures"] = Value::Object(failures);

@@ -65,6 +65,33 @@ fn machine_flow_boot_reaches_ready() {
     println!("boot: {:?}", rig.states());
 }
 
+/// REQ-TEN-21 at boot: the homing after the motor test brakes onto the home switch from the
+/// count the test started at, as a release after a pull does — on an end stop only 1.5 mm past
+/// the switch, on a lead screw and on a ball screw that the carriage's momentum back-drives,
+/// the carriage comes to rest within a millimetre of the switch and never meets the stop.
+#[test]
+fn machine_flow_the_boots_homing_stops_short_of_the_end_stop() {
+    let kind = StringKind::TennisSynthetic;
+    for (mut config, name) in [
+        (TwinConfig::family_centre(kind), "lead screw"),
+        (TwinConfig::on_axis(taut_sim::Axis::BallScrew, 1.0, kind), "ball screw"),
+    ] {
+        config.mechanics.overtravel_mm = 1.5;
+        let mut rig = Rig::new(&config, Record::default());
+        rig.expect_state(MachineState::CalibrationWindow, 5_000);
+        for _ in 0..1_000 {
+            rig.tick();
+        }
+        let truth = rig.twin().truth();
+        println!(
+            "{name}: at rest {:.3} mm from the switch, end stop met {} times",
+            truth.carriage_mm, truth.end_stop_hits
+        );
+        assert_eq!(truth.end_stop_hits, 0, "{name}");
+        assert!(truth.carriage_mm.abs() <= 1.0, "{name}: {truth:?}");
+    }
+}
+
 #[test]
 fn machine_flow_calibrate_set_pull_hold_release() {
     let config = TwinConfig::nominal(StringKind::TennisSynthetic).with_seed(7);

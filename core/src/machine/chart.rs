@@ -410,6 +410,10 @@ impl Chart {
                 self.notice = Some(super::Notice::DrivetrainWear);
             }
             self.dirty = true;
+            if start_limits.home {
+                // REQ-TEN-21: home is where the test started; the homing brakes onto it.
+                self.controller.set_home(*start_steps);
+            }
             Some(if stuck {
                 State::fault(FaultCode::LimitStuck, Recovery::SelfTest, 0)
             } else {

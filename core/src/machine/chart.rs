@@ -411,7 +411,7 @@ impl Chart {
             }
             self.dirty = true;
             if start_limits.home {
-                // REQ-TEN-21: home is where the test started; the homing brakes onto it.
+                // REQ-TEN-21: home is where the test started; the homing slows onto it.
                 self.controller.set_home(*start_steps);
             }
             Some(if stuck {
@@ -734,8 +734,21 @@ impl Chart {
         } else if *elapsed >= RELEASE_TIMEOUT {
             Some(State::fault(FaultCode::ReleaseTimeout, self.recovery(), 0))
         } else {
-            context.out.drive =
-                self.controller.step(&Self::measurement(sample, sample.tension)).command;
+            let release = self.controller.step(&Self::measurement(sample, sample.tension)).command;
+            context.out.drive = match (then, release) {
+                // REQ-TEN-21: the homing after the motor test slows onto the switch from the
+                // count the test started at (the controller's release), string-free, so never
+                // below the test's own duty, which has just moved this drivetrain out: a worn
+                // one that the creep speed's duty would stall still comes home.
+                (
+                    AfterRelease::CalibrationWindow,
+                    DriveCommand::Drive { direction: Direction::Release, duty },
+                ) => DriveCommand::Drive {
+                    direction: Direction::Release,
+                    duty: duty.max(MOTOR_TEST_DUTY),
+                },
+                (_, release) => release,
+            };
             context.expect_motion = true;
             None
         };

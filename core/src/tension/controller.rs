@@ -680,7 +680,7 @@ impl TensionController {
 
     /// REQ-TEN-21: the carriage rests on the home switch at Hall count `steps` — for a release
     /// that follows no pull (the boot's homing after the motor test drove it off the switch),
-    /// so that release too brakes onto the switch from where it knows home to be. A pull's
+    /// so that release too slows onto the switch from where it knows home to be. A pull's
     /// start forgets it and takes its own.
     pub fn set_home(&mut self, steps: i32) {
         self.origin = Some(steps);

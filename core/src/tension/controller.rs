@@ -1201,6 +1201,13 @@ mod tests {
         controller
     }
 
+    /// A new 25 kgf pull on `controller`.
+    fn restart(controller: &mut TensionController) {
+        let settings =
+            PullSettings::new(Kgf::from_int(25), Speed::MAX, PreStretch::NONE, KnotBoost::NONE);
+        controller.start(&valid(settings), PullKind::Main);
+    }
+
     /// One tick of `controller` at `tension` kgf (tenths) and Hall count `steps`.
     fn tick_at(controller: &mut TensionController, tenths: i32, steps: i32) -> ControlOutput {
         controller.step(&Measurement {
@@ -1306,15 +1313,7 @@ mod tests {
             tick_at(&mut pulling, 0, -tick);
         }
         assert!(!pulling.back_drives());
-        controller.start(
-            &valid(PullSettings::new(
-                Kgf::from_int(25),
-                Speed::MAX,
-                PreStretch::NONE,
-                KnotBoost::NONE,
-            )),
-            PullKind::Main,
-        );
+        restart(&mut controller);
         assert!(!controller.back_drives());
     }
 
@@ -1387,15 +1386,7 @@ mod tests {
             assert_eq!(calm.governor(), 0);
         }
         // A new pull: the full correction.
-        controller.start(
-            &valid(PullSettings::new(
-                Kgf::from_int(25),
-                Speed::MAX,
-                PreStretch::NONE,
-                KnotBoost::NONE,
-            )),
-            PullKind::Main,
-        );
+        restart(&mut controller);
         assert_eq!(controller.governor(), 0);
     }
 
@@ -1427,15 +1418,7 @@ mod tests {
         assert_eq!(near.direction(), Some(Direction::Release));
         assert!(near.duty() < far.duty(), "{near:?} {far:?}");
         // A new pull takes its own origin.
-        controller.start(
-            &valid(PullSettings::new(
-                Kgf::from_int(25),
-                Speed::MAX,
-                PreStretch::NONE,
-                KnotBoost::NONE,
-            )),
-            PullKind::Main,
-        );
+        restart(&mut controller);
         assert_eq!(controller.release_speed(180), fastest);
         tick_at(&mut controller, 0, 170);
         assert_eq!(at(&controller, 180), RELEASE_CREEP.0.to_num::<i32>());

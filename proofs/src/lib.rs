@@ -38,9 +38,9 @@ pub mod tension_reference;
 pub mod thermal;
 
 /// The board every proof and property of a whole machine runs on: the paper's
-/// ([`taut_core::board::paper`]), concrete (its drive's own harnesses take any configuration
-/// within the drive's validated range). `None` only if that board were refused, which core's
-/// tests rule out; a harness then ends at its vacuity guard unreached.
+/// ([`taut_core::board::paper`]), concrete, as the drive's harnesses step the paper's drive
+/// (`Drive::new`). `None` only if that board were refused, which core's tests rule out; a
+/// harness then ends at its vacuity guard unreached.
 #[must_use]
 pub fn paper_board() -> Option<taut_core::board::BoardConfig> {
     taut_core::board::paper().ok()

@@ -1390,6 +1390,58 @@ mod tests {
         assert_eq!(controller.governor(), 0);
     }
 
+    /// REQ-TEN-22, the watch alone: the window runs from the run's first excursion and its
+    /// last tick still counts; an error exactly at the band is no excursion; an error that
+    /// leaves the band one way only is one excursion however often; and the governor's state
+    /// is part of the controller's invariant.
+    #[test]
+    fn the_watch_counts_alternating_excursions_from_the_first() {
+        let window = SWING_WINDOW_MS; // ticks at 1 kHz
+        let governed_after = |excursions: &[(u32, Kgf)]| {
+            let mut controller = holding();
+            let last = excursions.iter().map(|&(tick, _)| tick).max().unwrap_or(0);
+            for tick in 0..=last {
+                let e =
+                    excursions.iter().find(|&&(at, _)| at == tick).map_or(Kgf::ZERO, |&(_, e)| e);
+                controller.watch_swings(e);
+            }
+            controller.governor()
+        };
+        let (over, under) = (Kgf::from_tenths(2), Kgf::from_tenths(-2));
+        let third = window / 3;
+        let run = |spacing: u32, last: u32| {
+            [(0, over), (spacing, under), (2 * spacing, over), (last, under)]
+        };
+        assert_eq!(governed_after(&run(third, window)), 1, "the window's last tick counts");
+        assert_eq!(governed_after(&run(third, window + 1)), 0, "a tick later: a new window");
+        // Each within the window of the one before, not of the first: no.
+        let spread = window / 2;
+        assert_eq!(governed_after(&run(spread, 3 * spread)), 0);
+        // At the band exactly, either way: no excursion.
+        let at = |i: usize| u32::try_from(i).unwrap_or(0) * 10;
+        let band: [(u32, Kgf); 12] = core::array::from_fn(|i| {
+            (at(i), if i % 2 == 0 { SWING_BAND } else { Kgf(-SWING_BAND.0) })
+        });
+        assert_eq!(governed_after(&band), 0);
+        // Out one way and back within the band, again and again: one excursion.
+        let one_way: [(u32, Kgf); 12] = core::array::from_fn(|i| {
+            (at(i), if i % 2 == 0 { over } else { Kgf(Q16::lit("0.05")) })
+        });
+        assert_eq!(governed_after(&one_way), 0);
+        let mut controller = holding();
+        assert!(controller.is_valid());
+        controller.governor = GOVERNOR_SHIFT_MAX + 1;
+        assert!(!controller.is_valid(), "governed past its most");
+        controller.governor = GOVERNOR_SHIFT_MAX;
+        controller.swings = SWING_EXCURSIONS;
+        assert!(!controller.is_valid(), "a count that should have governed");
+        controller.swings = SWING_EXCURSIONS - 1;
+        controller.swing_sign = 2;
+        assert!(!controller.is_valid(), "a sign that is none");
+        controller.swing_sign = -1;
+        assert!(controller.is_valid());
+    }
+
     /// REQ-TEN-21: the release's speed is 8 mm/s per millimetre left to the pull's first
     /// Hall count, within the creep speed and the release speed; without a pull, the
     /// release speed.

@@ -1419,10 +1419,12 @@ mod tests {
         assert_eq!(governed_after(&run(spread, 3 * spread)), 0);
         // At the band exactly, either way: no excursion.
         let at = |i: usize| u32::try_from(i).unwrap_or(0) * 10;
-        let band: [(u32, Kgf); 12] = core::array::from_fn(|i| {
-            (at(i), if i % 2 == 0 { SWING_BAND } else { Kgf(-SWING_BAND.0) })
-        });
-        assert_eq!(governed_after(&band), 0);
+        let (edge_over, edge_under) = (SWING_BAND, Kgf(-SWING_BAND.0));
+        for (first, second) in [(edge_over, under), (over, edge_under), (edge_over, edge_under)] {
+            let band: [(u32, Kgf); 12] =
+                core::array::from_fn(|i| (at(i), if i % 2 == 0 { first } else { second }));
+            assert_eq!(governed_after(&band), 0, "{first:?} {second:?}");
+        }
         // Out one way and back within the band, again and again: one excursion.
         let one_way: [(u32, Kgf); 12] = core::array::from_fn(|i| {
             (at(i), if i % 2 == 0 { over } else { Kgf(Q16::lit("0.05")) })

@@ -26,16 +26,20 @@ use taut_core::drive::{
 use taut_core::io::{Inputs, LimitSwitches};
 use taut_core::machine::FaultCode;
 use taut_core::machine::safety::{
-    BREAK_MIN_PEAK, BREAK_PERSIST, LOAD_CELL_BOTTOM_RAIL, LOAD_CELL_TOP_RAIL, LOADED_PERSIST,
-    NO_STRING_TENSION, NO_STRING_TRAVEL_STEPS, OVERLOAD_ABSOLUTE, OVERLOAD_MARGIN,
-    OVERLOAD_PERSIST, PEAK_RISE, REVERSED_PERSIST, REVERSED_TENSION, STALL_DUTY, STALL_QUIET,
-    STALL_QUIET_MS, TRACK_LIMIT, TRACK_SLEW, TensionSample, TensionWatch, global_fault,
-    load_cell_rail, overload_limit, stall,
+    BREAK_MIN_PEAK, EVIDENCE_BITS, EVIDENCE_MAJORITY, LOAD_CELL_BOTTOM_RAIL, LOAD_CELL_TOP_RAIL,
+    LOADED_PERSIST, NO_STRING_TENSION, NO_STRING_TRAVEL_STEPS, OVERLOAD_ABSOLUTE, OVERLOAD_MARGIN,
+    PEAK_RISE, REVERSED_PERSIST, REVERSED_TENSION, STALL_DUTY, STALL_QUIET, STALL_QUIET_MS,
+    TRACK_LIMIT, TRACK_SLEW, TensionSample, TensionWatch, global_fault, load_cell_rail,
+    overload_limit, stall,
 };
 use taut_core::units::{AdcCode, Kgf};
 
 /// One resolution step of a tension (2⁻¹⁶ kgf).
 const STEP: i32 = 1;
+
+/// The samples of the window that must lie beyond a threshold: the break's and the
+/// overload's persistence.
+const MAJORITY: u32 = EVIDENCE_MAJORITY;
 
 fn kgf_bits(kgf: Kgf, steps: i32) -> Kgf {
     Kgf::from_bits(kgf.to_bits() + steps)
@@ -56,15 +60,19 @@ fn sample(tension: Kgf) -> TensionSample {
 /// `tension` and whose peak is `peak` (at least the tension), counters clear, the string
 /// counted as loaded.
 fn settled(peak: Kgf, tension: Kgf) -> TensionWatch {
-    let watch = TensionWatch::from_parts(0, [peak, tension, tension], [0, 0, 0, LOADED_PERSIST]);
+    let watch = TensionWatch::from_parts(0, [peak, tension, tension], [0, LOADED_PERSIST], [0; 3]);
     assert!(watch.is_valid(), "{watch:?}");
     watch
 }
 
 /// Runs `ticks` identical samples through `watch`; the last tick's verdict.
-fn after(ticks: u8, watch: &mut TensionWatch, sample: &TensionSample) -> Option<FaultCode> {
+fn after(
+    ticks: impl Into<u32>,
+    watch: &mut TensionWatch,
+    sample: &TensionSample,
+) -> Option<FaultCode> {
     let mut verdict = None;
-    for _ in 0..ticks {
+    for _ in 0..ticks.into() {
         verdict = watch.check(sample);
     }
     verdict
@@ -75,13 +83,10 @@ fn overload_is_strictly_above_the_limit() {
     let limit = overload_limit(Kgf::from_int(25));
     assert_eq!(limit, Kgf::from_int(30));
     let at = sample(limit);
-    assert_eq!(after(OVERLOAD_PERSIST + 5, &mut settled(limit, limit), &at), None);
+    assert_eq!(after(MAJORITY + 5, &mut settled(limit, limit), &at), None);
     let above = sample(kgf_bits(limit, STEP));
-    assert_eq!(after(OVERLOAD_PERSIST - 1, &mut settled(limit, limit), &above), None);
-    assert_eq!(
-        after(OVERLOAD_PERSIST, &mut settled(limit, limit), &above),
-        Some(FaultCode::Overload)
-    );
+    assert_eq!(after(MAJORITY - 1, &mut settled(limit, limit), &above), None);
+    assert_eq!(after(MAJORITY, &mut settled(limit, limit), &above), Some(FaultCode::Overload));
 }
 
 #[test]
@@ -100,23 +105,32 @@ fn overload_limit_is_the_margin_above_the_peak_target_capped_at_the_absolute_lim
 }
 
 #[test]
-fn an_interrupted_overload_starts_counting_again() {
+fn an_interrupted_overload_needs_the_majority_of_the_window() {
+    // Samples above the limit with one at it between: the overload latches once eight of the
+    // last fifteen were above — the one at the limit delays it by a tick, it does not
+    // restart the count.
     let over = sample(Kgf::from_int(31));
     let mut watch = settled(Kgf::from_int(31), Kgf::from_int(31));
-    assert_eq!(after(OVERLOAD_PERSIST - 1, &mut watch, &over), None);
+    assert_eq!(after(MAJORITY - 1, &mut watch, &over), None);
     assert_eq!(watch.check(&sample(Kgf::from_int(30))), None);
-    assert_eq!(after(OVERLOAD_PERSIST - 1, &mut watch, &over), None);
+    assert_eq!(watch.check(&over), Some(FaultCode::Overload));
+    // Seven above, eight at the limit, then one above: the first seven have left the window.
+    let mut watch = settled(Kgf::from_int(31), Kgf::from_int(31));
+    assert_eq!(after(MAJORITY - 1, &mut watch, &over), None);
+    assert_eq!(after(MAJORITY, &mut watch, &sample(Kgf::from_int(30))), None);
+    assert_eq!(watch.check(&over), None);
+    assert_eq!(after(MAJORITY - 2, &mut watch, &over), None);
     assert_eq!(watch.check(&over), Some(FaultCode::Overload));
 }
 
 #[test]
 fn a_single_spike_moves_the_tracked_tension_by_one_slew_only() {
     // A +25 kgf spike on a 20 kgf hold: the tracked tension rises by TRACK_SLEW, never to
-    // the spike, and the peak by PEAK_RISE; the overload counter does not start.
+    // the spike, and the peak not at all (one sample is no majority).
     let mut watch = settled(Kgf::from_int(20), Kgf::from_int(20));
     assert_eq!(watch.check(&sample(Kgf::from_int(45))), None);
     assert_eq!(watch.tension, Kgf::from_int(20).saturating_add(TRACK_SLEW));
-    assert_eq!(watch.peak, Kgf::from_int(20).saturating_add(PEAK_RISE));
+    assert_eq!(watch.peak, Kgf::from_int(20));
     // A sample within one slew is taken exactly.
     assert_eq!(watch.check(&sample(Kgf::from_tenths(205))), None);
     assert_eq!(watch.tension, Kgf::from_tenths(205));
@@ -131,7 +145,7 @@ fn tracked_values_stay_within_the_track_limit() {
     watch.check(&sample(Kgf::MAX));
     assert_eq!((watch.tension, watch.raw), (TRACK_LIMIT, TRACK_LIMIT));
     let low = Kgf::ZERO.saturating_sub(TRACK_LIMIT);
-    let mut watch = TensionWatch::from_parts(0, [Kgf::ZERO, low, low], [0; 4]);
+    let mut watch = TensionWatch::from_parts(0, [Kgf::ZERO, low, low], [0; 2], [0; 3]);
     watch.check(&sample(Kgf::MIN));
     assert_eq!((watch.tension, watch.raw), (low, low));
     assert!(watch.is_valid());
@@ -141,23 +155,25 @@ fn tracked_values_stay_within_the_track_limit() {
 fn string_break_is_strictly_below_half_the_peak() {
     let peak = Kgf::from_int(20);
     let half = Kgf::from_int(10);
-    assert_eq!(after(BREAK_PERSIST + 5, &mut settled(peak, half), &sample(half)), None);
+    assert_eq!(after(MAJORITY + 5, &mut settled(peak, half), &sample(half)), None);
     let below = sample(kgf_bits(half, -STEP));
-    assert_eq!(after(BREAK_PERSIST - 1, &mut settled(peak, half), &below), None);
-    assert_eq!(
-        after(BREAK_PERSIST, &mut settled(peak, half), &below),
-        Some(FaultCode::StringBreak)
-    );
+    assert_eq!(after(MAJORITY - 1, &mut settled(peak, half), &below), None);
+    assert_eq!(after(MAJORITY, &mut settled(peak, half), &below), Some(FaultCode::StringBreak));
 }
 
 #[test]
-fn a_collapse_from_the_peak_is_a_break_within_half_the_peak_in_ticks_plus_the_persistence() {
+fn a_collapse_from_the_peak_is_a_break_once_tracked_below_half_and_the_window_agrees() {
     // From a 20 kgf hold the tracked tension falls 1 kgf a tick: below 10 kgf at the 11th
-    // tick, which is the first of BREAK_PERSIST ticks of confirmation — the break latches at
-    // tick 10 + BREAK_PERSIST = 15 (REQ-SAFE-09: ⌊P/2⌋ + 5 ms at 1 kgf/ms).
+    // tick, the window's majority below since the 8th — the break latches at tick 11
+    // (REQ-SAFE-09: max(⌊P/2⌋ + 1, 8) ms).
     let mut watch = settled(Kgf::from_int(20), Kgf::from_int(20));
     let gone = sample(Kgf::ZERO);
-    assert_eq!(after(10 + BREAK_PERSIST - 1, &mut watch, &gone), None);
+    assert_eq!(after(10_u32, &mut watch, &gone), None);
+    assert_eq!(watch.check(&gone), Some(FaultCode::StringBreak));
+    // From 10 kgf the tracked tension is below 5 at the 6th tick; the window decides, at
+    // the 8th.
+    let mut watch = settled(Kgf::from_int(10), Kgf::from_int(10));
+    assert_eq!(after(MAJORITY - 1, &mut watch, &gone), None);
     assert_eq!(watch.check(&gone), Some(FaultCode::StringBreak));
 }
 
@@ -165,24 +181,32 @@ fn a_collapse_from_the_peak_is_a_break_within_half_the_peak_in_ticks_plus_the_pe
 fn string_break_needs_the_peak_to_have_reached_the_minimum() {
     // Peak exactly at BREAK_MIN_PEAK: a collapse is a break.
     let mut watch = settled(BREAK_MIN_PEAK, Kgf::ZERO);
-    assert_eq!(after(BREAK_PERSIST, &mut watch, &sample(Kgf::ZERO)), Some(FaultCode::StringBreak));
+    assert_eq!(after(MAJORITY, &mut watch, &sample(Kgf::ZERO)), Some(FaultCode::StringBreak));
     // One step below it: slack being taken up, never a break.
     let mut watch = settled(kgf_bits(BREAK_MIN_PEAK, -STEP), Kgf::ZERO);
-    assert_eq!(after(BREAK_PERSIST + 5, &mut watch, &sample(Kgf::ZERO)), None);
+    assert_eq!(after(MAJORITY + 5, &mut watch, &sample(Kgf::ZERO)), None);
 }
 
 #[test]
 fn the_peak_is_the_highest_tracked_tension_reached_at_the_peak_rise() {
     let mut watch = settled(Kgf::ZERO, Kgf::ZERO);
-    // 8 kgf for three ticks: tracked 1, 2, 3 kgf; the peak rises PEAK_RISE a tick behind it.
-    after(3, &mut watch, &sample(Kgf::from_int(8)));
-    assert_eq!(watch.tension, Kgf::from_int(3));
+    // 8 kgf from rest: tracked 1, 2, 3 … kgf; the peak waits until eight samples have been
+    // above it, then rises PEAK_RISE a tick behind the tracked tension.
+    after(MAJORITY - 1, &mut watch, &sample(Kgf::from_int(8)));
+    assert_eq!(watch.tension, Kgf::from_int(7));
+    assert_eq!(watch.peak, Kgf::ZERO);
+    after(3_u32, &mut watch, &sample(Kgf::from_int(8)));
+    assert_eq!(watch.tension, Kgf::from_int(8));
     assert_eq!(watch.peak, Kgf::from_bits(PEAK_RISE.to_bits() * 3));
-    // A tracked tension within one rise of the peak is taken exactly.
+    // A tracked tension within one rise of the peak is taken exactly, once the window's
+    // majority lies above the peak.
     let mut close = settled(Kgf::from_int(8), Kgf::from_int(8));
-    close.check(&sample(kgf_bits(Kgf::from_int(8), PEAK_RISE.to_bits())));
+    let higher = sample(kgf_bits(Kgf::from_int(8), PEAK_RISE.to_bits()));
+    after(MAJORITY - 1, &mut close, &higher);
+    assert_eq!(close.peak, Kgf::from_int(8));
+    close.check(&higher);
     assert_eq!(close.peak, kgf_bits(Kgf::from_int(8), PEAK_RISE.to_bits()));
-    after(60, &mut watch, &sample(Kgf::from_int(8)));
+    after(60_u32, &mut watch, &sample(Kgf::from_int(8)));
     assert_eq!(watch.peak, Kgf::from_int(8));
     for tenths in [30, 79, 0] {
         watch.check(&sample(Kgf::from_tenths(tenths)));
@@ -214,7 +238,7 @@ fn no_string_is_beyond_the_travel_without_a_loaded_string() {
     // `ticks` samples at `tension` at the start, then one at `travel` steps further.
     let at_travel = |tension: Kgf, ticks: u8, travel: i32| {
         let mut watch =
-            TensionWatch::from_parts(0, [tension.max(Kgf::ZERO), tension, tension], [0; 4]);
+            TensionWatch::from_parts(0, [tension.max(Kgf::ZERO), tension, tension], [0; 2], [0; 3]);
         after(ticks, &mut watch, &sample(tension));
         watch.check(&TensionSample { steps: travel, ..sample(tension) })
     };
@@ -232,7 +256,7 @@ fn no_string_is_beyond_the_travel_without_a_loaded_string() {
     // Once loaded, a later slack string is not "no string" (a break is the break rule's).
     let mut watch = settled(NO_STRING_TENSION, NO_STRING_TENSION);
     let slack = TensionSample { steps: NO_STRING_TRAVEL_STEPS + 1, ..sample(Kgf::ZERO) };
-    assert_eq!(after(3, &mut watch, &slack), None);
+    assert_eq!(after(3_u32, &mut watch, &slack), None);
 }
 
 #[test]
@@ -266,13 +290,14 @@ fn tension_faults_in_order_of_precedence() {
     let over = sample(Kgf::from_int(45));
     // Overload and end of travel together: end of travel.
     let mut watch = settled(Kgf::from_int(45), Kgf::from_int(45));
-    after(OVERLOAD_PERSIST - 1, &mut watch, &over);
+    after(MAJORITY - 1, &mut watch, &over);
     assert_eq!(watch.check(&TensionSample { limits: end, ..over }), Some(FaultCode::EndOfTravel));
     // Overload and a reversed reading together (a corrected overload, a negative raw): overload.
     let mut watch = TensionWatch::from_parts(
         0,
         [Kgf::from_int(45), Kgf::from_int(45), Kgf::from_int(-1)],
-        [0, 0, 0, LOADED_PERSIST],
+        [0, LOADED_PERSIST],
+        [0; 3],
     );
     let both = TensionSample { raw: Kgf::from_int(-1), ..over };
     assert_eq!(after(REVERSED_PERSIST, &mut watch, &both), Some(FaultCode::Overload));
@@ -280,7 +305,8 @@ fn tension_faults_in_order_of_precedence() {
     let mut watch = TensionWatch::from_parts(
         0,
         [Kgf::from_int(20), Kgf::ZERO, Kgf::from_int(-1)],
-        [0, 0, 0, LOADED_PERSIST],
+        [0, LOADED_PERSIST],
+        [0; 3],
     );
     let collapsed = TensionSample { raw: Kgf::from_int(-1), ..sample(Kgf::ZERO) };
     assert_eq!(after(REVERSED_PERSIST, &mut watch, &collapsed), Some(FaultCode::StringBreak));
@@ -292,42 +318,50 @@ fn tension_faults_in_order_of_precedence() {
 }
 
 /// The watch's invariant: tracked values within ±60 kgf, the peak within 0–60 kgf and at
-/// least the tracked tension, counters at most their persistence; exactly at each bound is
-/// valid, one step beyond is not.
+/// least the tracked tension, counters at most their persistence, histories within the
+/// window; exactly at each bound is valid, one step beyond is not.
 #[test]
 fn tension_watch_invariant_at_its_bounds() {
     let sixty = TRACK_LIMIT;
     let minus_sixty = Kgf::ZERO.saturating_sub(TRACK_LIMIT);
-    let valid = |tracked: [Kgf; 3], counters: [u8; 4]| {
-        TensionWatch::from_parts(7, tracked, counters).is_valid()
+    let valid = |tracked: [Kgf; 3], counters: [u8; 2], evidence: [u16; 3]| {
+        TensionWatch::from_parts(7, tracked, counters, evidence).is_valid()
     };
     let zero = [Kgf::ZERO; 3];
-    assert!(valid(zero, [0; 4]));
-    assert!(valid(
-        [sixty, sixty, sixty],
-        [OVERLOAD_PERSIST, BREAK_PERSIST, REVERSED_PERSIST, LOADED_PERSIST]
+    let none = [0; 3];
+    assert!(valid(zero, [0; 2], none));
+    assert!(valid([sixty, sixty, sixty], [REVERSED_PERSIST, LOADED_PERSIST], [EVIDENCE_BITS; 3]));
+    assert!(valid([Kgf::ZERO, minus_sixty, minus_sixty], [0; 2], none));
+    assert!(!valid(
+        [kgf_bits(Kgf::ZERO, -STEP), Kgf::MIN.max(minus_sixty), Kgf::ZERO],
+        [0; 2],
+        none
     ));
-    assert!(valid([Kgf::ZERO, minus_sixty, minus_sixty], [0; 4]));
-    assert!(!valid([kgf_bits(Kgf::ZERO, -STEP), Kgf::MIN.max(minus_sixty), Kgf::ZERO], [0; 4]));
-    assert!(!valid([kgf_bits(sixty, STEP), Kgf::ZERO, Kgf::ZERO], [0; 4]));
-    assert!(!valid([Kgf::ZERO, kgf_bits(minus_sixty, -STEP), Kgf::ZERO], [0; 4]));
-    assert!(!valid([Kgf::ZERO, Kgf::ZERO, kgf_bits(minus_sixty, -STEP)], [0; 4]));
-    assert!(!valid([sixty, sixty, kgf_bits(sixty, STEP)], [0; 4]));
+    assert!(!valid([kgf_bits(sixty, STEP), Kgf::ZERO, Kgf::ZERO], [0; 2], none));
+    assert!(!valid([Kgf::ZERO, kgf_bits(minus_sixty, -STEP), Kgf::ZERO], [0; 2], none));
+    assert!(!valid([Kgf::ZERO, Kgf::ZERO, kgf_bits(minus_sixty, -STEP)], [0; 2], none));
+    assert!(!valid([sixty, sixty, kgf_bits(sixty, STEP)], [0; 2], none));
     assert!(
-        valid([Kgf::from_int(5), kgf_bits(Kgf::from_int(5), STEP), Kgf::ZERO], [0; 4]),
+        valid([Kgf::from_int(5), kgf_bits(Kgf::from_int(5), STEP), Kgf::ZERO], [0; 2], none),
         "a peak lagging a rising tension"
     );
-    assert!(!valid(zero, [OVERLOAD_PERSIST + 1, 0, 0, 0]));
-    assert!(!valid(zero, [0, BREAK_PERSIST + 1, 0, 0]));
-    assert!(!valid(zero, [0, 0, REVERSED_PERSIST + 1, 0]));
-    assert!(!valid(zero, [0, 0, 0, LOADED_PERSIST + 1]));
+    assert!(!valid(zero, [REVERSED_PERSIST + 1, 0], none));
+    assert!(!valid(zero, [0, LOADED_PERSIST + 1], none));
+    for history in 0..3 {
+        let mut beyond = none;
+        beyond[history] = EVIDENCE_BITS + 1;
+        assert!(!valid(zero, [0; 2], beyond), "history {history}");
+    }
     assert!(TensionWatch::new(-5).is_valid());
-    assert_eq!(TensionWatch::new(-5), TensionWatch::from_parts(-5, zero, [0; 4]));
-    // A watch part-way through an overload latches after the remaining ticks only.
+    assert_eq!(TensionWatch::new(-5), TensionWatch::from_parts(-5, zero, [0; 2], none));
+    // A watch whose window already holds seven samples above the limit latches on the next.
     let thirty_one = Kgf::from_int(31);
     let mut watch =
-        TensionWatch::from_parts(0, [thirty_one; 3], [OVERLOAD_PERSIST - 1, 0, 0, LOADED_PERSIST]);
+        TensionWatch::from_parts(0, [thirty_one; 3], [0, LOADED_PERSIST], [0, 0, 0b111_1111]);
     assert_eq!(watch.check(&sample(thirty_one)), Some(FaultCode::Overload));
+    let mut watch =
+        TensionWatch::from_parts(0, [thirty_one; 3], [0, LOADED_PERSIST], [0, 0, 0b11_1111]);
+    assert_eq!(watch.check(&sample(thirty_one)), None);
 }
 
 #[test]

@@ -147,8 +147,11 @@ pub struct CheckpointInput {
     pub peak_tenths: u16,
     /// The tracked tension and raw tension, tenths of a kgf.
     pub tracked_tenths: [i16; 2],
-    /// Persistence counters: overload, break, reversed, loaded.
-    pub counters: [u8; 4],
+    /// Persistence counters: reversed, loaded.
+    pub counters: [u8; 2],
+    /// Evidence histories, a bit a tick: above the peak, below half of it, above the
+    /// overload limit (bits beyond the window are rejected by the checkpoint's invariant).
+    pub evidence: [u16; 3],
     /// Knot mode.
     pub knot: bool,
     /// Key-pad integrators.
@@ -248,6 +251,7 @@ impl CheckpointInput {
                     Kgf::from_tenths(raw_tenths),
                 ],
                 self.counters,
+                self.evidence,
             ),
             knot_mode: self.knot,
             keypad: KeyPad::from_parts(
@@ -648,6 +652,7 @@ pub(crate) mod verification {
         let watch = TensionWatch::from_parts(
             kani::any(),
             [Kgf::from_bits(kani::any()), Kgf::from_bits(kani::any()), Kgf::from_bits(kani::any())],
+            kani::any(),
             kani::any(),
         );
         let view = match kani::any::<u8>() {

@@ -2,8 +2,8 @@
 //! keeps the state valid, and a zero it accepts is within its bounds of the zero in use and
 //! of the self-test's tare, taken only at rest. The bounds are the rule's own bands, in volts
 //! on its board's chain (`RezeroBands::for_scale`: the kgf bounds through the board's gain);
-//! the Kani harness checks the property for every state, every band (any bits: every
-//! board's, and more) and every input on the paper's 5 V converter (the converter only
+//! the Kani harness checks the property for every valid state, its bands any a board can have
+//! (0–5.5 V each: every board's, and more), and every input on the paper's 5 V converter (the converter only
 //! turns codes into the volts the bands are compared with; the bounds follow from the
 //! comparisons whatever those volts are); `proofs/tests/rezero.rs` along random and
 //! adversarial sequences from power-up, on the paper's chain and on a divided chain on a
@@ -54,8 +54,8 @@ mod verification {
     use super::*;
     use taut_core::units::AdcCode;
 
-    /// REQ-ID-08 for every valid state (its bands any bits: every board's, and more), every
-    /// sample and every zero in use, on the paper's converter.
+    /// REQ-ID-08 for every valid state (its bands any a board can have, 0–5.5 V each: every
+    /// board's, and more), every sample and every zero in use, on the paper's converter.
     #[kani::proof]
     #[kani::unwind(7)]
     fn verify_rezero_step_bounded() {

@@ -47,7 +47,7 @@
 //! every 100 ms at rest.
 
 use crate::sense::load_cell::LoadCellScale;
-use crate::units::{AdcCode, AdcReference, Kgf, Q16, Volts};
+use crate::units::{ADC_REFERENCE_RANGE_MV, AdcCode, AdcReference, Kgf, Q16, Volts};
 
 /// Ticks the carriage must have rested at home, untouched, before readings are averaged.
 pub const REZERO_SETTLE_MS: u16 = 2_000;
@@ -77,6 +77,11 @@ pub const REZERO_RANGE: Kgf = Kgf(Q16::lit("0.5435"));
 /// the range the re-zero no longer follows.
 pub const DRIFT_WATCH: Kgf = Kgf(Q16::lit("0.2717"));
 
+/// The widest band a valid rule has ([`RezeroBands::is_valid`]): the widest converter's whole
+/// range, 5.5 V.
+const BAND_MAX: Volts = Volts(Q16::lit("5.5"));
+const _: () = assert!(ADC_REFERENCE_RANGE_MV.1 == 5_500, "BAND_MAX is the widest reference");
+
 /// The re-zero's bands in volts at one board's converter: [`REZERO_AGREE`],
 /// [`REZERO_STEP_MAX`], [`REZERO_RANGE`] and [`DRIFT_WATCH`] through its load-cell scale
 /// (each to the nearest Q15.16 bit, [`LoadCellScale::volts_of`]). Converted once, when the
@@ -89,7 +94,8 @@ pub struct RezeroBands {
     drift_watch: Volts,
 }
 
-/// Any bands, for proofs: each drawn whole, as bits — every board's bands, and more.
+/// Any bands, for proofs: each drawn whole, as bits ([`RezeroBands::is_valid`] states which a
+/// board can have) — every board's bands, and more.
 #[cfg(kani)]
 impl kani::Arbitrary for RezeroBands {
     fn any() -> Self {
@@ -112,6 +118,19 @@ impl RezeroBands {
             range: scale.volts_of(REZERO_RANGE),
             drift_watch: scale.volts_of(DRIFT_WATCH),
         }
+    }
+
+    /// Whether these are bands a board can have: each from zero up to the widest converter's
+    /// whole range ([`BAND_MAX`], 5.5 V). A valid scale's bands are far inside — at most
+    /// 0.11 V, [`REZERO_RANGE`] over the least gain a scale accepts (4.9 kgf/V, on a 5.5 V
+    /// converter) — and the bound keeps every band below the distance the rule compares it
+    /// with when that saturates at the format's range, so no band accepts every zero.
+    #[must_use]
+    pub fn is_valid(&self) -> bool {
+        // Constant bound: four bands.
+        [self.agree, self.step_max, self.range, self.drift_watch]
+            .iter()
+            .all(|&band| band >= Volts::ZERO && band <= BAND_MAX)
     }
 
     /// [`REZERO_AGREE`] in volts: how far the agreeing windows' means may spread.
@@ -267,8 +286,8 @@ impl Rezero {
     }
 
     /// Whether a real run can be in this state: the counts within their lengths, the sums
-    /// within what their readings can add to (any bands: the rule's bounds hold for every
-    /// board's).
+    /// within what their readings can add to, the bands a board's
+    /// ([`RezeroBands::is_valid`]).
     #[must_use]
     pub fn is_valid(&self) -> bool {
         self.rest_ms <= REZERO_SETTLE_MS
@@ -279,6 +298,7 @@ impl Rezero {
             && self.sums.iter().all(|&sum| sum <= WINDOW_SUM_MAX)
             && (self.ticks == 0 || self.rest_ms == REZERO_SETTLE_MS)
             && (self.windows == 0 || self.rest_ms == REZERO_SETTLE_MS)
+            && self.bands.is_valid()
     }
 
     /// Starts over: the rest is broken (or Ready was just entered).
@@ -486,6 +506,10 @@ mod tests {
             Rezero { sums: [0, 0, WINDOW_SUM_MAX + 1, 0, 0], ..settled },
             Rezero { ticks: 1, sum: 0, windows: 0, ..settling },
             Rezero { windows: 1, ..settling },
+            Rezero {
+                bands: RezeroBands { agree: Volts::from_bits(-1), ..paper_bands() },
+                ..settled
+            },
         ];
         for (index, state) in broken.iter().enumerate() {
             assert!(!state.is_valid(), "clause {index}: {state:?}");
@@ -709,6 +733,45 @@ mod tests {
             let calibrated = Some(at(-400));
             assert!(!rule.drifted_since(at(100), calibrated), "side {side}");
             assert!(rule.drifted_since(at(101), calibrated), "side {side}");
+        }
+    }
+
+    /// A board's bands are valid from zero to the widest converter's range, each band alone;
+    /// every scale the load cell accepts gives valid bands, at both ends of its gains on the
+    /// narrowest and widest converters.
+    #[test]
+    fn bands_are_valid_from_zero_to_the_widest_converter() {
+        let paper = paper_bands();
+        assert!(paper.is_valid());
+        let just_over = Volts::from_bits(BAND_MAX.to_bits() + 1);
+        let below_zero = Volts::from_bits(-1);
+        let each = |band: Volts| {
+            [
+                RezeroBands { agree: band, ..paper },
+                RezeroBands { step_max: band, ..paper },
+                RezeroBands { range: band, ..paper },
+                RezeroBands { drift_watch: band, ..paper },
+            ]
+        };
+        for bands in each(Volts::ZERO).into_iter().chain(each(BAND_MAX)) {
+            assert!(bands.is_valid(), "{bands:?}");
+        }
+        for bands in each(below_zero).into_iter().chain(each(just_over)) {
+            assert!(!bands.is_valid(), "{bands:?}");
+        }
+        for millivolts in [1_000, 3_300, 5_000, 5_500] {
+            let Some(reference) = AdcReference::from_millivolts(millivolts) else {
+                panic!("{millivolts} mV is a converter reference")
+            };
+            let (low, high) = LoadCellScale::gain_range(reference);
+            for gain in [low, high] {
+                let scale =
+                    crate::test_support::valid(LoadCellScale::new(reference, Volts::ZERO, gain));
+                let bands = RezeroBands::for_scale(&scale);
+                assert!(bands.is_valid(), "{millivolts} mV, {gain}: {bands:?}");
+                assert!(bands.range() <= Volts(Q16::lit("0.111")), "{bands:?}");
+                assert!(bands.agree() > Volts::ZERO, "{bands:?}");
+            }
         }
     }
 }

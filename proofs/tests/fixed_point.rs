@@ -5,7 +5,8 @@
 mod common;
 
 use proptest::prelude::*;
-use taut_core::sense::load_cell::{KGF_PER_VOLT_RANGE, ZERO_RANGE};
+use taut_core::sense::load_cell::{KGF_PER_VOLT_RANGE, LoadCellScale};
+use taut_core::units::Q16;
 use taut_proofs::fixed_point::{
     adc_volts_exact, current_amps_exact, load_cell_within_bound, panel_units_round_trip,
     saturating_ops_within_bound, unit_conversions_total,
@@ -31,10 +32,11 @@ fn panel_units_every_value() {
 #[test]
 fn load_cell_every_code_nominal_and_extreme_scales() {
     let mut cases = 0u32;
-    let zeros = [ZERO_RANGE.0.to_bits(), 3_277, ZERO_RANGE.1.to_bits()];
     let gains = [KGF_PER_VOLT_RANGE.0.to_bits(), 712_348, KGF_PER_VOLT_RANGE.1.to_bits()];
-    for zero in zeros {
-        for gain in gains {
+    for gain in gains {
+        // The zero band's ends on this gain (its top reads as `ZERO_OFFSET_MAX`).
+        let (floor, top) = LoadCellScale::zero_range(Q16::from_bits(gain));
+        for zero in [floor.to_bits(), 3_277, top.to_bits()] {
             for raw in 0..=4095 {
                 load_cell_within_bound(raw, zero, gain);
                 cases += 1;
@@ -46,10 +48,15 @@ fn load_cell_every_code_nominal_and_extreme_scales() {
 
 #[test]
 fn load_cell_any_valid_scale() {
-    let zero = ZERO_RANGE.0.to_bits()..=ZERO_RANGE.1.to_bits();
+    // The zero drawn as a fraction (in 2⁻¹⁶) of the band its gain allows.
+    let fraction = 0..=65_536i64;
     let gain = KGF_PER_VOLT_RANGE.0.to_bits()..=KGF_PER_VOLT_RANGE.1.to_bits();
-    common::check("load_cell_any_valid_scale", 20_000, (0..=4095u16, zero, gain), |(raw, z, g)| {
-        load_cell_within_bound(raw, z, g);
+    let inputs = (0..=4095u16, fraction, gain);
+    common::check("load_cell_any_valid_scale", 20_000, inputs, |(raw, fraction, g)| {
+        let (floor, top) = LoadCellScale::zero_range(Q16::from_bits(g));
+        let span = i64::from(top.to_bits() - floor.to_bits());
+        let zero = floor.to_bits() + i32::try_from((span * fraction) >> 16).expect("in the band");
+        load_cell_within_bound(raw, zero, g);
     });
 }
 

@@ -1,7 +1,9 @@
 //! The re-zero at rest's rule (REQ-ID-08) under `cargo test`: proptest along sequences from
 //! power-up — spells at rest with a drifting, noisy, humming, loaded or pushed load cell,
 //! broken by keys, motion and leaving home — with the zero in use following every accepted
-//! re-zero as the machine's does.
+//! re-zero as the machine's does, on the paper's chain (92 mV/kgf, 5 V converter) and on the
+//! firmware's kind (the same amplifier divided by 0.656 into a 3.3 V converter), each with
+//! the bands its own scale gives; the range is checked in kgf through that scale.
 #![allow(
     clippy::arithmetic_side_effects,
     clippy::cast_possible_truncation,
@@ -12,9 +14,26 @@
 )]
 
 use proptest::prelude::*;
-use taut_core::sense::rezero::{REZERO_RANGE, RestSample, Retare, Rezero};
-use taut_core::units::{AdcCode, Volts};
+use taut_core::board::{PAPER_KGF_PER_VOLT, PAPER_LOAD_CELL_ZERO};
+use taut_core::sense::load_cell::LoadCellScale;
+use taut_core::sense::rezero::{REZERO_RANGE, RestSample, Retare, Rezero, RezeroBands};
+use taut_core::units::{AdcCode, AdcReference, Q16, Volts};
 use taut_proofs::rezero::rezero_step_bounded;
+
+/// The paper's chain, or (`divided`) the same amplifier through a 33.2 kΩ / (17.4 + 33.2) kΩ
+/// divider into a 3.3 V converter.
+fn scale(divided: bool) -> LoadCellScale {
+    if divided {
+        let divider = Q16::lit("0.656126");
+        let reference = AdcReference::from_millivolts(3_300).expect("3.3 V");
+        let zero = Volts(PAPER_LOAD_CELL_ZERO.0.saturating_mul(divider));
+        LoadCellScale::new(reference, zero, PAPER_KGF_PER_VOLT.saturating_div(divider))
+            .expect("the divided chain is plausible")
+    } else {
+        LoadCellScale::new(taut_proofs::FIVE_VOLTS, PAPER_LOAD_CELL_ZERO, PAPER_KGF_PER_VOLT)
+            .expect("the paper's chain is plausible")
+    }
+}
 
 /// One spell of a sequence.
 #[derive(Clone, Debug)]
@@ -58,15 +77,21 @@ fn spell() -> impl Strategy<Value = Spell> {
 proptest! {
     #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
 
-    /// REQ-ID-08 along whole sequences from the self-test's tare.
+    /// REQ-ID-08 along whole sequences from the self-test's tare, on either board.
     #[test]
     fn rezero_step_bounded_along_sequences(
         spells in proptest::collection::vec(spell(), 1..6),
         tare in 20u16..120,
         seed in any::<u64>(),
+        divided in any::<bool>(),
     ) {
-        let reference = taut_proofs::FIVE_VOLTS.volts(AdcCode::new(tare));
-        let mut rule = Rezero::new(reference);
+        let scale = scale(divided);
+        let converter = scale.reference();
+        let reference = scale.volts(AdcCode::new(tare));
+        let mut rule = Rezero::new(reference, RezeroBands::for_scale(&scale));
+        // The range in kgf, and what half a bit of volts reads as (the bands' rounding).
+        let range = i64::from(REZERO_RANGE.to_bits()) << 16;
+        let gain = i64::from(scale.kgf_per_volt().to_bits());
         let mut zero = reference;
         let mut rng = seed | 1;
         let mut steps = 0i32;
@@ -99,12 +124,16 @@ proptest! {
                     key: broken && kind == 0,
                     code: AdcCode::new(code.clamp(0, 4_095) as u16),
                 };
-                if let Some(Retare::Zero(new)) = rezero_step_bounded(&mut rule, &sample, zero) {
+                if let Some(Retare::Zero(new)) =
+                    rezero_step_bounded(&mut rule, &sample, zero, converter)
+                {
                     zero = new;
                 }
-                // However the zero was walked, it never leaves the range.
+                // However the zero was walked, it never leaves the range: in volts on this
+                // chain, and in kgf through its gain (to the band's half bit).
                 let from_tare = (i64::from(zero.to_bits()) - i64::from(reference.to_bits())).abs();
-                prop_assert!(from_tare <= i64::from(REZERO_RANGE.to_bits()));
+                prop_assert!(from_tare <= i64::from(rule.bands().range().to_bits()));
+                prop_assert!(2 * (from_tare * gain - range) <= gain, "{from_tare} bits");
             }
         }
     }
@@ -113,14 +142,17 @@ proptest! {
 /// A steady unloaded cell drifting slowly is followed to within a code.
 #[test]
 fn rezero_follows_a_slow_drift() {
+    let scale = scale(false);
     let reference: Volts = taut_proofs::FIVE_VOLTS.volts(AdcCode::new(41));
-    let mut rule = Rezero::new(reference);
+    let mut rule = Rezero::new(reference, RezeroBands::for_scale(&scale));
     let mut zero = reference;
     // 20 codes over 100 s at rest.
     for t in 0..100_000u32 {
         let code = AdcCode::new(41 + (t / 5_000) as u16);
         let sample = RestSample { home: true, end: false, steps: 0, key: false, code };
-        if let Some(Retare::Zero(new)) = rezero_step_bounded(&mut rule, &sample, zero) {
+        if let Some(Retare::Zero(new)) =
+            rezero_step_bounded(&mut rule, &sample, zero, taut_proofs::FIVE_VOLTS)
+        {
             zero = new;
         }
     }

@@ -369,7 +369,7 @@ impl<const LOG: usize> Machine<LOG> {
         chart.knot_mode = checkpoint.knot_mode;
         if let Ok(scale) = chart.scale.tared_at(checkpoint.tare) {
             chart.scale = scale;
-            chart.rezero = crate::sense::rezero::Rezero::new(scale.zero());
+            chart.rezero = crate::sense::rezero::Rezero::new(scale.zero(), chart.rezero.bands());
         }
         let state = chart::state_at(checkpoint);
         let sample = Sample {
@@ -818,20 +818,23 @@ mod tests {
             &crate::test_support::paper_board(),
         );
         let mut now = 0;
-        // One code (1.22 mV) every 3 s, for 60 codes (73 mV): the range is 50 mV.
+        // One code (1.22 mV, 0.013 kgf) every 3 s, for 60 codes (73 mV, 0.80 kgf): the range
+        // is 0.5435 kgf, 50 mV on the paper's chain.
         for code in 41..=101u16 {
             at_home(&mut machine, 3_000, &mut now, |_| code, |_| 0);
         }
         let reference = volts(AdcCode::new(41)).0;
         let moved = machine.load_cell_zero().0.saturating_sub(reference);
-        assert!(moved <= crate::sense::rezero::REZERO_RANGE.0, "{moved}");
-        assert!(
-            moved > crate::sense::rezero::REZERO_RANGE.0.saturating_sub(volts(AdcCode::new(2)).0)
-        );
+        let scale = crate::test_support::paper_board().load_cell();
+        let range = crate::sense::rezero::RezeroBands::for_scale(&scale).range().0;
+        assert_eq!(range, crate::units::Q16::lit("0.05"));
+        assert!(moved <= range, "{moved}");
+        assert!(moved > range.saturating_sub(volts(AdcCode::new(2)).0));
     }
 
-    /// REQ-UI-12: the drift watch — a zero followed past 25 mV from the self-test's asks for a
-    /// recalibration (n-04) once; the service page shows the drift.
+    /// REQ-UI-12: the drift watch — a zero followed past 0.2717 kgf (25 mV on the paper's
+    /// chain) from the self-test's asks for a recalibration (n-04) once; the service page
+    /// shows the drift.
     #[test]
     fn a_zero_drifted_past_the_watch_raises_the_recalibration_notice_once() {
         let mut machine = Machine::resume(
@@ -840,13 +843,13 @@ mod tests {
             &crate::test_support::paper_board(),
         );
         let mut now = 0;
-        // Up to 20 codes (24.4 mV) above the tare: followed, no notice.
+        // Up to 20 codes (24.4 mV, 0.265 kgf) above the tare: followed, no notice.
         for code in 41..=61u16 {
             at_home(&mut machine, 3_000, &mut now, |_| code, |_| 0);
         }
         assert_eq!(machine.load_cell_zero(), volts(AdcCode::new(61)));
         assert_eq!(machine.notice(), None);
-        // 21 codes (25.6 mV): the notice, shown in Ready.
+        // 21 codes (25.6 mV, 0.279 kgf): the notice, shown in Ready.
         at_home(&mut machine, 3_000, &mut now, |_| 62, |_| 0);
         assert_eq!(machine.notice(), Some(Notice::ZeroDrift));
         assert_eq!(machine.notice().map(Notice::number), Some(4));

@@ -28,6 +28,15 @@
 //!    step behind the operator's back (creeping tare steps cannot accumulate a held load
 //!    into the zero beyond this bound either).
 //!
+//! The bands of steps 2–4 and the drift watch are tension facts — how still a hand is, what
+//! a held string weighs, what drift needs recalibrating — so they are stated in kgf at the
+//! gripper ([`REZERO_AGREE`], [`REZERO_STEP_MAX`], [`REZERO_RANGE`], [`DRIFT_WATCH`]) and
+//! converted to volts at the converter once, through the board's load-cell scale
+//! ([`RezeroBands::for_scale`]), when the rule is built; the rule compares volts, as the
+//! readings come. On the paper's chain (92 mV/kgf on a 5 V converter) the bands are 1.5, 5,
+//! 50 and 25 mV; on a chain divided by 0.656 before a 3.3 V converter, 0.98, 3.3, 32.8 and
+//! 16.4 mV — the same tensions, and about the same number of codes.
+//!
 //! Windows accepted under all four become the load cell's zero (the mean of their 500
 //! readings, to a fraction of a code, like the self-test's), and the windows go on: at rest
 //! the zero follows its drift every 100 ms. The calibration's correction is relative to
@@ -37,7 +46,8 @@
 //! Cost: one addition and a few comparisons a tick; a pass over five sums and two divisions
 //! every 100 ms at rest.
 
-use crate::units::{AdcCode, AdcReference, Q16, Volts};
+use crate::sense::load_cell::LoadCellScale;
+use crate::units::{ADC_REFERENCE_RANGE_MV, AdcCode, AdcReference, Kgf, Q16, Volts};
 
 /// Ticks the carriage must have rested at home, untouched, before readings are averaged.
 pub const REZERO_SETTLE_MS: u16 = 2_000;
@@ -46,22 +56,107 @@ pub const REZERO_WINDOW: u16 = 100;
 /// Consecutive windows that must agree: half a second.
 pub const REZERO_WINDOWS: usize = 5;
 const _: () = assert!(REZERO_WINDOWS == 5, "the mean's count below is 5 windows");
-/// How far the agreeing windows' means may spread: 1.5 mV (≈ 0.016 kgf at 92 mV/kgf,
-/// ≈ 1.2 codes); a window's mean has ≈ 0.3 mV of noise at the family's noisiest 3 mV rms.
-pub const REZERO_AGREE: Volts = Volts(Q16::lit("0.0015"));
-/// How far a new zero may lie from the zero in use: 5 mV (≈ 0.054 kgf, 4 codes).
-pub const REZERO_STEP_MAX: Volts = Volts(Q16::lit("0.005"));
-/// How far a new zero may lie from the self-test's: 50 mV (≈ 0.54 kgf).
-pub const REZERO_RANGE: Volts = Volts(Q16::lit("0.05"));
-/// The drift watch (REQ-UI-12): a zero that has moved more than 25 mV (≈ 0.27 kgf, half the
-/// re-zero's range) from the self-test's asks for a recalibration. The re-zero removes the
-/// offset itself, but a bridge whose zero moved that far has seen a temperature change (or a
-/// knock) that moves its sensitivity too — a strain-gauge chain's span coefficient is of
-/// the order of its zero's, ≈ 0.02 % per kelvin, so ≈ 25 K at the family's largest zero
-/// coefficient, 0.25 kgf at 50 kgf, more than the hold's accuracy — which only a
-/// calibration measures; and the operator hears of it before the zero reaches the range the
-/// re-zero no longer follows.
-pub const DRIFT_WATCH: Volts = Volts(Q16::lit("0.025"));
+/// How far the agreeing windows' means may spread: 0.0163 kgf (1.5 mV on the paper's chain,
+/// ≈ 1.2 codes on any chain whose full scale is the paper's); a window's mean has ≈ 0.003 kgf
+/// of noise at the family's noisiest 0.033 kgf rms a sample, while a hand on the gripper
+/// wanders by tens of grams.
+pub const REZERO_AGREE: Kgf = Kgf(Q16::lit("0.0163"));
+/// How far a new zero may lie from the zero in use: 0.0544 kgf (5 mV on the paper's chain,
+/// 4 codes) — more than the zero drifts between two re-zeros, less than a string held in the
+/// gripper weighs.
+pub const REZERO_STEP_MAX: Kgf = Kgf(Q16::lit("0.0544"));
+/// How far a new zero may lie from the self-test's: 0.5435 kgf (50 mV on the paper's chain).
+pub const REZERO_RANGE: Kgf = Kgf(Q16::lit("0.5435"));
+/// The drift watch (REQ-UI-12): a zero that has moved more than 0.2717 kgf (25 mV on the
+/// paper's chain, half the re-zero's range) from the self-test's asks for a recalibration.
+/// The re-zero removes the offset itself, but a bridge whose zero moved that far has seen a
+/// temperature change (or a knock) that moves its sensitivity too — a strain-gauge chain's
+/// span coefficient is of the order of its zero's, ≈ 0.02 % per kelvin, so ≈ 25 K at the
+/// family's largest zero coefficient, 0.25 kgf at 50 kgf, more than the hold's accuracy —
+/// which only a calibration measures; and the operator hears of it before the zero reaches
+/// the range the re-zero no longer follows.
+pub const DRIFT_WATCH: Kgf = Kgf(Q16::lit("0.2717"));
+
+/// The widest band a valid rule has ([`RezeroBands::is_valid`]): the widest converter's whole
+/// range, 5.5 V.
+const BAND_MAX: Volts = Volts(Q16::lit("5.5"));
+const _: () = assert!(ADC_REFERENCE_RANGE_MV.1 == 5_500, "BAND_MAX is the widest reference");
+
+/// The re-zero's bands in volts at one board's converter: [`REZERO_AGREE`],
+/// [`REZERO_STEP_MAX`], [`REZERO_RANGE`] and [`DRIFT_WATCH`] through its load-cell scale
+/// (each to the nearest Q15.16 bit, [`LoadCellScale::volts_of`]). Converted once, when the
+/// rule is built; a re-tare keeps the gain, so the bands stay.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct RezeroBands {
+    agree: Volts,
+    step_max: Volts,
+    range: Volts,
+    drift_watch: Volts,
+}
+
+/// Any bands, for proofs: each drawn whole, as bits ([`RezeroBands::is_valid`] states which a
+/// board can have) — every board's bands, and more.
+#[cfg(kani)]
+impl kani::Arbitrary for RezeroBands {
+    fn any() -> Self {
+        Self {
+            agree: Volts::from_bits(kani::any()),
+            step_max: Volts::from_bits(kani::any()),
+            range: Volts::from_bits(kani::any()),
+            drift_watch: Volts::from_bits(kani::any()),
+        }
+    }
+}
+
+impl RezeroBands {
+    /// The bands on the chain of `scale` (its gain `k`: a band of `F` kgf is `F / k` volts).
+    #[must_use]
+    pub fn for_scale(scale: &LoadCellScale) -> Self {
+        Self {
+            agree: scale.volts_of(REZERO_AGREE),
+            step_max: scale.volts_of(REZERO_STEP_MAX),
+            range: scale.volts_of(REZERO_RANGE),
+            drift_watch: scale.volts_of(DRIFT_WATCH),
+        }
+    }
+
+    /// Whether these are bands a board can have: each from zero up to the widest converter's
+    /// whole range ([`BAND_MAX`], 5.5 V). A valid scale's bands are far inside — at most
+    /// 0.11 V, [`REZERO_RANGE`] over the least gain a scale accepts (4.9 kgf/V, on a 5.5 V
+    /// converter) — and the bound keeps every band below the distance the rule compares it
+    /// with when that saturates at the format's range, so no band accepts every zero.
+    #[must_use]
+    pub fn is_valid(&self) -> bool {
+        // Constant bound: four bands.
+        [self.agree, self.step_max, self.range, self.drift_watch]
+            .iter()
+            .all(|&band| band >= Volts::ZERO && band <= BAND_MAX)
+    }
+
+    /// [`REZERO_AGREE`] in volts: how far the agreeing windows' means may spread.
+    #[must_use]
+    pub const fn agree(&self) -> Volts {
+        self.agree
+    }
+
+    /// [`REZERO_STEP_MAX`] in volts: how far a new zero may lie from the zero in use.
+    #[must_use]
+    pub const fn step_max(&self) -> Volts {
+        self.step_max
+    }
+
+    /// [`REZERO_RANGE`] in volts: how far a new zero may lie from the self-test's.
+    #[must_use]
+    pub const fn range(&self) -> Volts {
+        self.range
+    }
+
+    /// [`DRIFT_WATCH`] in volts: the zero's drift that asks for a recalibration.
+    #[must_use]
+    pub const fn drift_watch(&self) -> Volts {
+        self.drift_watch
+    }
+}
 
 /// What one tick tells the re-zero rule.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
@@ -91,11 +186,13 @@ pub enum Retare {
     OutOfRange,
 }
 
-/// The re-zero rule's state (see the module docs): 40 bytes.
+/// The re-zero rule's state (see the module docs): 56 bytes.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
 pub struct Rezero {
     /// The self-test's zero.
     reference: Volts,
+    /// The bands in volts on the board's chain.
+    bands: RezeroBands,
     /// Consecutive ticks at rest, up to [`REZERO_SETTLE_MS`].
     rest_ms: u16,
     /// Readings in the present window.
@@ -114,12 +211,13 @@ pub struct Rezero {
 
 /// Any re-zero state, for proofs ([`Rezero::is_valid`] states which are reachable): every
 /// field drawn whole (`Volts` wraps a `fixed` number, which has no `Arbitrary`: its bits are
-/// drawn instead).
+/// drawn instead), the bands too — every board's bands, and more.
 #[cfg(kani)]
 impl kani::Arbitrary for Rezero {
     fn any() -> Self {
         Self {
             reference: Volts::from_bits(kani::any()),
+            bands: kani::any(),
             rest_ms: kani::any(),
             ticks: kani::any(),
             steps: kani::any(),
@@ -140,11 +238,13 @@ fn distance(a: Volts, b: Volts) -> Q16 {
 }
 
 impl Rezero {
-    /// A rule whose reference is the self-test's zero `reference`, no rest yet.
+    /// A rule whose reference is the self-test's zero `reference`, with the `bands` of the
+    /// board's chain ([`RezeroBands::for_scale`]), no rest yet.
     #[must_use]
-    pub const fn new(reference: Volts) -> Self {
+    pub const fn new(reference: Volts, bands: RezeroBands) -> Self {
         Self {
             reference,
+            bands,
             rest_ms: 0,
             ticks: 0,
             steps: 0,
@@ -161,11 +261,17 @@ impl Rezero {
         self.reference
     }
 
+    /// The bands the rule keeps to, in volts on the board's chain.
+    #[must_use]
+    pub const fn bands(&self) -> RezeroBands {
+        self.bands
+    }
+
     /// Whether the zero in use, `zero`, has drifted past [`DRIFT_WATCH`] from the
     /// self-test's.
     #[must_use]
     pub fn drifted(&self, zero: Volts) -> bool {
-        distance(zero, self.reference) > DRIFT_WATCH.0
+        distance(zero, self.reference) > self.bands.drift_watch.0
     }
 
     /// Whether the zero in use, `zero`, has drifted past [`DRIFT_WATCH`] from the self-test's
@@ -175,11 +281,13 @@ impl Rezero {
     #[must_use]
     pub fn drifted_since(&self, zero: Volts, calibrated_at: Option<Volts>) -> bool {
         self.drifted(zero)
-            || calibrated_at.is_some_and(|calibrated| distance(zero, calibrated) > DRIFT_WATCH.0)
+            || calibrated_at
+                .is_some_and(|calibrated| distance(zero, calibrated) > self.bands.drift_watch.0)
     }
 
     /// Whether a real run can be in this state: the counts within their lengths, the sums
-    /// within what their readings can add to.
+    /// within what their readings can add to, the bands a board's
+    /// ([`RezeroBands::is_valid`]).
     #[must_use]
     pub fn is_valid(&self) -> bool {
         self.rest_ms <= REZERO_SETTLE_MS
@@ -190,11 +298,12 @@ impl Rezero {
             && self.sums.iter().all(|&sum| sum <= WINDOW_SUM_MAX)
             && (self.ticks == 0 || self.rest_ms == REZERO_SETTLE_MS)
             && (self.windows == 0 || self.rest_ms == REZERO_SETTLE_MS)
+            && self.bands.is_valid()
     }
 
     /// Starts over: the rest is broken (or Ready was just entered).
     pub fn restart(&mut self) {
-        *self = Self::new(self.reference);
+        *self = Self::new(self.reference, self.bands);
     }
 
     /// One tick (REQ-ID-08): `sample` what the machine sees, `zero` the load cell's zero in
@@ -254,14 +363,14 @@ impl Rezero {
             .mean_volts(high, REZERO_WINDOW)
             .0
             .saturating_sub(reference.mean_volts(low, REZERO_WINDOW).0);
-        if spread > REZERO_AGREE.0 {
+        if spread > self.bands.agree.0 {
             return Some(Retare::Unsteady);
         }
         // 5 × 100 readings.
         let mean = reference.mean_volts(total, REZERO_WINDOW.saturating_mul(5));
-        Some(if distance(mean, zero) > REZERO_STEP_MAX.0 {
+        Some(if distance(mean, zero) > self.bands.step_max.0 {
             Retare::Loaded
-        } else if distance(mean, self.reference) > REZERO_RANGE.0 {
+        } else if distance(mean, self.reference) > self.bands.range.0 {
             Retare::OutOfRange
         } else {
             Retare::Zero(mean)
@@ -279,6 +388,27 @@ mod tests {
     use super::*;
 
     const ZERO: Volts = Volts(Q16::lit("0.05"));
+
+    /// The bands on the paper's chain (92 mV/kgf on a 5 V converter).
+    fn paper_bands() -> RezeroBands {
+        RezeroBands::for_scale(&crate::test_support::paper_board().load_cell())
+    }
+
+    /// The firmware's kind of chain: the paper's amplifier through a 0.656 divider into a
+    /// 3.3 V converter (60.4 mV/kgf at the pin, zero 32.8 mV).
+    fn divided_scale() -> LoadCellScale {
+        use crate::board::{PAPER_KGF_PER_VOLT, PAPER_LOAD_CELL_ZERO};
+        let divider = Q16::lit("0.656126");
+        let Some(reference) = AdcReference::from_millivolts(3_300) else {
+            panic!("3.3 V is a converter reference")
+        };
+        let zero = Volts(PAPER_LOAD_CELL_ZERO.0.saturating_mul(divider));
+        crate::test_support::valid(LoadCellScale::new(
+            reference,
+            zero,
+            PAPER_KGF_PER_VOLT.saturating_div(divider),
+        ))
+    }
 
     fn rest(code: u16) -> RestSample {
         RestSample { home: true, end: false, steps: 7, key: false, code: AdcCode::new(code) }
@@ -300,16 +430,27 @@ mod tests {
         }
     }
 
-    /// Feeds `sample(tick)` for `ticks` ticks; the verdicts.
+    /// Feeds `sample(tick)` for `ticks` ticks on the paper's 5 V converter; the verdicts.
     fn feed(
         rule: &mut Rezero,
         ticks: u32,
         zero: Volts,
+        sample: impl FnMut(u32) -> RestSample,
+    ) -> Tally {
+        feed_on(rule, ticks, zero, FIVE_VOLTS, sample)
+    }
+
+    /// Feeds `sample(tick)` for `ticks` ticks on a converter of `reference`; the verdicts.
+    fn feed_on(
+        rule: &mut Rezero,
+        ticks: u32,
+        zero: Volts,
+        reference: AdcReference,
         mut sample: impl FnMut(u32) -> RestSample,
     ) -> Tally {
         let mut tally = Tally::default();
         for t in 0..ticks {
-            if let Some(verdict) = rule.observe(&sample(t), zero, FIVE_VOLTS) {
+            if let Some(verdict) = rule.observe(&sample(t), zero, reference) {
                 match verdict {
                     Retare::Zero(_) => tally.zero += 1,
                     Retare::Unsteady => tally.unsteady += 1,
@@ -324,7 +465,7 @@ mod tests {
 
     #[test]
     fn a_steady_unloaded_gripper_is_tared_after_the_settling_and_five_windows() {
-        let mut rule = Rezero::new(ZERO);
+        let mut rule = Rezero::new(ZERO, paper_bands());
         // Readings alternating 41 and 42 codes: their mean, 41.5 codes, is the zero.
         let settle = u32::from(REZERO_SETTLE_MS);
         let window = u32::from(REZERO_WINDOW);
@@ -350,11 +491,11 @@ mod tests {
             windows: 5,
             next: 4,
             sums: [WINDOW_SUM_MAX; REZERO_WINDOWS],
-            ..Rezero::new(ZERO)
+            ..Rezero::new(ZERO, paper_bands())
         };
         assert!(settled.is_valid());
-        assert!(Rezero::new(ZERO).is_valid());
-        let settling = Rezero { rest_ms: REZERO_SETTLE_MS - 1, ..Rezero::new(ZERO) };
+        assert!(Rezero::new(ZERO, paper_bands()).is_valid());
+        let settling = Rezero { rest_ms: REZERO_SETTLE_MS - 1, ..Rezero::new(ZERO, paper_bands()) };
         assert!(settling.is_valid());
         let broken = [
             Rezero { rest_ms: REZERO_SETTLE_MS + 1, ..settled },
@@ -365,6 +506,10 @@ mod tests {
             Rezero { sums: [0, 0, WINDOW_SUM_MAX + 1, 0, 0], ..settled },
             Rezero { ticks: 1, sum: 0, windows: 0, ..settling },
             Rezero { windows: 1, ..settling },
+            Rezero {
+                bands: RezeroBands { agree: Volts::from_bits(-1), ..paper_bands() },
+                ..settled
+            },
         ];
         for (index, state) in broken.iter().enumerate() {
             assert!(!state.is_valid(), "clause {index}: {state:?}");
@@ -374,7 +519,7 @@ mod tests {
 
     #[test]
     fn the_drift_watch_is_past_twenty_five_millivolts_either_way() {
-        let rule = Rezero::new(ZERO);
+        let rule = Rezero::new(ZERO, paper_bands());
         let at = |mv: i32| Volts(ZERO.0.saturating_add(Volts::from_milli(mv).0));
         assert!(!rule.drifted(ZERO));
         assert!(!rule.drifted(at(25)) && !rule.drifted(at(-25)));
@@ -386,7 +531,7 @@ mod tests {
     /// either way; without a known calibration zero only the self-test's counts.
     #[test]
     fn the_drift_watch_also_counts_from_the_calibrations_zero() {
-        let rule = Rezero::new(ZERO);
+        let rule = Rezero::new(ZERO, paper_bands());
         let at = |mv: i32| Volts(ZERO.0.saturating_add(Volts::from_milli(mv).0));
         let calibrated = Some(at(-20));
         assert!(!rule.drifted_since(ZERO, calibrated) && !rule.drifted_since(at(4), calibrated));
@@ -401,7 +546,7 @@ mod tests {
 
     #[test]
     fn a_string_held_in_the_gripper_is_refused_as_loaded() {
-        let mut rule = Rezero::new(ZERO);
+        let mut rule = Rezero::new(ZERO, paper_bands());
         // 0.1 kgf of string: ≈ 7.5 codes above the zero; steady.
         let verdicts = feed(&mut rule, 4_000, ZERO, |_| rest(49));
         assert!(verdicts.loaded > 10 && verdicts.loaded == verdicts.total(), "{verdicts:?}");
@@ -409,7 +554,7 @@ mod tests {
 
     #[test]
     fn a_hand_pushing_the_gripper_is_refused_as_unsteady() {
-        let mut rule = Rezero::new(ZERO);
+        let mut rule = Rezero::new(ZERO, paper_bands());
         // A push wandering by 2 codes over 0.4 s, within the step.
         let verdicts = feed(&mut rule, 4_000, ZERO, |t| rest(41 + 2 * ((t / 200) % 2) as u16));
         assert!(verdicts.unsteady > 10 && verdicts.unsteady == verdicts.total(), "{verdicts:?}");
@@ -419,11 +564,11 @@ mod tests {
     fn a_zero_walked_past_the_range_is_refused_and_one_within_it_accepted() {
         // The zero in use has followed the drift to 0.099 V; the reference is 0.05 V.
         let far = Volts(Q16::lit("0.1"));
-        let mut rule = Rezero::new(ZERO);
+        let mut rule = Rezero::new(ZERO, paper_bands());
         let verdicts = feed(&mut rule, 4_000, far, |_| rest(82)); // 0.1001 V
         assert!(verdicts.out_of_range > 10 && verdicts.out_of_range == verdicts.total());
         let near = Volts(Q16::lit("0.095"));
-        let mut rule = Rezero::new(ZERO);
+        let mut rule = Rezero::new(ZERO, paper_bands());
         let verdicts = feed(&mut rule, 4_000, near, |_| rest(78)); // 0.0952 V
         assert!(verdicts.zero > 10 && verdicts.zero == verdicts.total(), "{verdicts:?}");
     }
@@ -440,7 +585,7 @@ mod tests {
             |s| RestSample { code: AdcCode::MAX, ..s },
         ];
         for broken in breaks {
-            let mut rule = Rezero::new(ZERO);
+            let mut rule = Rezero::new(ZERO, paper_bands());
             // One broken tick before the second window completes: no verdict until a whole
             // new settling and two windows have passed (then one every window).
             let broken_at = settle + 150;
@@ -450,16 +595,183 @@ mod tests {
             });
             assert_eq!(verdicts.zero, 2, "{verdicts:?}");
             assert_eq!(verdicts.total(), 2, "{verdicts:?}");
-            let mut rule = Rezero::new(ZERO);
+            let mut rule = Rezero::new(ZERO, paper_bands());
             let verdicts = feed(&mut rule, ticks - 2, ZERO, |t| {
                 if t == broken_at { broken(rest(41)) } else { rest(41) }
             });
             assert_eq!(verdicts.total(), 1, "{verdicts:?}");
-            let mut rule = Rezero::new(ZERO);
+            let mut rule = Rezero::new(ZERO, paper_bands());
             let verdicts = feed(&mut rule, broken_at + settle, ZERO, |t| {
                 if t == broken_at { broken(rest(41)) } else { rest(41) }
             });
             assert_eq!(verdicts.total(), 0, "{verdicts:?}");
+        }
+    }
+
+    /// On the paper's chain the bands in kgf are today's bands in volts to the Q15.16 bit:
+    /// 1.5, 5, 50 and 25 mV.
+    #[test]
+    fn the_papers_bands_are_its_millivolts() {
+        let bands = paper_bands();
+        assert_eq!(bands.agree(), Volts(Q16::lit("0.0015")));
+        assert_eq!(bands.step_max(), Volts(Q16::lit("0.005")));
+        assert_eq!(bands.range(), Volts(Q16::lit("0.05")));
+        assert_eq!(bands.drift_watch(), Volts(Q16::lit("0.025")));
+        assert_eq!(Rezero::new(ZERO, bands).bands(), bands);
+    }
+
+    /// A second board, its chain divided by 0.656 before a 3.3 V converter, gets bands in
+    /// volts that read as the same kgf through its own gain (to half a Q15.16 bit of volts),
+    /// so its re-zero refuses the same held string and watches the same drift.
+    #[test]
+    fn a_divided_chain_gets_bands_that_mean_the_same_kgf() {
+        let paper = crate::test_support::paper_board().load_cell();
+        let divided = divided_scale();
+        for scale in [paper, divided] {
+            let bands = RezeroBands::for_scale(&scale);
+            let gain = i64::from(scale.kgf_per_volt().to_bits());
+            let pairs = [
+                (bands.agree(), REZERO_AGREE),
+                (bands.step_max(), REZERO_STEP_MAX),
+                (bands.range(), REZERO_RANGE),
+                (bands.drift_watch(), DRIFT_WATCH),
+            ];
+            for (band, kgf) in pairs {
+                // band × k against the band's kgf, both ×2¹⁶ × 2¹⁶: within half a bit × k.
+                let read = i64::from(band.to_bits()) * gain;
+                let stated = i64::from(kgf.to_bits()) << 16;
+                assert!(2 * (read - stated).abs() <= gain, "{band:?} for {kgf:?} on {scale:?}");
+            }
+        }
+        let (ours, theirs) = (paper_bands(), RezeroBands::for_scale(&divided));
+        // The divided board's bands are the paper's × 0.656: 0.98, 3.28, 32.8 and 16.4 mV.
+        assert_eq!(theirs.agree().to_bits(), 64);
+        assert_eq!(theirs.step_max().to_bits(), 215);
+        assert_eq!(theirs.range().to_bits(), 2_150);
+        assert_eq!(theirs.drift_watch().to_bits(), 1_075);
+        assert!(ours.range() > theirs.range());
+        // The drift watch, in codes of each board: 20 codes of zero drift is 0.265 kgf on the
+        // paper's chain and 0.267 kgf on the divided one, 21 codes 0.279 and 0.280 kgf.
+        for scale in [paper, divided] {
+            let bands = RezeroBands::for_scale(&scale);
+            let start = AdcCode::new(41);
+            let rule = Rezero::new(scale.volts(start), bands);
+            let drifted = |codes: u16| rule.drifted(scale.volts(AdcCode::new(41 + codes)));
+            assert!(!drifted(20) && drifted(21), "{scale:?}");
+        }
+    }
+
+    /// The same held string and the same still gripper on both boards: 0.1 kgf of string is
+    /// refused as loaded, a zero 0.04 kgf from the one in use is taken.
+    #[test]
+    fn both_boards_refuse_the_same_held_string_and_take_the_same_small_step() {
+        let paper = crate::test_support::paper_board().load_cell();
+        for scale in [paper, divided_scale()] {
+            let bands = RezeroBands::for_scale(&scale);
+            let zero = scale.zero();
+            let held = scale.to_code(Kgf(Q16::lit("0.1")));
+            let near = scale.to_code(Kgf(Q16::lit("0.04")));
+            for (code, loaded) in [(held, true), (near, false)] {
+                let mut rule = Rezero::new(zero, bands);
+                let verdicts = feed_on(&mut rule, 4_000, zero, scale.reference(), |_| RestSample {
+                    code,
+                    ..rest(0)
+                });
+                let expected = if loaded { verdicts.loaded } else { verdicts.zero };
+                assert!(
+                    expected > 10 && expected == verdicts.total(),
+                    "{scale:?}, loaded {loaded}: {verdicts:?}"
+                );
+            }
+        }
+    }
+
+    /// Every bound is inclusive to the bit: windows whose means spread by exactly the
+    /// agreement band, a mean exactly the step from the zero in use and exactly the range from
+    /// the self-test's are taken; one bit more of any is refused with its reason. The drift
+    /// watch likewise: exactly its band from the self-test's or the calibration's zero is
+    /// within it, a bit more is past it.
+    #[test]
+    fn every_band_is_inclusive_to_the_bit() {
+        // One window of code 41 then four of 42: the windows' means spread 3 280 → 3 360 bits
+        // (80 bits, one code), their mean is (4 100 + 4 × 4 200) / 500 codes = 3 344 bits.
+        let mean = Volts::from_bits(3_344);
+        let verdict = |bands: RezeroBands, reference: Volts, zero: Volts| {
+            let mut rule = Rezero::new(reference, bands);
+            let settle = u32::from(REZERO_SETTLE_MS);
+            let window = u32::from(REZERO_WINDOW);
+            let tally = feed(&mut rule, settle + 5 * window, zero, |t| {
+                rest(if t < settle + window { 41 } else { 42 })
+            });
+            assert_eq!(tally.total(), 1, "{tally:?}");
+            tally.last
+        };
+        let bits = Volts::from_bits;
+        let below = |by: i32| bits(mean.to_bits() - by);
+        let exact = RezeroBands {
+            agree: bits(80),
+            step_max: bits(100),
+            range: bits(1_000),
+            drift_watch: bits(500),
+        };
+        let (reference, zero) = (below(1_000), below(100));
+        assert_eq!(verdict(exact, reference, zero), Some(Retare::Zero(mean)));
+        let tight = RezeroBands { agree: bits(79), ..exact };
+        assert_eq!(verdict(tight, reference, zero), Some(Retare::Unsteady));
+        assert_eq!(verdict(exact, reference, below(101)), Some(Retare::Loaded));
+        assert_eq!(verdict(exact, below(1_001), zero), Some(Retare::OutOfRange));
+        // The same bounds the other side of the mean.
+        let above = |by: i32| bits(mean.to_bits() + by);
+        assert_eq!(verdict(exact, above(1_000), above(100)), Some(Retare::Zero(mean)));
+        assert_eq!(verdict(exact, above(1_000), above(101)), Some(Retare::Loaded));
+        assert_eq!(verdict(exact, above(1_001), above(100)), Some(Retare::OutOfRange));
+
+        let rule = Rezero::new(mean, exact);
+        for side in [1, -1] {
+            let at = |by: i32| bits(mean.to_bits() + side * by);
+            assert!(!rule.drifted(at(500)) && rule.drifted(at(501)), "side {side}");
+            let calibrated = Some(at(-400));
+            assert!(!rule.drifted_since(at(100), calibrated), "side {side}");
+            assert!(rule.drifted_since(at(101), calibrated), "side {side}");
+        }
+    }
+
+    /// A board's bands are valid from zero to the widest converter's range, each band alone;
+    /// every scale the load cell accepts gives valid bands, at both ends of its gains on the
+    /// narrowest and widest converters.
+    #[test]
+    fn bands_are_valid_from_zero_to_the_widest_converter() {
+        let paper = paper_bands();
+        assert!(paper.is_valid());
+        let just_over = Volts::from_bits(BAND_MAX.to_bits() + 1);
+        let below_zero = Volts::from_bits(-1);
+        let each = |band: Volts| {
+            [
+                RezeroBands { agree: band, ..paper },
+                RezeroBands { step_max: band, ..paper },
+                RezeroBands { range: band, ..paper },
+                RezeroBands { drift_watch: band, ..paper },
+            ]
+        };
+        for bands in each(Volts::ZERO).into_iter().chain(each(BAND_MAX)) {
+            assert!(bands.is_valid(), "{bands:?}");
+        }
+        for bands in each(below_zero).into_iter().chain(each(just_over)) {
+            assert!(!bands.is_valid(), "{bands:?}");
+        }
+        for millivolts in [1_000, 3_300, 5_000, 5_500] {
+            let Some(reference) = AdcReference::from_millivolts(millivolts) else {
+                panic!("{millivolts} mV is a converter reference")
+            };
+            let (low, high) = LoadCellScale::gain_range(reference);
+            for gain in [low, high] {
+                let scale =
+                    crate::test_support::valid(LoadCellScale::new(reference, Volts::ZERO, gain));
+                let bands = RezeroBands::for_scale(&scale);
+                assert!(bands.is_valid(), "{millivolts} mV, {gain}: {bands:?}");
+                assert!(bands.range() <= Volts(Q16::lit("0.111")), "{bands:?}");
+                assert!(bands.agree() > Volts::ZERO, "{bands:?}");
+            }
         }
     }
 }

@@ -26,7 +26,7 @@ use crate::sense::calibration::{
     CALIBRATION_POINTS, Calibration, CalibrationPoint, CalibrationPoints,
 };
 use crate::sense::load_cell::LoadCellScale;
-use crate::sense::rezero::{RestSample, Retare, Rezero};
+use crate::sense::rezero::{RestSample, Retare, Rezero, RezeroBands};
 use crate::settings::{PullKind, PullSettings, Unit};
 use crate::store::Record;
 use crate::tension::{Measurement, TensionController};
@@ -102,7 +102,10 @@ impl Chart {
             record,
             calibration,
             scale: board.load_cell(),
-            rezero: Rezero::new(board.load_cell().zero()),
+            rezero: Rezero::new(
+                board.load_cell().zero(),
+                RezeroBands::for_scale(&board.load_cell()),
+            ),
             rezeros: 0,
             drift_noticed: false,
             controller: board.controller(),

@@ -162,6 +162,20 @@ fn string_break_is_strictly_below_half_the_peak() {
 }
 
 #[test]
+fn a_sample_exactly_at_half_the_peak_is_no_evidence_of_a_break() {
+    // The tracked tension already below half the peak and seven of the window's samples
+    // below it: an eighth sample exactly at half is not the eighth witness, one step below is.
+    let peak = Kgf::from_int(20);
+    let half = Kgf::from_int(10);
+    let low = Kgf::from_int(7);
+    let seven = 0b111_1111;
+    let watch =
+        || TensionWatch::from_parts(0, [peak, low, low], [0, LOADED_PERSIST], [0, seven, 0]);
+    assert_eq!(watch().check(&sample(half)), None);
+    assert_eq!(watch().check(&sample(kgf_bits(half, -STEP))), Some(FaultCode::StringBreak));
+}
+
+#[test]
 fn a_collapse_from_the_peak_is_a_break_once_tracked_below_half_and_the_window_agrees() {
     // From a 20 kgf hold the tracked tension falls 1 kgf a tick: below 10 kgf at the 11th
     // tick, the window's majority below since the 8th — the break latches at tick 11

@@ -9,7 +9,7 @@
 //! adversarial sequences from power-up, on the paper's chain and on a divided chain on a
 //! 3.3 V converter.
 
-use taut_core::sense::rezero::{RestSample, Retare, Rezero};
+use taut_core::sense::rezero::{DRIFT_PERIODS_MAX, RestSample, Retare, Rezero};
 use taut_core::units::{AdcReference, Volts};
 
 /// `|a − b|`, bits.
@@ -28,15 +28,30 @@ pub fn rezero_step_bounded(
     assert!(rule.is_valid(), "REQ-ID-08: the property starts from a valid state");
     let reference = rule.reference();
     let bands = rule.bands();
+    // The step a re-zero may take: the bands' step plus the zero's drift rate for the time
+    // since the zero in use was taken (none when that is not known), at most the range.
+    let age_ms = rule.zero_at().map_or(0, |at| sample.now_ms.wrapping_sub(at));
+    // Whole periods of 1.024 s, at most DRIFT_PERIODS_MAX (10 bits); a valid band is at most
+    // 5.5 V (19 bits): their product and the sum fit an i32 exactly.
+    let periods = i32::try_from((age_ms >> 10).min(DRIFT_PERIODS_MAX)).unwrap_or(i32::MAX);
+    let drift = bands.drift_rate().to_bits().wrapping_mul(periods);
+    let step = i64::from(
+        bands
+            .step_max()
+            .to_bits()
+            .saturating_add(drift)
+            .min(bands.range().to_bits().max(bands.step_max().to_bits())),
+    );
     let verdict = rule.observe(sample, zero, converter);
     assert!(rule.is_valid(), "REQ-ID-08: the re-zero state stays valid");
     assert_eq!(rule.reference(), reference, "REQ-ID-08: the reference is the self-test's");
     assert_eq!(rule.bands(), bands, "REQ-ID-08: the bands are the board's");
     if let Some(Retare::Zero(new)) = verdict {
         assert!(
-            i64::from(distance(new, zero)) <= i64::from(bands.step_max().to_bits()),
-            "REQ-ID-08: a re-zero moves the zero by at most the step"
+            i64::from(distance(new, zero)) <= step,
+            "REQ-ID-08: a re-zero moves the zero by at most the step and the drift since"
         );
+        assert_eq!(rule.zero_at(), Some(sample.now_ms), "REQ-ID-08: the new zero's time");
         assert!(
             i64::from(distance(new, reference)) <= i64::from(bands.range().to_bits()),
             "REQ-ID-08: a re-zero stays within the range of the self-test's tare"
@@ -67,6 +82,7 @@ mod verification {
             steps: kani::any(),
             key: kani::any(),
             code: AdcCode::new(kani::any()),
+            now_ms: kani::any(),
         };
         let zero = Volts::from_bits(kani::any());
         let verdict = rezero_step_bounded(&mut rule, &sample, zero, crate::FIVE_VOLTS);

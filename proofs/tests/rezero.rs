@@ -95,6 +95,7 @@ proptest! {
         let mut zero = reference;
         let mut rng = seed | 1;
         let mut steps = 0i32;
+        let mut now_ms = 0u32;
         for spell in &spells {
             for t in 0..spell.ticks {
                 rng ^= rng << 13;
@@ -123,7 +124,9 @@ proptest! {
                     steps,
                     key: broken && kind == 0,
                     code: AdcCode::new(code.clamp(0, 4_095) as u16),
+                    now_ms,
                 };
+                now_ms = now_ms.wrapping_add(1);
                 if let Some(Retare::Zero(new)) =
                     rezero_step_bounded(&mut rule, &sample, zero, converter)
                 {
@@ -149,7 +152,7 @@ fn rezero_follows_a_slow_drift() {
     // 20 codes over 100 s at rest.
     for t in 0..100_000u32 {
         let code = AdcCode::new(41 + (t / 5_000) as u16);
-        let sample = RestSample { home: true, end: false, steps: 0, key: false, code };
+        let sample = RestSample { home: true, end: false, steps: 0, key: false, code, now_ms: 0 };
         if let Some(Retare::Zero(new)) =
             rezero_step_bounded(&mut rule, &sample, zero, taut_proofs::FIVE_VOLTS)
         {

@@ -359,7 +359,8 @@ impl Chart {
                 match self.scale.tared_at_mean(*code_sum, averaged) {
                     Ok(scale) => {
                         self.scale = scale;
-                        self.rezero = Rezero::new(scale.zero(), self.rezero.bands());
+                        self.rezero = Rezero::new(scale.zero(), self.rezero.bands())
+                            .taken_at(sample.inputs.now_ms);
                         let limits = sample.inputs.limits;
                         let direction =
                             if limits.end { Direction::Release } else { Direction::Pull };

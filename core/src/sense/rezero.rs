@@ -20,9 +20,14 @@
 //!    of a window, but its force wanders by tens of grams over half a second), while the
 //!    noise of a window's mean is a tenth of a sample's.
 //! 3. **Near the zero in use** — the windows' mean may differ from the present zero by
-//!    at most [`REZERO_STEP_MAX`]: the zero's drift between two re-zeros (seconds to minutes
-//!    apart) is a few grams, while a string held in the gripper or a hand pushing on it
-//!    loads it by far more and is refused as loaded.
+//!    at most [`REZERO_STEP_MAX`] plus what the zero can have drifted on its own since it
+//!    was taken ([`ZERO_DRIFT_RATE`] times that time, [`RezeroBands::step_after`]): the
+//!    zero's drift between two re-zeros seconds apart is a few grams, while a string held in
+//!    the gripper or a hand pushing on it loads it by far more and is refused as loaded. The
+//!    allowance grows with the time the machine was busy — a calibration right after
+//!    power-up, while the amplifier still warms, takes a minute and a half, long enough for
+//!    its zero to walk past the step; without it that zero would be refused as a load at
+//!    every rest of the day.
 //! 4. **Near the self-test's zero** — and from the zero the self-test tared (the reference)
 //!    by at most [`REZERO_RANGE`]: a zero that has walked further is not corrected step by
 //!    step behind the operator's back (creeping tare steps cannot accumulate a held load
@@ -77,6 +82,21 @@ pub const REZERO_RANGE: Kgf = Kgf(Q16::lit("0.5435"));
 /// the range the re-zero no longer follows.
 pub const DRIFT_WATCH: Kgf = Kgf(Q16::lit("0.2717"));
 
+/// How fast the load cell's zero can move on its own, per second: 0.0015 kgf (≈ 0.14 mV/s on
+/// the paper's chain). The fastest is the amplifier's warm-up after power-up — an
+/// instrumentation amplifier's output offset settling over minutes, up to ≈ 0.1 mV/s at the
+/// converter — and the bridge's temperature drift over the day is far slower. A re-zero may
+/// move the zero by [`REZERO_STEP_MAX`] plus this rate times the time since the zero in use
+/// was taken: a zero that walked while the machine was not at rest (a calibration right
+/// after power-up takes a minute and a half; a pull with a long hold, a minute) is followed
+/// at the next rest instead of being refused as a load at every rest after, while a string
+/// held in the gripper minutes after a re-zero is still refused.
+pub const ZERO_DRIFT_RATE: Kgf = Kgf(Q16::lit("0.0015"));
+
+/// The most periods of 1.024 s [`RezeroBands::step_after`] counts: 1 023 (17 minutes; the
+/// range caps the step after ≈ 6 minutes at [`ZERO_DRIFT_RATE`]).
+pub const DRIFT_PERIODS_MAX: u32 = 1_023;
+
 /// The widest band a valid rule has ([`RezeroBands::is_valid`]): the widest converter's whole
 /// range, 5.5 V.
 const BAND_MAX: Volts = Volts(Q16::lit("5.5"));
@@ -92,6 +112,7 @@ pub struct RezeroBands {
     step_max: Volts,
     range: Volts,
     drift_watch: Volts,
+    drift_rate: Volts,
 }
 
 /// Any bands, for proofs: each drawn whole, as bits ([`RezeroBands::is_valid`] states which a
@@ -104,6 +125,7 @@ impl kani::Arbitrary for RezeroBands {
             step_max: Volts::from_bits(kani::any()),
             range: Volts::from_bits(kani::any()),
             drift_watch: Volts::from_bits(kani::any()),
+            drift_rate: Volts::from_bits(kani::any()),
         }
     }
 }
@@ -117,6 +139,7 @@ impl RezeroBands {
             step_max: scale.volts_of(REZERO_STEP_MAX),
             range: scale.volts_of(REZERO_RANGE),
             drift_watch: scale.volts_of(DRIFT_WATCH),
+            drift_rate: scale.volts_of(ZERO_DRIFT_RATE),
         }
     }
 
@@ -127,8 +150,8 @@ impl RezeroBands {
     /// with when that saturates at the format's range, so no band accepts every zero.
     #[must_use]
     pub fn is_valid(&self) -> bool {
-        // Constant bound: four bands.
-        [self.agree, self.step_max, self.range, self.drift_watch]
+        // Constant bound: five bands.
+        [self.agree, self.step_max, self.range, self.drift_watch, self.drift_rate]
             .iter()
             .all(|&band| band >= Volts::ZERO && band <= BAND_MAX)
     }
@@ -156,6 +179,28 @@ impl RezeroBands {
     pub const fn drift_watch(&self) -> Volts {
         self.drift_watch
     }
+
+    /// [`ZERO_DRIFT_RATE`] in volts per second.
+    #[must_use]
+    pub const fn drift_rate(&self) -> Volts {
+        self.drift_rate
+    }
+
+    /// How far a re-zero may move the zero `age_ms` after the zero in use was taken:
+    /// [`REZERO_STEP_MAX`] plus [`ZERO_DRIFT_RATE`] for that time, never past
+    /// [`REZERO_RANGE`]. The time is counted in whole periods of 1.024 s (a shift, no
+    /// division: the allowance comes up to 2.4 % late, never early), at most
+    /// [`DRIFT_PERIODS_MAX`] of them — far past where the range caps the step.
+    #[must_use]
+    pub fn step_after(&self, age_ms: u32) -> Volts {
+        let periods = i32::try_from((age_ms >> 10).min(DRIFT_PERIODS_MAX)).unwrap_or(0);
+        // A valid band (≤ 5.5 V, 19 bits) times 1 023 periods (10 bits) fits 32 bits: the
+        // product never wraps (and a plain product is what a proof's solver handles best).
+        let drift = self.drift_rate.to_bits().wrapping_mul(periods);
+        let step = self.step_max.to_bits().saturating_add(drift);
+        let capped = step.min(self.range.to_bits().max(self.step_max.to_bits()));
+        Volts::from_bits(capped)
+    }
 }
 
 /// What one tick tells the re-zero rule.
@@ -171,6 +216,8 @@ pub struct RestSample {
     pub key: bool,
     /// The load-cell code.
     pub code: AdcCode,
+    /// The machine's clock, ms (wrapping).
+    pub now_ms: u32,
 }
 
 /// The verdict on a pair of windows.
@@ -180,7 +227,7 @@ pub enum Retare {
     Zero(Volts),
     /// The two windows disagree: something moves the gripper.
     Unsteady,
-    /// Farther than [`REZERO_STEP_MAX`] from the zero in use: the gripper is loaded.
+    /// Farther than [`RezeroBands::step_after`] from the zero in use: the gripper is loaded.
     Loaded,
     /// Farther than [`REZERO_RANGE`] from the self-test's zero.
     OutOfRange,
@@ -207,6 +254,9 @@ pub struct Rezero {
     next: u8,
     /// The last windows' code sums (a ring).
     sums: [u32; REZERO_WINDOWS],
+    /// When the zero in use was taken (the self-test's tare or the last re-zero), on the
+    /// machine's clock; `None` when not known (then only [`REZERO_STEP_MAX`] is allowed).
+    zero_at: Option<u32>,
 }
 
 /// Any re-zero state, for proofs ([`Rezero::is_valid`] states which are reachable): every
@@ -225,6 +275,7 @@ impl kani::Arbitrary for Rezero {
             windows: kani::any(),
             next: kani::any(),
             sums: kani::any(),
+            zero_at: kani::any(),
         }
     }
 }
@@ -252,13 +303,27 @@ impl Rezero {
             windows: 0,
             next: 0,
             sums: [0; REZERO_WINDOWS],
+            zero_at: None,
         }
+    }
+
+    /// This rule, its zero in use taken at `now_ms` on the machine's clock (the self-test's
+    /// tare).
+    #[must_use]
+    pub const fn taken_at(self, now_ms: u32) -> Self {
+        Self { zero_at: Some(now_ms), ..self }
     }
 
     /// The self-test's zero the rule keeps to.
     #[must_use]
     pub const fn reference(&self) -> Volts {
         self.reference
+    }
+
+    /// When the zero in use was taken, on the machine's clock, if known.
+    #[must_use]
+    pub const fn zero_at(&self) -> Option<u32> {
+        self.zero_at
     }
 
     /// The bands the rule keeps to, in volts on the board's chain.
@@ -303,7 +368,7 @@ impl Rezero {
 
     /// Starts over: the rest is broken (or Ready was just entered).
     pub fn restart(&mut self) {
-        *self = Self::new(self.reference, self.bands);
+        *self = Self { zero_at: self.zero_at, ..Self::new(self.reference, self.bands) };
     }
 
     /// One tick (REQ-ID-08): `sample` what the machine sees, `zero` the load cell's zero in
@@ -368,11 +433,13 @@ impl Rezero {
         }
         // 5 × 100 readings.
         let mean = reference.mean_volts(total, REZERO_WINDOW.saturating_mul(5));
-        Some(if distance(mean, zero) > self.bands.step_max.0 {
+        let age_ms = self.zero_at.map_or(0, |at| sample.now_ms.wrapping_sub(at));
+        Some(if distance(mean, zero) > self.bands.step_after(age_ms).0 {
             Retare::Loaded
         } else if distance(mean, self.reference) > self.bands.range.0 {
             Retare::OutOfRange
         } else {
+            self.zero_at = Some(sample.now_ms);
             Retare::Zero(mean)
         })
     }
@@ -411,7 +478,64 @@ mod tests {
     }
 
     fn rest(code: u16) -> RestSample {
-        RestSample { home: true, end: false, steps: 7, key: false, code: AdcCode::new(code) }
+        RestSample {
+            home: true,
+            end: false,
+            steps: 7,
+            key: false,
+            code: AdcCode::new(code),
+            now_ms: 0,
+        }
+    }
+
+    #[test]
+    fn the_step_grows_with_the_zeros_age_up_to_the_range() {
+        let bands = paper_bands();
+        assert_eq!(bands.step_after(0), bands.step_max());
+        // ZERO_DRIFT_RATE through the paper's gain: 0.0015 kgf/s ≈ 0.138 mV/s.
+        assert_eq!(bands.drift_rate(), Volts::from_bits(9));
+        // Whole periods of 1.024 s.
+        assert_eq!(bands.step_after(1_023), bands.step_max());
+        assert_eq!(bands.step_after(1_024), Volts::from_bits(bands.step_max().to_bits() + 9));
+        assert_eq!(bands.step_after(90_000), Volts::from_bits(bands.step_max().to_bits() + 783));
+        // The count stops at DRIFT_PERIODS_MAX: with a range wider than that, the step stops.
+        let wide = RezeroBands { range: BAND_MAX, ..bands };
+        let most = Volts::from_bits(bands.step_max().to_bits() + 9 * 1_023);
+        assert_eq!(wide.step_after(1_023 * 1_024), most);
+        assert_eq!(wide.step_after(u32::MAX), most);
+        assert_eq!(bands.step_after(u32::MAX), bands.range());
+        let mut last = bands.step_after(0);
+        for age in (0..=400_000).step_by(997) {
+            let step = bands.step_after(age);
+            assert!(step >= last && step <= bands.range(), "{age}");
+            last = step;
+        }
+    }
+
+    #[test]
+    fn a_zero_that_walked_while_the_machine_was_busy_is_followed_at_the_next_rest() {
+        // The zero in use taken at 0 ms; the cell now reads 49 codes, 9.8 mV (≈ 0.107 kgf)
+        // above it — the amplifier's warm-up over a calibration right after power-up.
+        let at =
+            |start: u32| move |t: u32| RestSample { now_ms: start.wrapping_add(t), ..rest(49) };
+        // 90 s later: 5 mV + 90 s × 0.138 mV/s allowed — followed, and the new zero's time kept.
+        let mut rule = Rezero::new(ZERO, paper_bands()).taken_at(0);
+        let tally = feed(&mut rule, 2_500, ZERO, at(90_000));
+        assert!(matches!(tally.last, Some(Retare::Zero(_))), "{tally:?}");
+        assert_eq!(rule.zero_at(), Some(92_499));
+        // A broken rest keeps the zero's time.
+        rule.observe(&RestSample { home: false, ..rest(49) }, ZERO, FIVE_VOLTS);
+        assert_eq!(rule.zero_at(), Some(92_499));
+        // 1 s after the tare the same reading is a load (a string held in the gripper).
+        let mut rule = Rezero::new(ZERO, paper_bands()).taken_at(0);
+        assert_eq!(feed(&mut rule, 2_500, ZERO, at(1_000)).last, Some(Retare::Loaded));
+        // When the zero's time is not known, only the step.
+        let mut rule = Rezero::new(ZERO, paper_bands());
+        assert_eq!(feed(&mut rule, 2_500, ZERO, at(90_000)).last, Some(Retare::Loaded));
+        // The clock wraps: 90 s across the wrap is 90 s.
+        let mut rule = Rezero::new(ZERO, paper_bands()).taken_at(u32::MAX - 9_999);
+        let tally = feed(&mut rule, 2_500, ZERO, at(80_000));
+        assert!(matches!(tally.last, Some(Retare::Zero(_))), "{tally:?}");
     }
 
     /// How many verdicts of each kind a run gave, and the last one.
@@ -713,6 +837,7 @@ mod tests {
             step_max: bits(100),
             range: bits(1_000),
             drift_watch: bits(500),
+            drift_rate: bits(9),
         };
         let (reference, zero) = (below(1_000), below(100));
         assert_eq!(verdict(exact, reference, zero), Some(Retare::Zero(mean)));
@@ -745,12 +870,13 @@ mod tests {
         assert!(paper.is_valid());
         let just_over = Volts::from_bits(BAND_MAX.to_bits() + 1);
         let below_zero = Volts::from_bits(-1);
-        let each = |band: Volts| {
+        let each = |band: Volts| -> [RezeroBands; 5] {
             [
                 RezeroBands { agree: band, ..paper },
                 RezeroBands { step_max: band, ..paper },
                 RezeroBands { range: band, ..paper },
                 RezeroBands { drift_watch: band, ..paper },
+                RezeroBands { drift_rate: band, ..paper },
             ]
         };
         for bands in each(Volts::ZERO).into_iter().chain(each(BAND_MAX)) {

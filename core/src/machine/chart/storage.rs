@@ -212,6 +212,7 @@ impl Chart {
             steps: inputs.drive.steps,
             key: sample.key.is_some() || inputs.keys != crate::io::Keys::NONE,
             code: inputs.load_cell,
+            now_ms: inputs.now_ms,
         };
         if let Some(Retare::Zero(zero)) =
             self.rezero.observe(&rest, self.scale.zero(), self.scale.reference())

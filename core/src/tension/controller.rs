@@ -62,8 +62,19 @@
 //! a screw that holds never moves back under a pull). On a drivetrain that back-drives, a
 //! release takes the string's whole pull off the motor, not the excess: the carriage runs
 //! home under the string and the tension falls far past the reference. There the back-out
-//! drives toward home only while the carriage backs off slower than the back-out's speed;
-//! faster, the law's braking command stands and the string itself does the rest.
+//! drives toward home, in the settle, only while the carriage backs off slower than the
+//! back-out's speed (faster, the law's braking command stands and the string itself does the
+//! rest), and in the hold not at all.
+//!
+//! **The hold only pulls** (REQ-TEN-23): in the hold the force never drops below the
+//! string's own pull — the law's correction is floored at zero. A string with internal
+//! friction (below) is many times stiffer for the first fraction of a millimetre after the
+//! carriage turns back, and that travel is smaller than a Hall step, so neither the
+//! observer nor the law sees it coming: a law that lets go of an excess of a few hundredths
+//! turns the carriage back into that stiffness, the tension falls tenths of a kgf within
+//! milliseconds, the law pulls hard to recover, and the hold rings. Held at its pull the
+//! carriage does not turn; an excess comes off by the back-out (on a drivetrain that holds)
+//! and by the string's creep, which is what a constant-pull head is for.
 //!
 //! In the settle and the hold a **governor** watches the error for a limit cycle (REQ-TEN-22):
 //! four excursions beyond [`SWING_BAND`] of alternating sign within [`SWING_WINDOW_MS`]
@@ -932,11 +943,20 @@ impl TensionController {
         if matches!(phase, PullPhase::Settle | PullPhase::Hold) {
             self.watch_swings(reference.tension.saturating_sub(y));
         }
-        let force = governed(law, y, self.governor).saturating_sub(slip_brake);
-        let (command, saturated) = self.map.command(force, speed);
+        let corrected = governed(law, y, self.governor).saturating_sub(slip_brake);
+        let (asked, asked_saturation) = self.map.command(corrected, speed);
         let shaped = self.profile.coefficients().shaped;
+        // REQ-TEN-23: the hold only pulls. Its force never drops below the string's own pull:
+        // an excess comes off by the back-out (what a release of this drivetrain removes) and
+        // by the string's creep, never by the law letting go.
+        let (force, command, saturated) = if shaped && phase == PullPhase::Hold && corrected < y {
+            let (command, saturated) = self.map.command(y, speed);
+            (y, command, saturated)
+        } else {
+            (corrected, asked, asked_saturation)
+        };
         let command = if shaped && matches!(phase, PullPhase::Settle | PullPhase::Hold) {
-            self.back_out(command, est, speed)
+            self.back_out(command, asked.duty().is_zero(), est, speed)
         } else {
             self.excess_ticks = 0;
             command
@@ -992,7 +1012,8 @@ impl TensionController {
         self.map.command(force, MmPerSecond(Q16::ZERO)).0
     }
 
-    /// REQ-TEN-17, the back-out: the law's `command` unless it asks for no pull at all while
+    /// REQ-TEN-17, the back-out: `command` unless the law asks for no pull at all
+    /// (`asks_no_pull`: its own force, before the hold's floor, maps to zero duty) while
     /// the tension is more than [`BACK_OUT_BAND`] above the reference — in the estimate and
     /// in the burst-proof filtered sample, for [`BACK_OUT_CONFIRM`] consecutive ticks; then a
     /// release at [`BACK_OUT_GAIN`] mm/s per kgf of excess (within [`BACK_OUT_SPEED`], duty
@@ -1009,13 +1030,14 @@ impl TensionController {
     fn back_out(
         &mut self,
         command: DriveCommand,
+        asks_no_pull: bool,
         est: &Estimate,
         speed: MmPerSecond,
     ) -> DriveCommand {
         let reference = self.profile.reference();
         let excess = est.tension.saturating_sub(reference);
         let evidence = est.sample.saturating_sub(reference);
-        if !command.duty().is_zero() || excess <= BACK_OUT_BAND || evidence <= BACK_OUT_BAND {
+        if !asks_no_pull || excess <= BACK_OUT_BAND || evidence <= BACK_OUT_BAND {
             self.excess_ticks = 0;
             return command;
         }
@@ -1026,7 +1048,8 @@ impl TensionController {
         let (slowest, fastest) = BACK_OUT_SPEED;
         let target =
             MmPerSecond(excess.0.saturating_mul_int(BACK_OUT_GAIN).clamp(slowest.0, fastest.0));
-        if self.back_drives() && speed.0.saturating_neg() >= target.0 {
+        let holding = self.profile.phase() == PullPhase::Hold;
+        if self.back_drives() && (holding || speed.0.saturating_neg() >= target.0) {
             return command;
         }
         let duty = self.map.velocity_duty(target, Kgf::ZERO, BACK_OUT_DUTY_MAX);
@@ -1201,6 +1224,18 @@ mod tests {
         controller
     }
 
+    /// A taut controller in the settle, its reference at 25 kgf closing on a final 20 (a
+    /// pre-stretch's peak coming down).
+    fn settling() -> TensionController {
+        let mut controller = holding();
+        let mut profile = controller.profile_state();
+        profile.phase = PullPhase::Settle;
+        profile.peak = Kgf::from_int(25);
+        profile.final_target = Kgf::from_int(20);
+        controller.set_profile_state(profile);
+        controller
+    }
+
     /// A new 25 kgf pull on `controller`.
     fn restart(controller: &mut TensionController) {
         let settings =
@@ -1254,20 +1289,53 @@ mod tests {
         let pull =
             DriveCommand::Drive { direction: Direction::Pull, duty: Duty::from_raw_clamped(1_000) };
         for _ in 0..3 * u32::from(BACK_OUT_CONFIRM) {
-            assert_eq!(controller.back_out(pull, &over, still), pull);
+            assert_eq!(controller.back_out(pull, false, &over, still), pull);
         }
-        let brake = DriveCommand::Drive { direction: Direction::Pull, duty: Duty::ZERO };
+        // The law asking for none, the command the hold's floor made of it still a pull
+        // (REQ-TEN-23): released once confirmed.
         let mut released = false;
         for _ in 0..BACK_OUT_CONFIRM {
-            released |=
-                controller.back_out(brake, &over, still).direction() == Some(Direction::Release);
+            released |= controller.back_out(pull, true, &over, still).direction()
+                == Some(Direction::Release);
         }
         assert!(released);
     }
 
+    /// REQ-TEN-23: in the hold the force never drops below the string's pull however far the
+    /// tension is over the reference, and a drivetrain that back-drives is never released
+    /// there; in the settle (a pre-stretch's peak coming down) the law still lets go.
+    #[test]
+    fn the_hold_only_pulls_and_never_lets_go_of_the_string() {
+        let over = Kgf::from_tenths(265);
+        for ticks in [1, 5, 50, 300] {
+            let out = held_at(PullPhase::Hold, over, ticks);
+            assert!(out.force >= out.tension, "{ticks}: {:?} < {:?}", out.force, out.tension);
+        }
+        let mut settle = settling();
+        let lets_go = (0..50).any(|_| {
+            let out = tick_at(&mut settle, 265, 0);
+            out.phase == PullPhase::Settle && out.force < out.tension
+        });
+        assert!(lets_go, "the settle's law was floored");
+        // Back-driving, identified: 1.5 kgf over for a second, stopped or running home, the
+        // drive only ever pulls.
+        let mut controller = holding();
+        tick_at(&mut controller, 250, 0);
+        tick_at(&mut controller, 250, -1);
+        tick_at(&mut controller, 250, -2);
+        assert!(controller.back_drives());
+        for tick in 0..1_000 {
+            let steps = if tick < 500 { -2 } else { -2 - (tick - 500) / 20 };
+            let out = tick_at(&mut controller, 265, steps);
+            assert_eq!(out.command.direction(), Some(Direction::Pull), "{tick}");
+            assert!(out.force >= out.tension, "{tick}");
+        }
+    }
+
     /// REQ-TEN-20: a Hall step toward home while pulling, in the settle or the hold,
     /// identifies a back-driving drivetrain ([`BACK_DRIVE_STEPS`] of them); its back-out then
-    /// releases only while the carriage backs off slower than the back-out's speed. Steps
+    /// releases, in the settle, only while the carriage backs off slower than the back-out's
+    /// speed, and in the hold never (REQ-TEN-23). Steps
     /// toward home under a release, or before the settle, identify nothing; a new pull
     /// forgets it.
     #[test]
@@ -1279,8 +1347,14 @@ mod tests {
         assert!(!controller.back_drives());
         tick_at(&mut controller, 250, -2);
         assert!(controller.back_drives());
-        // The excess, with the carriage running home at one step a tick (53 mm/s, faster
-        // than the 5 mm/s the 0.5 kgf asks): the law's braking pull stands.
+        // In the hold it is never released (REQ-TEN-23, the test below). In the settle: the
+        // excess, with the carriage running home at one step a tick (53 mm/s, faster than
+        // the 5 mm/s the 0.5 kgf asks): the law's braking pull stands.
+        let mut controller = settling();
+        tick_at(&mut controller, 255, 0);
+        tick_at(&mut controller, 255, -1);
+        tick_at(&mut controller, 255, -2);
+        assert!(controller.back_drives());
         let mut steps = -2;
         for _ in 0..40 {
             steps -= 1;
@@ -1362,6 +1436,11 @@ mod tests {
         assert!(controller.is_valid());
         // The same controller state with and without the governor: the correction over the
         // estimate is an eighth (the slip damper's brake is the same in both).
+        // In the settle, where the law's correction is not floored at the string's pull.
+        let mut profile = controller.profile_state();
+        profile.phase = PullPhase::Settle;
+        profile.final_target = Kgf::from_int(20);
+        controller.set_profile_state(profile);
         let mut full = controller;
         full.governor = 0;
         let m = |c: &mut TensionController| tick_at(c, 240, 0);

@@ -1646,10 +1646,36 @@ mod tests {
         let fast = held_at(PullPhase::Hold, above(Kgf::from_tenths(5)), 50);
         assert_eq!(slow.command.direction(), Some(Direction::Release));
         assert!(slow.command.duty() < fast.command.duty());
-        // Never during the braking approach or the pre-stretch peak.
+        // Never during the braking approach or the pre-stretch peak, however long the excess
+        // lasts there (each tick judged by the phase it began in).
         for phase in [PullPhase::Approach, PullPhase::PreStretch] {
-            let out = held_at(phase, above(Kgf::from_int(5)), 1);
-            assert_ne!(out.command.direction(), Some(Direction::Release), "{phase:?}");
+            let mut controller = holding();
+            let mut profile = controller.profile_state();
+            profile.phase = phase;
+            controller.set_profile_state(profile);
+            let mut began = phase;
+            for tick in 0..100 {
+                let out = tick_at(&mut controller, 300, 0);
+                if matches!(began, PullPhase::Approach | PullPhase::PreStretch) {
+                    assert_ne!(
+                        out.command.direction(),
+                        Some(Direction::Release),
+                        "{phase:?} {tick}"
+                    );
+                }
+                began = out.phase;
+            }
+        }
+        // Never with the step profile (the paper's controllers), in any phase.
+        for config in [ControllerConfig::PAPER_RSMC, ControllerConfig::PD] {
+            let mut controller = TensionController::new(&config).unwrap_or_default();
+            let settings =
+                PullSettings::new(Kgf::from_int(25), Speed::MAX, PreStretch::NONE, KnotBoost::NONE);
+            controller.start(&valid(settings), PullKind::Main);
+            for tick in 0..300 {
+                let out = tick_at(&mut controller, if tick < 100 { 250 } else { 300 }, 0);
+                assert_ne!(out.command.direction(), Some(Direction::Release), "{tick}");
+            }
         }
     }
 

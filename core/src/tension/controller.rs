@@ -944,19 +944,21 @@ impl TensionController {
             self.watch_swings(reference.tension.saturating_sub(y));
         }
         let corrected = governed(law, y, self.governor).saturating_sub(slip_brake);
-        let (asked, asked_saturation) = self.map.command(corrected, speed);
         let shaped = self.profile.coefficients().shaped;
         // REQ-TEN-23: the hold only pulls. Its force never drops below the string's own pull:
         // an excess comes off by the back-out (what a release of this drivetrain removes) and
         // by the string's creep, never by the law letting go.
-        let (force, command, saturated) = if shaped && phase == PullPhase::Hold && corrected < y {
-            let (command, saturated) = self.map.command(y, speed);
-            (y, command, saturated)
-        } else {
-            (corrected, asked, asked_saturation)
-        };
+        let floored = shaped && phase == PullPhase::Hold && corrected < y;
+        let force = if floored { y } else { corrected };
+        let (command, saturated) = self.map.command(force, speed);
         let command = if shaped && matches!(phase, PullPhase::Settle | PullPhase::Hold) {
-            self.back_out(command, asked.duty().is_zero(), est, speed)
+            // The back-out judges the law's own force, before the floor.
+            let asks_no_pull = if floored {
+                self.map.command(corrected, speed).0.duty().is_zero()
+            } else {
+                command.duty().is_zero()
+            };
+            self.back_out(command, asks_no_pull, est, speed)
         } else {
             self.excess_ticks = 0;
             command

@@ -1427,6 +1427,24 @@ mod tests {
         }
     }
 
+    /// REQ-TEN-23: a mean set from outside (the proofs' and the fuzzers' states) is clipped
+    /// to its range, and the floor is the pull plus half of it.
+    #[test]
+    fn a_hold_mean_set_from_outside_is_clipped_to_its_range_and_lifts_the_floor() {
+        let mut controller = holding();
+        controller.set_hold_mean(Kgf::from_int(60));
+        assert_eq!(controller.hold_mean, TENSION_MAX);
+        assert!(controller.is_valid());
+        controller.set_hold_mean(Kgf::from_int(-1));
+        assert_eq!(controller.hold_mean, Kgf::ZERO);
+        controller.set_hold_mean(Kgf::from_int(4));
+        assert_eq!(controller.hold_mean, Kgf::from_int(4));
+        // 1.5 kgf over: the law lets go, the force stays at the pull plus 2 kgf.
+        let out = tick_at(&mut controller, 265, 0);
+        assert!(out.force >= out.tension.saturating_add(Kgf::from_int(2)), "{out:?}");
+        assert!(controller.is_valid());
+    }
+
     /// REQ-TEN-17: a back-out whose release let the tension fall more than [`SWING_BAND`]
     /// short of the reference within [`BACK_OUT_WATCH`] ticks cost more than it removed (a
     /// string stiffer on the way back than the back-out's gain assumes): the hold backs out

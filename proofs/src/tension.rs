@@ -380,8 +380,6 @@ pub struct StepCase {
     pub bus: i32,
     /// Constant pull switched off, the carriage held at this Hall count (only in the hold).
     pub lock: Option<i32>,
-    /// The hold's mean correction (REQ-TEN-23), bits; set clipped to its range.
-    pub hold_mean: i32,
 }
 
 /// The controller in the case's state (its invariant not yet checked).
@@ -405,7 +403,6 @@ pub fn controller_in(case: &StepCase) -> TensionController {
         case.primed,
     );
     controller.set_profile_state(case.profile);
-    controller.set_hold_mean(Kgf::from_bits(case.hold_mean));
     if let Some(held_at) = case.lock {
         let _in_hold = controller.set_constant_pull(false, held_at);
     }

@@ -177,9 +177,9 @@ fn step_case() -> impl Strategy<Value = StepCase> {
             any::<bool>(),
             any::<i32>(),
         ),
-        (prop::option::of(any::<i32>()), -KGF..=51 * KGF),
+        prop::option::of(any::<i32>()),
     )
-        .prop_map(|(a, b, f, (lock, hold_mean))| StepCase {
+        .prop_map(|(a, b, f, lock)| StepCase {
             paper: a.0,
             law: a.1,
             scale: a.2,
@@ -196,7 +196,6 @@ fn step_case() -> impl Strategy<Value = StepCase> {
             end: f.4,
             bus: f.5,
             lock,
-            hold_mean,
         })
 }
 

@@ -64,11 +64,7 @@
 //! home under the string and the tension falls far past the reference. There the back-out
 //! drives toward home, in the settle, only while the carriage backs off slower than the
 //! back-out's speed (faster, the law's braking command stands and the string itself does the
-//! rest), and in the hold not at all. On a string with internal friction even a slow
-//! back-out can cost more than it removes — the string is many times stiffer for the first
-//! fraction of a millimetre back — so a release after which the tension falls more than
-//! [`SWING_BAND`] short of the reference within [`BACK_OUT_WATCH`] ticks ends the back-outs
-//! of that pull's hold.
+//! rest), and in the hold not at all.
 //!
 //! **The hold only pulls** (REQ-TEN-23): in the hold the force never drops below the
 //! string's own pull — the law's correction is floored at zero. A string with internal
@@ -78,17 +74,7 @@
 //! turns the carriage back into that stiffness, the tension falls tenths of a kgf within
 //! milliseconds, the law pulls hard to recover, and the hold rings. Held at its pull the
 //! carriage does not turn; an excess comes off by the back-out (on a drivetrain that holds)
-//! and by the string's creep, which is what a constant-pull head is for. The pull alone is
-//! not always what holds the carriage still: the force-to-duty map's losses are the
-//! family's, not this machine's, and on a screw that back-drives a duty a little under the
-//! holding one lets the string turn the motor back between two Hall edges, where neither
-//! the observer nor the law sees it until the tension has fallen. What holds it is what the
-//! hold has been giving: the floor is the pull plus half the hold's mean correction (the
-//! applied force over the pull, low-passed over [`HOLD_MEAN_SHIFT`] ticks while the tension
-//! is not short of the reference — a law pulling up a shortfall gives more than holding
-//! needs). The law corrects above the floor at once and below it never; the floor follows
-//! the law down at the low-pass's pace, half a correction at a time, so it never ratchets:
-//! a law that keeps asking for less than the floor halves the mean within its time constant.
+//! and by the string's creep, which is what a constant-pull head is for.
 //!
 //! In the settle and the hold a **governor** watches the error for a limit cycle (REQ-TEN-22):
 //! four excursions beyond [`SWING_BAND`] of alternating sign within [`SWING_WINDOW_MS`]
@@ -139,7 +125,7 @@ use crate::drive::{DUTY_MAX, Direction, DriveCommand, Duty};
 use crate::fixed::{Q24, mul_q16, mul_q24, reciprocal_q24};
 use crate::io::LimitSwitches;
 use crate::mechanism::STEP_MM_BITS;
-use crate::settings::{MmPerSecond, PullKind, PullSettings, TENSION_MAX};
+use crate::settings::{MmPerSecond, PullKind, PullSettings};
 use crate::tension::estimator::{Estimate, EstimatorConfig, EstimatorError, TensionEstimator};
 use crate::tension::law::{
     BoundedAdaptation, GainError, Improvements, NominalPlant, Pd, PdGains, Rsmc, RsmcGains,
@@ -204,27 +190,10 @@ pub const BACK_OUT_DUTY_MAX: Duty = Duty::from_raw_clamped(13_107);
 /// [`BURST_MAX`]: crate::tension::estimator::BURST_MAX
 pub const BACK_OUT_CONFIRM: u8 = 12;
 
-/// REQ-TEN-17: how long after a back-out's release the controller watches the tension for a
-/// fall short of the reference by more than [`SWING_BAND`], ticks: 100 (100 ms at the 1 kHz
-/// loop — the string's reversal, the estimate's median delay and the law's recovery). Such a
-/// fall marks the back-out as costing more than it removes on this string (one with internal
-/// friction is many times stiffer for the first fraction of a millimetre back than the
-/// drawn-out stiffness the back-out's gain is sized for): the hold backs out no more.
-pub const BACK_OUT_WATCH: u8 = 100;
-
 /// REQ-TEN-20: Hall steps toward home under a pull command, in the settle and the hold, that
 /// identify a drivetrain that back-drives: 2 (one step could be a Hall edge jittering at the
 /// rotor's rest position).
 pub const BACK_DRIVE_STEPS: u8 = 2;
-
-/// REQ-TEN-23: the hold's mean correction (the applied force over the string's pull; half
-/// of it lifts the hold's floor above the pull) follows the correction through a
-/// first-order low-pass of `2^7` = 128 ticks — 128 ms at the 1 kHz loop, more than the
-/// period of the hold's slowest ring (≈ 14 Hz on a hysteretic string) and well inside the
-/// string's creep, so it keeps what the machine's losses ask for and not a swing or a burst.
-/// (64 and 256 ticks were measured too: the shorter follows the law's swings, the longer
-/// learns too late for the holds of the first seconds.)
-pub const HOLD_MEAN_SHIFT: u32 = 7;
 
 /// REQ-TEN-22, the hold's governor: an error beyond this band either side of the reference,
 /// in the settle or the hold, is an excursion; 0.1 kgf, above the hold's ordinary error on
@@ -505,14 +474,6 @@ pub struct TensionController {
     lock: Option<i32>,
     /// Consecutive ticks of an excess the back-out may act on ([`BACK_OUT_CONFIRM`]).
     excess_ticks: u8,
-    /// Ticks left of the watch after the back-out's last release ([`BACK_OUT_WATCH`]).
-    release_watch: u8,
-    /// A back-out in this pull let the tension fall short of the reference by more than
-    /// [`SWING_BAND`]: the hold backs out no more.
-    back_out_costly: bool,
-    /// REQ-TEN-23: the hold's mean correction — the applied force over the string's pull,
-    /// low-passed over this hold (zero before it), within `[0, TENSION_MAX]`.
-    hold_mean: Kgf,
     /// Hall steps toward home seen under a pull command in this pull's settle and hold
     /// (saturating; [`BACK_DRIVE_STEPS`] identify a back-driving drivetrain).
     backward_steps: u8,
@@ -640,9 +601,6 @@ impl TensionController {
             shown: Kgf::ZERO,
             lock: None,
             excess_ticks: 0,
-            release_watch: 0,
-            back_out_costly: false,
-            hold_mean: Kgf::ZERO,
             backward_steps: 0,
             governor: 0,
             swing_sign: 0,
@@ -683,9 +641,6 @@ impl TensionController {
             shown: Kgf::ZERO,
             lock: None,
             excess_ticks: 0,
-            release_watch: 0,
-            back_out_costly: false,
-            hold_mean: Kgf::ZERO,
             backward_steps: 0,
             governor: 0,
             swing_sign: 0,
@@ -712,9 +667,6 @@ impl TensionController {
         self.lock = None;
         self.hold_gain_pending = false;
         self.excess_ticks = 0;
-        self.release_watch = 0;
-        self.back_out_costly = false;
-        self.hold_mean = Kgf::ZERO;
         self.backward_steps = 0;
         self.governor = 0;
         self.swing_sign = 0;
@@ -805,12 +757,6 @@ impl TensionController {
         self.profile.set_state(profile);
     }
 
-    /// Replaces the hold's mean correction (REQ-TEN-23; proofs and fuzzing), clipped to
-    /// `[0, TENSION_MAX]`.
-    pub fn set_hold_mean(&mut self, mean: Kgf) {
-        self.hold_mean = mean.max(Kgf::ZERO).min(TENSION_MAX);
-    }
-
     /// The law's RSMC, if it is one (for proofs, fuzzing and plots).
     #[must_use]
     pub fn rsmc_mut(&mut self) -> Option<&mut Rsmc> {
@@ -845,16 +791,10 @@ impl TensionController {
             Law::Pd(_) => true,
         };
         let lock_ok = self.lock.is_none() || self.profile.phase() == PullPhase::Hold;
-        let mean_ok = self.hold_mean >= Kgf::ZERO && self.hold_mean <= TENSION_MAX;
         let governor_ok = self.governor <= GOVERNOR_SHIFT_MAX
             && self.swings < SWING_EXCURSIONS
             && (-1..=1).contains(&self.swing_sign);
-        law_ok
-            && self.estimator.is_valid()
-            && self.profile.is_valid()
-            && lock_ok
-            && governor_ok
-            && mean_ok
+        law_ok && self.estimator.is_valid() && self.profile.is_valid() && lock_ok && governor_ok
     }
 
     /// Starts the braking ([`Profile::begin_braking`]) and applies what it identified: the
@@ -1005,16 +945,11 @@ impl TensionController {
         }
         let corrected = governed(law, y, self.governor).saturating_sub(slip_brake);
         let shaped = self.profile.coefficients().shaped;
-        // REQ-TEN-23: the hold only pulls. Its force never drops below the string's own pull
-        // plus half the hold's mean correction: an excess comes off by the back-out (what a
-        // release of this drivetrain removes), by the string's creep and by the mean
-        // following the law down, never by the law letting go at once.
-        let holding = shaped && phase == PullPhase::Hold;
-        let short = reference.tension.saturating_sub(y) > BACK_OUT_BAND;
-        let floor = y.saturating_add(Kgf(Q16::from_bits(self.hold_mean.0.to_bits() >> 1)));
-        let floored = holding && corrected < floor;
-        let force = if floored { floor } else { corrected };
-        self.follow_hold_mean(force.saturating_sub(y), holding, short);
+        // REQ-TEN-23: the hold only pulls. Its force never drops below the string's own pull:
+        // an excess comes off by the back-out (what a release of this drivetrain removes) and
+        // by the string's creep, never by the law letting go.
+        let floored = shaped && phase == PullPhase::Hold && corrected < y;
+        let force = if floored { y } else { corrected };
         let (command, saturated) = self.map.command(force, speed);
         let command = if shaped && matches!(phase, PullPhase::Settle | PullPhase::Hold) {
             // The back-out judges the law's own force, before the floor.
@@ -1032,24 +967,6 @@ impl TensionController {
         *force_out = force;
         self.profile.transitions(phase, y);
         command
-    }
-
-    /// REQ-TEN-23, the hold's mean correction: in the hold it follows `correction` (the
-    /// applied force over the string's pull) by `1/2^`[`HOLD_MEAN_SHIFT`] of the difference
-    /// a tick, and keeps its value while the tension is `short` of the reference by more
-    /// than [`BACK_OUT_BAND`]; outside the hold it is zero, so every hold learns its own.
-    /// Kept within `[0, TENSION_MAX]`: a floor never below the pull.
-    fn follow_hold_mean(&mut self, correction: Kgf, holding: bool, short: bool) {
-        let next = if holding && short {
-            self.hold_mean
-        } else if holding {
-            let step = correction.0.to_bits().saturating_sub(self.hold_mean.0.to_bits());
-            let lowered = step.checked_shr(HOLD_MEAN_SHIFT).unwrap_or(0);
-            Kgf(Q16::from_bits(self.hold_mean.0.to_bits().saturating_add(lowered)))
-        } else {
-            Kgf::ZERO
-        };
-        self.hold_mean = next.max(Kgf::ZERO).min(TENSION_MAX);
     }
 
     /// REQ-TEN-22, the governor's watch on the settle's and the hold's error `e`
@@ -1122,12 +1039,6 @@ impl TensionController {
         let reference = self.profile.reference();
         let excess = est.tension.saturating_sub(reference);
         let evidence = est.sample.saturating_sub(reference);
-        if self.release_watch > 0 {
-            self.release_watch = self.release_watch.saturating_sub(1);
-            if reference.saturating_sub(est.tension) > SWING_BAND {
-                self.back_out_costly = true;
-            }
-        }
         if !asks_no_pull || excess <= BACK_OUT_BAND || evidence <= BACK_OUT_BAND {
             self.excess_ticks = 0;
             return command;
@@ -1140,13 +1051,9 @@ impl TensionController {
         let target =
             MmPerSecond(excess.0.saturating_mul_int(BACK_OUT_GAIN).clamp(slowest.0, fastest.0));
         let holding = self.profile.phase() == PullPhase::Hold;
-        if holding && self.back_out_costly {
-            return command;
-        }
         if self.back_drives() && (holding || speed.0.saturating_neg() >= target.0) {
             return command;
         }
-        self.release_watch = BACK_OUT_WATCH;
         let duty = self.map.velocity_duty(target, Kgf::ZERO, BACK_OUT_DUTY_MAX);
         DriveCommand::Drive { direction: Direction::Release, duty }
     }
@@ -1425,131 +1332,6 @@ mod tests {
             assert_eq!(out.command.direction(), Some(Direction::Pull), "{tick}");
             assert!(out.force >= out.tension, "{tick}");
         }
-    }
-
-    /// REQ-TEN-23: a mean set from outside (the proofs' and the fuzzers' states) is clipped
-    /// to its range, and the floor is the pull plus half of it.
-    #[test]
-    fn a_hold_mean_set_from_outside_is_clipped_to_its_range_and_lifts_the_floor() {
-        let mut controller = holding();
-        controller.set_hold_mean(Kgf::from_int(60));
-        assert_eq!(controller.hold_mean, TENSION_MAX);
-        assert!(controller.is_valid());
-        controller.set_hold_mean(Kgf::from_int(-1));
-        assert_eq!(controller.hold_mean, Kgf::ZERO);
-        controller.set_hold_mean(Kgf::from_int(4));
-        assert_eq!(controller.hold_mean, Kgf::from_int(4));
-        // 1.5 kgf over: the law lets go, the force stays at the pull plus 2 kgf.
-        let out = tick_at(&mut controller, 265, 0);
-        assert!(out.force >= out.tension.saturating_add(Kgf::from_int(2)), "{out:?}");
-        assert!(controller.is_valid());
-    }
-
-    /// REQ-TEN-17: a back-out whose release let the tension fall more than [`SWING_BAND`]
-    /// short of the reference within [`BACK_OUT_WATCH`] ticks cost more than it removed (a
-    /// string stiffer on the way back than the back-out's gain assumes): the hold backs out
-    /// no more in this pull. One that leaves the tension within the band may come again, and
-    /// a new pull forgets.
-    #[test]
-    fn a_back_out_that_drops_the_string_short_is_not_repeated_in_the_hold() {
-        // Every tick run (no short-circuit): whether any of them released.
-        let released = |controller: &mut TensionController, tenths: i32, ticks: u32| {
-            (0..ticks)
-                .filter(|_| {
-                    tick_at(controller, tenths, 0).command.direction() == Some(Direction::Release)
-                })
-                .count()
-                > 0
-        };
-        // Within the band after the release (the estimate given 200 ticks to come back): a
-        // second excess is backed out again.
-        let mut controller = holding();
-        assert!(released(&mut controller, 255, 100));
-        released(&mut controller, 250, 200);
-        assert!(!released(&mut controller, 250, 120));
-        assert!(!controller.back_out_costly);
-        assert!(released(&mut controller, 255, 100));
-        // Short by half a kgf after the release: never again in this hold.
-        let mut controller = holding();
-        assert!(released(&mut controller, 255, 100));
-        released(&mut controller, 245, 100);
-        assert!(controller.back_out_costly);
-        assert!(!released(&mut controller, 255, 1_000));
-        // A shortfall long after the release (the watch over) is not the back-out's.
-        let mut controller = holding();
-        assert!(released(&mut controller, 255, 100));
-        released(&mut controller, 250, 300);
-        released(&mut controller, 245, 100);
-        assert!(!controller.back_out_costly);
-        // The settle still backs out a pre-stretch's peak; a new pull forgets.
-        let mut controller = holding();
-        assert!(released(&mut controller, 255, 100));
-        released(&mut controller, 245, 100);
-        assert!(controller.back_out_costly);
-        let mut profile = controller.profile_state();
-        profile.phase = PullPhase::Settle;
-        profile.peak = Kgf::from_int(25);
-        profile.final_target = Kgf::from_int(20);
-        controller.set_profile_state(profile);
-        assert!(released(&mut controller, 255, 100));
-        restart(&mut controller);
-        assert!(!controller.back_out_costly);
-    }
-
-    /// REQ-TEN-23: the hold's floor is the pull plus half the mean of what the hold has
-    /// applied over it — learned while the tension is at the reference, kept while it is
-    /// short of it (a law pulling up a shortfall gives more than holding needs), followed
-    /// down when the law asks for less (never a ratchet), and zero outside the hold.
-    #[test]
-    fn the_hold_floor_keeps_half_of_what_held_the_string_and_follows_the_law_down() {
-        let at = |controller: &mut TensionController, tension: Kgf| {
-            controller.step(&Measurement { tension, ..Measurement::default() })
-        };
-        let mut controller = holding();
-        assert_eq!(controller.hold_mean, Kgf::ZERO);
-        for _ in 0..1_000 {
-            at(&mut controller, Kgf(Q16::lit("24.98")));
-        }
-        assert!(controller.hold_mean > Kgf::from_tenths(5), "{:?}", controller.hold_mean);
-        // Short by half a kgf (once the estimate has seen it): the law pulls harder, the mean
-        // keeps its value.
-        for _ in 0..20 {
-            at(&mut controller, Kgf::from_tenths(245));
-        }
-        let learned = controller.hold_mean;
-        for _ in 0..200 {
-            let out = at(&mut controller, Kgf::from_tenths(245));
-            assert!(out.force > out.tension);
-        }
-        assert_eq!(controller.hold_mean, learned);
-        // 1.5 kgf over: the force is never under the pull plus half the mean it had (the
-        // back-out, on this drivetrain that holds, still judges the law's own force), and the
-        // mean follows the law down to nothing.
-        let mut mean = learned;
-        let mut falls = 0;
-        for tick in 0..3_000 {
-            let out = at(&mut controller, Kgf::from_tenths(265));
-            let floor = out.tension.saturating_add(Kgf(Q16::from_bits(mean.0.to_bits() >> 1)));
-            assert!(out.force >= floor, "{tick}: {:?} < {floor:?}", out.force);
-            falls += usize::from(controller.hold_mean < mean);
-            mean = controller.hold_mean;
-        }
-        assert!(mean < Kgf(Q16::lit("0.01")), "{mean:?}");
-        assert!(falls > 1_000, "{falls}");
-        // Outside the hold the mean is zero: the settle never learns one, a new pull forgets.
-        let mut settle = settling();
-        for _ in 0..500 {
-            tick_at(&mut settle, 249, 0);
-        }
-        assert_eq!(settle.hold_mean, Kgf::ZERO);
-        let mut controller = holding();
-        for _ in 0..500 {
-            at(&mut controller, Kgf(Q16::lit("24.98")));
-        }
-        assert!(controller.hold_mean > Kgf::ZERO);
-        restart(&mut controller);
-        assert_eq!(controller.hold_mean, Kgf::ZERO);
-        assert!(controller.is_valid());
     }
 
     /// REQ-TEN-20: a Hall step toward home while pulling, in the settle or the hold,

@@ -82,6 +82,9 @@ pub struct CpuState {
     pub lowest_sp: u32,
     /// Resets (watchdog, software).
     pub resets: Vec<(u64, &'static str)>,
+    /// Where the core stood when each reset came, in the order of `resets`: the code that
+    /// ran and the exceptions active (innermost last) — for a watchdog, where the image hung.
+    pub reset_where: Vec<String>,
     /// The end of the last flash stall (the CPU could not run during it).
     pub last_stall_end: u64,
     /// Latencies of each interrupt not held up by a flash stall: (exception, cycles).
@@ -422,6 +425,31 @@ impl Mcu {
     /// contents (RAM is undefined after a reset; the firmware's start-up initialises it).
     pub fn reset(&mut self, why: &'static str) -> Result<(), String> {
         let cycles = self.soc().cycles;
+        let code = self.describe(self.soc().block_pc);
+        let active: Vec<String> =
+            self.soc().nvic.active.iter().map(|(n, _)| format!("exception {n}")).collect();
+        let context =
+            if active.is_empty() { "thread mode".to_string() } else { active.join(" in ") };
+        let masks = format!(
+            "PRIMASK {}, BASEPRI {:#04x}",
+            self.reg(RegisterARM::PRIMASK) & 1,
+            self.reg(RegisterARM::BASEPRI) & 0xFF
+        );
+        let soc = self.soc();
+        let word = (soc::irq::TIM6_DAC / 32) as usize;
+        let bit = soc::irq::TIM6_DAC % 32;
+        let masks = format!(
+            "{masks}; TIM6 running {}, DIER {:#x}, ARR {}, PSC {}, line {}, NVIC enabled {} pending {}",
+            soc.tim6.running,
+            soc.tim6.regs.value(0x0C),
+            soc.tim6.arr,
+            soc.tim6.psc,
+            soc.tim6.interrupt_line(),
+            soc.nvic.enabled[word] >> bit & 1,
+            soc.nvic.pending[word] >> bit & 1
+        );
+        let context = format!("{context}; {masks}");
+        self.cpu.reset_where.push(format!("{code} ({context})"));
         let analog = self.soc().analog.clone();
         let externals: Vec<[Option<bool>; 16]> =
             self.soc().gpio.iter().map(|g| g.external).collect();

@@ -128,8 +128,17 @@ pub fn timing(mcu: &Mcu) -> String {
             "stack (painted RAM): deepest {deepest} B of the {room} B between the statics and the top of RAM since the last reset"
         );
     }
-    for (at, why) in &mcu.cpu.resets {
-        let _ = writeln!(s, "reset at {:.3} s: {why}", *at as f64 / 170e6);
+    for (index, (at, why)) in mcu.cpu.resets.iter().enumerate() {
+        let _ = write!(s, "reset at {:.3} s: {why}", *at as f64 / 170e6);
+        // Where a watchdog caught the image: the code that ran when the tick stopped.
+        match mcu.cpu.reset_where.get(index) {
+            Some(place) if why.starts_with("watchdog") => {
+                let _ = writeln!(s, ", while {place} ran");
+            }
+            _ => {
+                let _ = writeln!(s);
+            }
+        }
     }
     s
 }
